@@ -1,0 +1,48 @@
+#pragma once
+// A cell engine finds every overlapping pair among the boxes of one cell: the
+// "accelerator" stage of the hybrid system. Implementations: the software SIMD
+// engine, the cycle-accurate hardware models, the Verilated RTL.
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "hbp/box_array.hpp"
+#include "hbp/pair.hpp"
+
+namespace hbp {
+
+struct CellRun {
+  std::uint64_t cycles = 0;  // modelled accelerator cycles (0 for software)
+};
+
+class CellEngine {
+ public:
+  virtual ~CellEngine() = default;
+  virtual std::string name() const = 0;
+  // Most boxes one call accepts (hardware: the buffer's capacity). The
+  // partition never sends more; larger cells are processed in tiles.
+  virtual std::uint32_t capacity() const = 0;
+  // Cell limit to use when the user does not choose one.
+  virtual std::uint32_t default_cell_limit() const = 0;
+  // Clock for converting cycles to modelled time (0 for software engines).
+  virtual double clock_hz() const { return 0.0; }
+  // Appends the pairs (i < j, local indices into `cell`) of every overlapping
+  // pair of boxes in `cell`. Order: engine-specific but deterministic.
+  // Throws CapacityExceeded when cell.size() > capacity().
+  virtual CellRun find_pairs(const BoxArray& cell, std::vector<Pair>& out) = 0;
+  // Cycles the engine would spend on a cell of n boxes, without running it
+  // (analytic; equals what find_pairs reports).
+  virtual std::uint64_t cycles_for(std::uint32_t n) const { (void)n; return 0; }
+  // Engines are used by one thread at a time; each worker gets a clone.
+  virtual std::unique_ptr<CellEngine> clone() const = 0;
+};
+
+// Engine names accepted by the library and `hbp --engine`:
+//   "sw"  software SIMD engine (default),  "brute"  scalar all-pairs,
+//   "ae"  area-efficient model,  "mo"  many-object model,
+//   "rtl-ae", "rtl-mo"  Verilated RTL (when built with Verilator).
+std::unique_ptr<CellEngine> make_cell_engine(const std::string& name);
+std::vector<std::string> cell_engine_names();
+
+}  // namespace hbp

@@ -1,0 +1,62 @@
+#pragma once
+// The hybrid system: k-d spatial partition -> cell engine -> de-duplication,
+// one frame at a time, keeping the partition across frames.
+//
+//   hbp::HybridBroadPhase bp({.engine = "sw", .threads = 2});
+//   bp.update(boxes);                       // a frame of hbp::BoxArray
+//   for (hbp::Pair p : bp.pairs()) ...      // canonical, each pair once
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "hbp/box_array.hpp"
+#include "hbp/cell_engine.hpp"
+#include "hbp/pair.hpp"
+
+namespace hbp {
+
+struct BroadPhaseOptions {
+  std::string engine = "sw";     // see make_cell_engine()
+  std::uint32_t cell_limit = 0;  // 0: the engine's default; else >= 2
+  unsigned threads = 0;          // 0: all cores
+  bool sorted = true;            // pairs sorted by (a, b); else cell order
+  std::uint64_t max_pairs = 0;   // 0: unlimited; else CapacityExceeded beyond
+};
+
+struct FrameStats {
+  std::uint64_t pairs = 0;
+  std::uint64_t candidate_pairs = 0;  // before de-duplication
+  std::uint32_t cells = 0;
+  std::uint32_t min_cell = 0, median_cell = 0, max_cell = 0;
+  double duplication = 1.0;  // cell entries / objects
+  double wall_ms = 0, partition_ms = 0, engine_ms = 0, dedup_ms = 0;
+  std::uint64_t modelled_cycles = 0;  // sum over cells (one accelerator)
+  double modelled_ms = 0;             // modelled_cycles / clock (0 if software)
+};
+
+// Called for each cell's de-duplicated pairs, in cell order, on one thread at
+// a time, while later cells are still in the engine (the narrow phase hook).
+using PairSink = std::function<void(std::uint32_t cell, const Pair* pairs, std::size_t count)>;
+
+class HybridBroadPhase {
+ public:
+  explicit HybridBroadPhase(const BroadPhaseOptions& options = {});
+  ~HybridBroadPhase();
+  HybridBroadPhase(HybridBroadPhase&&) noexcept;
+  HybridBroadPhase& operator=(HybridBroadPhase&&) noexcept;
+
+  // Runs one frame. Boxes are validated (InvalidInput names the object).
+  const std::vector<Pair>& update(const BoxArray& boxes, const PairSink& sink = {});
+  const std::vector<Pair>& pairs() const;
+  const FrameStats& stats() const;
+  const BroadPhaseOptions& options() const;
+  std::uint32_t cell_limit() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace hbp
