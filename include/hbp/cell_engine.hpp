@@ -3,6 +3,7 @@
 // "accelerator" stage of the hybrid system. Implementations: the software SIMD
 // engine, the cycle-accurate hardware models, the Verilated RTL.
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -42,7 +43,13 @@ class CellEngine {
 //   "sw"  software SIMD engine (default),  "brute"  scalar all-pairs,
 //   "ae"  area-efficient model,  "mo"  many-object model,
 //   "rtl-ae", "rtl-mo"  Verilated RTL (when built with Verilator).
+// Throws InvalidInput naming the unknown engine and listing the known ones.
 std::unique_ptr<CellEngine> make_cell_engine(const std::string& name);
 std::vector<std::string> cell_engine_names();
+
+// Engines living outside the core library (the Verilated RTL) register
+// themselves by name before use.
+using CellEngineFactory = std::unique_ptr<CellEngine> (*)();
+void register_cell_engine(const std::string& name, CellEngineFactory factory);
 
 }  // namespace hbp
