@@ -4,7 +4,9 @@
 //  - Broadmark (.aabbs): the public broad-phase benchmark's format; frame 0 is
 //    the untimed initial state, followed by numberOfFrames timed frames.
 // Readers stream one frame at a time (a 10^6-object x 1000-frame scene never
-// has to fit in memory) and validate every box they hand out.
+// has to fit in memory) and validate every box they hand out. Both formats are
+// little-endian; files are never trusted: every header field is checked
+// against the file size before a frame is read.
 #include <cstdint>
 #include <cstdio>
 #include <memory>
@@ -28,9 +30,16 @@ struct SceneInfo {
   // numberOfFrames + 1 (frame 0 is the initial state).
   std::uint32_t frame_count = 0;
   Aabb world{};
-  std::string name;          // Broadmark sceneName (native: empty)
-  std::string objects_type;  // Broadmark objectsType (native: empty)
+  std::string name;          // Broadmark sceneName / native name field
+  std::string objects_type;  // Broadmark objectsType / native objects-type field
+  std::uint32_t version = 0;    // native format version (Broadmark: 0)
+  std::uint64_t file_bytes = 0;  // size of the file, as checked against the header
 };
+
+// Bytes a complete scene file of this shape occupies (frames as readable by
+// read_frame, so for Broadmark the initial state counts as a frame).
+std::uint64_t scene_file_bytes(SceneFormat format, std::uint32_t object_count,
+                               std::uint32_t frame_count);
 
 class SceneReader {
  public:
@@ -53,16 +62,26 @@ class SceneReader {
   std::FILE* file_ = nullptr;
   SceneInfo info_;
   std::uint64_t data_offset_ = 0;
-  std::unique_ptr<float[]> scratch_;
+  std::unique_ptr<float[]> scratch_;  // Broadmark records of one chunk of objects
+
+  void read_header();
+  void read_native_frame(std::uint32_t k, BoxArray& out);
+  void read_broadmark_frame(std::uint32_t k, BoxArray& out);
 };
 
 class SceneWriter {
  public:
-  // Broadmark needs name/objects_type; native ignores them.
+  // Both formats store name/objects_type (at most 127 bytes each; longer
+  // strings throw InvalidInput rather than being cut). Throws FileError when
+  // the file cannot be created.
   SceneWriter(const std::string& path, SceneFormat format, std::uint32_t object_count,
               const Aabb& world, const std::string& name = "hbp",
               const std::string& objects_type = "paper");
-  ~SceneWriter();  // closes (finishing the header) if close() was not called
+  // Closes (finishing the header) if close() was not called, unless the
+  // writer is being destroyed by an exception: then the file keeps its
+  // "unfinished" mark and readers refuse it instead of accepting a partial
+  // scene as complete.
+  ~SceneWriter();
   SceneWriter(const SceneWriter&) = delete;
   SceneWriter& operator=(const SceneWriter&) = delete;
 
@@ -81,7 +100,11 @@ class SceneWriter {
   std::FILE* file_ = nullptr;
   std::uint32_t object_count_;
   std::uint32_t frames_ = 0;
-  std::unique_ptr<float[]> scratch_;
+  std::unique_ptr<float[]> scratch_;  // Broadmark records of one chunk of objects
+  int uncaught_at_construction_ = 0;
+
+  void write_bytes(const void* data, std::size_t bytes, const char* what);
+  void write_broadmark_frame(const BoxArray& boxes);
 };
 
 }  // namespace hbp
