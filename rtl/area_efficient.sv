@@ -1,0 +1,200 @@
+// Area-efficient microarchitecture (paper 3.1.1, Fig. 1, Table 1).
+//
+// Buffer : 6m dual-port memories (m memory groups of six 32-bit memories,
+//          one per coordinate), each holding all n boxes (replicated).
+// Compare: 2m-1 lanes, each six float32 comparators (3 ">=", 3 "<=") and a
+//          six-input AND: 6m-3 ">=", 6m-3 "<=", 2m-1 ANDs in total.
+// Output : hits are written to the pair memory, one line per pair.
+//
+// Capacity: DEPTH boxes. Interface and timing: rtl/README.md.
+/* verilator lint_off DECLFILENAME */
+module hbp_area_efficient #(
+    parameter int M         = 4,
+    parameter int DEPTH     = 1024,
+    parameter int PAIR_ROWS = 64,                      // pair memory: (2m-1)*PAIR_ROWS lines
+    // derived, do not override
+    parameter int L         = 2 * M - 1,               // compare lanes
+    parameter int CAP       = DEPTH,                   // boxes
+    parameter int PW        = (CAP > 1) ? $clog2(CAP) : 1,  // object index bits
+    parameter int NW        = $clog2(CAP + 1),         // box count bits
+    parameter int IW        = $clog2(CAP + 2 * M + 1) + 1,  // sequence index bits
+    parameter int AW        = (DEPTH > 1) ? $clog2(DEPTH) : 1
+) (
+    input  logic              clk,
+    input  logic              rst,          // synchronous, active high
+    // control
+    input  logic              clear,        // forget boxes, pairs and counters
+    input  logic              load_valid,   // one box per cycle, index = n_loaded
+    input  logic [191:0]      load_box,     // min x,y,z, max x,y,z (32 bits each, LSB first)
+    input  logic              start,        // run all-pairs over the boxes loaded
+    output logic              busy,
+    output logic              done,         // stays high until clear
+    output logic              load_error,   // a load past capacity was dropped
+    output logic [NW-1:0]     n_loaded,
+    // cycle counters (see README: what each phase counts)
+    output logic [31:0]       cyc_load,
+    output logic [31:0]       cyc_seq,
+    output logic [31:0]       cyc_drain,
+    output logic [31:0]       cycles,       // cyc_load + cyc_seq + cyc_drain
+    // compare-stage output: the bus into the pair memory (lane l: a = i, b = j)
+    output logic              out_valid,
+    output logic [L-1:0]      out_hit,
+    output logic [L*PW-1:0]   out_a,
+    output logic [L*PW-1:0]   out_b,
+    // pair memory read port
+    input  logic              pair_pop,
+    output logic              pair_rvalid,
+    output logic [2*PW-1:0]   pair_rdata,   // {b, a}
+    output logic [31:0]       pair_count,
+    output logic              pair_overflow,
+    // trace: this cycle's sequence step (port p address = p == 0 ? dbg_i : dbg_base + p - 1)
+    output logic              dbg_step,
+    output logic [IW-1:0]     dbg_i,
+    output logic [IW-1:0]     dbg_base
+);
+  // ---------------------------------------------------------------- control
+  typedef enum logic [1:0] {S_LOAD, S_RUN, S_DRAIN, S_DONE} state_t;
+  state_t state;
+
+  logic          seq_step, seq_finish;
+  logic [IW-1:0] seq_i, seq_base;
+  logic [L-1:0]  seq_ok;
+  logic          loading;
+  logic [1:0]    drain_left;
+
+  assign loading  = (state == S_LOAD) && load_valid && (32'(n_loaded) < 32'(CAP));
+  assign busy     = (state == S_RUN) || (state == S_DRAIN);
+  assign done     = (state == S_DONE);
+  assign cycles   = cyc_load + cyc_seq + cyc_drain;
+  assign dbg_step = seq_step;
+  assign dbg_i    = seq_i;
+  assign dbg_base = seq_base;
+
+  hbp_ae_sequencer #(.M(M), .IW(IW)) u_seq (
+      .clk(clk), .rst(rst || clear), .start(start && state == S_LOAD),
+      .n(IW'(n_loaded)), .step(seq_step), .obj_i(seq_i), .base(seq_base),
+      .lane_ok(seq_ok), .finish(seq_finish));
+
+  // Pipeline: step at cycle t -> memory data at t+1 -> compare result
+  // registered, on out_* and written to the pair memory at t+2.
+  localparam int LAT = 2;
+
+  always_ff @(posedge clk) begin
+    if (rst || clear) begin
+      state      <= S_LOAD;
+      n_loaded   <= '0;
+      load_error <= 1'b0;
+      cyc_load   <= '0;
+      cyc_seq    <= '0;
+      cyc_drain  <= '0;
+      drain_left <= '0;
+    end else begin
+      case (state)
+        S_LOAD: begin
+          if (loading) begin
+            n_loaded <= n_loaded + 1'b1;
+            cyc_load <= cyc_load + 1;
+          end else if (load_valid) begin
+            load_error <= 1'b1;
+          end
+          if (start) state <= S_RUN;
+        end
+        S_RUN: begin
+          if (seq_step) cyc_seq <= cyc_seq + 1;
+          if (seq_finish) begin
+            // n < 2: nothing in flight, no drain
+            if (cyc_seq == 0 && !seq_step) state <= S_DONE;
+            else begin
+              state      <= S_DRAIN;
+              drain_left <= 2'(LAT - 1);
+              cyc_drain  <= cyc_drain + 1;
+            end
+          end
+        end
+        S_DRAIN: begin
+          if (drain_left == 0) state <= S_DONE;
+          else begin
+            drain_left <= drain_left - 1'b1;
+            cyc_drain  <= cyc_drain + 1;
+          end
+        end
+        default: ;
+      endcase
+    end
+  end
+
+  // ----------------------------------------------------------------- buffer
+  // Group g: port A = sequence port 2g, port B = port 2g+1; during loading
+  // every group's port A writes the same box at address n_loaded.
+  /* verilator lint_off UNUSEDSIGNAL */
+  logic [2*M*IW-1:0]   port_addr;   // port p's object index (high bits: beyond DEPTH)
+  /* verilator lint_on UNUSEDSIGNAL */
+  logic [2*M*192-1:0]  port_data;   // port p's box at [p*192 +: 192]
+  genvar p, g, c;
+  generate
+    for (p = 0; p < 2 * M; p = p + 1) begin : g_port
+      if (p == 0) begin : g_p0
+        assign port_addr[0 +: IW] = seq_i;
+      end else begin : g_pn
+        assign port_addr[p*IW +: IW] = seq_base + IW'(p - 1);
+      end
+    end
+    for (g = 0; g < M; g = g + 1) begin : g_group
+      for (c = 0; c < 6; c = c + 1) begin : g_coord
+        hbp_dpram #(.W(32), .DEPTH(DEPTH), .AW(AW)) u_mem (
+            .clk(clk),
+            .we_a(loading),
+            .addr_a(loading ? n_loaded[AW-1:0] : port_addr[(2*g)*IW +: AW]),
+            .wdata_a(load_box[32*c +: 32]),
+            .rdata_a(port_data[(2*g)*192 + 32*c +: 32]),
+            .addr_b(port_addr[(2*g+1)*IW +: AW]),
+            .rdata_b(port_data[(2*g+1)*192 + 32*c +: 32]));
+      end
+    end
+  endgenerate
+
+  // ---------------------------------------------------------------- compare
+  logic          s1_step;
+  logic [IW-1:0] s1_i, s1_base;  // s1_i: low PW bits used
+  logic [L-1:0]  s1_ok, s1_hit;
+  always_ff @(posedge clk) begin
+    if (rst || clear) s1_step <= 1'b0;
+    else s1_step <= seq_step;
+    s1_i    <= seq_i;
+    s1_base <= seq_base;
+    s1_ok   <= seq_ok;
+  end
+
+  genvar l;
+  generate
+    for (l = 0; l < L; l = l + 1) begin : g_lane
+      hbp_box_overlap u_cmp (
+          .a(port_data[0 +: 192]), .b(port_data[(l+1)*192 +: 192]), .hit(s1_hit[l]));
+    end
+  endgenerate
+
+  always_ff @(posedge clk) begin
+    if (rst || clear) begin
+      out_valid <= 1'b0;
+      out_hit   <= '0;
+    end else begin
+      out_valid <= s1_step;
+      out_hit   <= s1_step ? (s1_hit & s1_ok) : '0;
+    end
+    for (int k = 0; k < L; k = k + 1) begin
+      out_a[k*PW +: PW] <= PW'(s1_i);
+      out_b[k*PW +: PW] <= PW'(s1_base + IW'(k));
+    end
+  end
+
+  // ------------------------------------------------------------ pair memory
+  logic [31:0] pair_available;
+  hbp_pair_memory #(.L(L), .PW(PW), .ROWS(PAIR_ROWS), .CW(32)) u_pairs (
+      .clk(clk), .rst(rst), .clear(clear),
+      .in_hit(out_hit), .in_a(out_a), .in_b(out_b),
+      .pop(pair_pop), .rvalid(pair_rvalid), .rdata(pair_rdata),
+      .count(pair_count), .available(pair_available), .overflow(pair_overflow));
+  logic unused;
+  assign unused = ^{pair_available, s1_i[IW-1:PW]};
+endmodule
+/* verilator lint_on DECLFILENAME */
