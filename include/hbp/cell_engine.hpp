@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "hbp/box_array.hpp"
+#include "hbp/cell_region.hpp"
 #include "hbp/pair.hpp"
 
 namespace hbp {
@@ -32,6 +33,11 @@ class CellEngine {
   // pair of boxes in `cell`. Order: engine-specific but deterministic.
   // Throws CapacityExceeded when cell.size() > capacity().
   virtual CellRun find_pairs(const BoxArray& cell, std::vector<Pair>& out) = 0;
+  // The hybrid system's call: like find_pairs, but keeps only the pairs whose
+  // ownership point max(min_i, min_j) lies in `region` (de-duplication), and
+  // `cell` is sorted by increasing min x. Software engines fuse the filter
+  // into their kernel; the default filters find_pairs' output in place.
+  virtual CellRun find_owned_pairs(const BoxArray& cell, const CellRegion& region, std::vector<Pair>& out);
   // Cycles the engine would spend on a cell of n boxes, without running it
   // (analytic; equals what find_pairs reports).
   virtual std::uint64_t cycles_for(std::uint32_t n) const { (void)n; return 0; }

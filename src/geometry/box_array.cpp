@@ -43,8 +43,9 @@ void BoxArray::pad_from(std::size_t first) {
 }
 
 void BoxArray::reserve(std::size_t n) {
-  // Always keep at least one padding vector after the last box.
-  const std::size_t want = (n / kPadFloats + 1) * kPadFloats;
+  // Always keep a whole padding vector after the last box: a SIMD load that
+  // starts at any index <= n stays inside the lane.
+  const std::size_t want = ((n + kPadFloats - 1) / kPadFloats + 1) * kPadFloats;
   if (want <= capacity_) return;
   std::size_t cap = capacity_ == 0 ? want : capacity_;
   while (cap < want) cap *= 2;

@@ -1,0 +1,23 @@
+#pragma once
+// The half-open region [lo, hi) of one partition cell. A pair found in several
+// cells is kept only in the cell whose region holds the pair's ownership
+// point max(min_a, min_b) (the minimum corner of the two boxes' intersection),
+// so every overlapping pair is reported exactly once without a global set.
+#include <limits>
+
+namespace hbp {
+
+struct CellRegion {
+  float lo[3];
+  float hi[3];
+
+  static CellRegion everything() {
+    const float inf = std::numeric_limits<float>::infinity();
+    return {{-inf, -inf, -inf}, {inf, inf, inf}};
+  }
+  bool contains(float x, float y, float z) const {
+    return x >= lo[0] && x < hi[0] && y >= lo[1] && y < hi[1] && z >= lo[2] && z < hi[2];
+  }
+};
+
+}  // namespace hbp

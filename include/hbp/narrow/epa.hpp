@@ -1,0 +1,29 @@
+#pragma once
+// EPA (expanding polytope algorithm): penetration depth, normal and witness
+// points of two intersecting convex shapes, grown from GJK's final simplex.
+// The polytope lives in fixed-size arrays on the stack: no allocation.
+#include "hbp/narrow/gjk.hpp"
+
+namespace hbp::narrow {
+
+struct EpaResult {
+  // False only when no polytope could be built; the fields then hold the
+  // best estimate available (depth 0, normal from the centres).
+  bool ok = false;
+  bool converged = false;  // gap below tolerance (else capacity or degeneracy)
+  double depth = 0;        // >= 0
+  V3 normal;               // unit, from A towards B
+  V3 point_a, point_b;     // deepest points of A and B along the normal
+  int iterations = 0;
+};
+
+struct EpaOptions {
+  double rel_tolerance = 1e-7;  // on the depth
+  double abs_tolerance = 1e-10; // times the pair scale
+};
+
+inline constexpr int kEpaMaxVertices = 192;
+
+EpaResult epa(const Convex& a, const Convex& b, const Simplex& simplex, const EpaOptions& options = {});
+
+}  // namespace hbp::narrow

@@ -1,0 +1,48 @@
+#pragma once
+// Inner loops of the software cell engine, one per instruction set. These
+// translation units are compiled with different -m flags, so they use only
+// intrinsics and plain C (no inline std templates, whose one-definition copies
+// could be merged across ISAs by the linker).
+#include <cstddef>
+#include <cstdint>
+
+#include "hbp/cell_region.hpp"
+
+namespace hbp::kernels {
+
+struct KernelInput {
+  const float* min[3];
+  const float* max[3];
+  std::uint32_t n;     // boxes; lanes are padded by >= 16 non-overlapping boxes
+  CellRegion region;   // ownership filter (CellRegion::everything() for none)
+};
+
+struct KernelOutput {
+  std::uint32_t* pairs;   // 2 entries (i, j) per pair, i < j local indices
+  std::size_t capacity;   // in pairs
+  std::size_t count;      // pairs written so far
+};
+
+// Both kernels process rows from `row` on and return the row they stopped at:
+// n when done, earlier when the output might overflow (a row can emit up to
+// n - row - 1 pairs; the caller grows the buffer and resumes).
+//   sweep:     boxes sorted by min x; scans j > i while min_x[j] <= max_x[i]
+//   all-pairs: any order; every j > i (the area-efficient datapath's work)
+using Kernel = std::uint32_t (*)(const KernelInput& in, std::uint32_t row, KernelOutput& out);
+
+std::uint32_t sweep_scalar(const KernelInput&, std::uint32_t, KernelOutput&);
+std::uint32_t sweep_avx2(const KernelInput&, std::uint32_t, KernelOutput&);
+std::uint32_t sweep_avx512(const KernelInput&, std::uint32_t, KernelOutput&);
+std::uint32_t allpairs_scalar(const KernelInput&, std::uint32_t, KernelOutput&);
+std::uint32_t allpairs_avx2(const KernelInput&, std::uint32_t, KernelOutput&);
+std::uint32_t allpairs_avx512(const KernelInput&, std::uint32_t, KernelOutput&);
+
+enum class Isa { Scalar, Avx2, Avx512 };
+// Best ISA this CPU supports, unless HBP_SIMD=scalar|avx2|avx512 says otherwise
+// (an ISA the CPU lacks falls back to the best it has).
+Isa selected_isa();
+const char* isa_name(Isa isa);
+Kernel sweep_kernel(Isa isa);
+Kernel allpairs_kernel(Isa isa);
+
+}  // namespace hbp::kernels

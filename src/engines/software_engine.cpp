@@ -1,0 +1,87 @@
+#include "hbp/software_engine.hpp"
+
+#include <algorithm>
+#include <numeric>
+
+#include "engines/box_kernels.hpp"
+#include "hbp/brute_force.hpp"
+
+namespace hbp {
+
+SoftwareEngine::SoftwareEngine(Kernel kernel) : kernel_(kernel) {}
+
+std::string SoftwareEngine::name() const { return kernel_ == Kernel::Sweep ? "sw" : "sw-allpairs"; }
+
+std::uint32_t SoftwareEngine::default_cell_limit() const {
+  return kernel_ == Kernel::Sweep ? kDefaultSweepCellLimit : kDefaultAllPairsCellLimit;
+}
+
+const char* SoftwareEngine::isa() { return kernels::isa_name(kernels::selected_isa()); }
+
+std::unique_ptr<CellEngine> SoftwareEngine::clone() const { return std::make_unique<SoftwareEngine>(kernel_); }
+
+void SoftwareEngine::run(const BoxArray& cell, const CellRegion& region, std::vector<Pair>& out) {
+  const auto n = static_cast<std::uint32_t>(cell.size());
+  if (n < 2) return;
+  kernels::KernelInput in{{cell.min(0), cell.min(1), cell.min(2)}, {cell.max(0), cell.max(1), cell.max(2)}, n, region};
+  const kernels::Isa isa = kernels::selected_isa();
+  const kernels::Kernel k = kernel_ == Kernel::Sweep ? kernels::sweep_kernel(isa) : kernels::allpairs_kernel(isa);
+  if (buffer_.size() < 2 * std::size_t{n} + 64) buffer_.resize(4 * std::size_t{n} + 64);
+  std::uint32_t row = 0;
+  while (true) {
+    kernels::KernelOutput o{buffer_.data(), buffer_.size() / 2, 0};
+    row = k(in, row, o);
+    const std::size_t base = out.size();
+    out.resize(base + o.count);
+    for (std::size_t p = 0; p < o.count; ++p) out[base + p] = {buffer_[2 * p], buffer_[2 * p + 1]};
+    if (row >= n) break;
+    buffer_.resize(buffer_.size() * 2);  // a dense cell: grow and resume
+  }
+}
+
+CellRun SoftwareEngine::find_owned_pairs(const BoxArray& cell, const CellRegion& region, std::vector<Pair>& out) {
+  run(cell, region, out);
+  return {};
+}
+
+CellRun SoftwareEngine::find_pairs(const BoxArray& cell, std::vector<Pair>& out) {
+  if (kernel_ == Kernel::AllPairs) {
+    run(cell, CellRegion::everything(), out);
+    return {};
+  }
+  // The sweep needs min-x order: sort a copy, map indices back.
+  const auto n = static_cast<std::uint32_t>(cell.size());
+  order_.resize(n);
+  std::iota(order_.begin(), order_.end(), 0u);
+  const float* minx = cell.min(0);
+  std::stable_sort(order_.begin(), order_.end(), [&](std::uint32_t a, std::uint32_t b) { return minx[a] < minx[b]; });
+  sorted_.resize(n);
+  for (std::uint32_t i = 0; i < n; ++i) sorted_.set(i, cell.get(order_[i]));
+  const std::size_t base = out.size();
+  run(sorted_, CellRegion::everything(), out);
+  for (std::size_t p = base; p < out.size(); ++p) out[p] = make_pair(order_[out[p].a], order_[out[p].b]);
+  return {};
+}
+
+CellRun BruteForceEngine::find_pairs(const BoxArray& cell, std::vector<Pair>& out) {
+  const auto pairs = brute_force_pairs(cell);
+  out.insert(out.end(), pairs.begin(), pairs.end());
+  return {};
+}
+
+CellRun CellEngine::find_owned_pairs(const BoxArray& cell, const CellRegion& region, std::vector<Pair>& out) {
+  const std::size_t base = out.size();
+  const CellRun run = find_pairs(cell, out);
+  std::size_t keep = base;
+  for (std::size_t p = base; p < out.size(); ++p) {
+    const Pair q = out[p];
+    const float x = std::max(cell.min(0)[q.a], cell.min(0)[q.b]);
+    const float y = std::max(cell.min(1)[q.a], cell.min(1)[q.b]);
+    const float z = std::max(cell.min(2)[q.a], cell.min(2)[q.b]);
+    if (region.contains(x, y, z)) out[keep++] = q;
+  }
+  out.resize(keep);
+  return run;
+}
+
+}  // namespace hbp

@@ -1,0 +1,214 @@
+// The hybrid system against the brute-force oracle, frame by frame.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "hbp/brute_force.hpp"
+#include "hbp/error.hpp"
+#include "hbp/hybrid_broadphase.hpp"
+#include "hbp/scenario.hpp"
+#include "hbp/software_engine.hpp"
+
+namespace {
+
+using hbp::BoxArray;
+using hbp::BroadPhaseOptions;
+using hbp::HybridBroadPhase;
+using hbp::Pair;
+using hbp::ScenarioKind;
+
+// Runs `frames` frames of a scenario through the hybrid system and checks
+// every frame's pair set against the oracle.
+void check_scenario(hbp::ScenarioParams p, const BroadPhaseOptions& o, std::uint32_t frames) {
+  hbp::Scenario scene(p);
+  HybridBroadPhase bp(o);
+  BoxArray boxes;
+  for (std::uint32_t f = 0; f < frames; ++f) {
+    scene.compute_boxes(boxes);
+    std::vector<Pair> got = bp.update(boxes);
+    const std::size_t dups = hbp::canonicalize(got);
+    ASSERT_EQ(dups, 0u) << "pairs reported twice, frame " << f;
+    const auto want = hbp::brute_force_pairs(boxes);
+    const auto diff = hbp::diff_pairs(want, got);
+    ASSERT_TRUE(diff.empty()) << hbp::scenario_kind_name(p.kind) << " n=" << p.n << " seed=" << p.seed
+                              << " engine=" << o.engine << " limit=" << bp.cell_limit() << " frame " << f << ": "
+                              << diff.summary();
+    ASSERT_EQ(bp.stats().pairs, want.size());
+    scene.step();
+  }
+}
+
+TEST(HybridBroadPhase, PaperScenesMatchOracleAcrossCellLimits) {
+  for (std::uint32_t n : {10u, 100u, 1000u, 4000u}) {
+    for (std::uint32_t limit : {2u, 3u, 7u, 64u, 1024u}) {
+      hbp::ScenarioParams p;
+      p.n = n;
+      p.seed = n + limit;
+      check_scenario(p, {.engine = "sw", .cell_limit = limit, .threads = 2}, 4);
+    }
+  }
+}
+
+TEST(HybridBroadPhase, LargePaperSceneMatchesOracle) {
+  hbp::ScenarioParams p;
+  p.n = 20000;
+  p.seed = 7;
+  check_scenario(p, {.engine = "sw", .threads = 2}, 2);
+}
+
+TEST(HybridBroadPhase, EveryEngineMatchesOracle) {
+  for (const std::string engine : {"sw", "sw-allpairs", "brute"}) {
+    for (std::uint64_t seed : {1u, 2u}) {
+      hbp::ScenarioParams p;
+      p.n = 1500;
+      p.seed = seed;
+      check_scenario(p, {.engine = engine, .cell_limit = 128, .threads = 2}, 3);
+    }
+  }
+}
+
+TEST(HybridBroadPhase, OtherScenarioKindsMatchOracle) {
+  for (auto kind : {ScenarioKind::Clustered, ScenarioKind::Flat, ScenarioKind::Huge, ScenarioKind::Degenerate}) {
+    for (std::uint32_t limit : {3u, 16u, 256u}) {
+      hbp::ScenarioParams p;
+      p.kind = kind;
+      p.n = 2000;
+      p.seed = 11;
+      check_scenario(p, {.engine = "sw", .cell_limit = limit, .threads = 2}, 3);
+      check_scenario(p, {.engine = "sw-allpairs", .cell_limit = limit, .threads = 1}, 2);
+    }
+  }
+}
+
+TEST(HybridBroadPhase, SameOrderWithOneOrTwoThreads) {
+  hbp::ScenarioParams p;
+  p.n = 6000;
+  p.seed = 3;
+  hbp::Scenario scene(p);
+  HybridBroadPhase one({.engine = "sw", .cell_limit = 100, .threads = 1, .sorted = false});
+  HybridBroadPhase two({.engine = "sw", .cell_limit = 100, .threads = 2, .sorted = false});
+  BoxArray boxes;
+  for (int f = 0; f < 5; ++f) {
+    scene.compute_boxes(boxes);
+    const auto a = one.update(boxes);
+    const auto& b = two.update(boxes);
+    ASSERT_FALSE(a.empty());
+    ASSERT_EQ(a, b) << "frame " << f;
+    scene.step();
+  }
+}
+
+TEST(HybridBroadPhase, IdenticalBoxesBeyondAnyLimit) {
+  // 300 identical boxes cannot be split: one over-full cell, exact anyway.
+  BoxArray boxes;
+  for (int i = 0; i < 300; ++i) boxes.push_back({{1, 2, 3}, {4, 5, 6}});
+  boxes.push_back({{10, 10, 10}, {11, 11, 11}});
+  HybridBroadPhase bp({.engine = "sw", .cell_limit = 8});
+  EXPECT_EQ(bp.update(boxes).size(), 300u * 299u / 2u);
+  EXPECT_EQ(bp.pairs(), hbp::brute_force_pairs(boxes));
+}
+
+// A cell engine with a tiny capacity, to exercise the tiled path.
+class TinyEngine final : public hbp::CellEngine {
+ public:
+  std::string name() const override { return "tiny"; }
+  std::uint32_t capacity() const override { return 9; }
+  std::uint32_t default_cell_limit() const override { return 9; }
+  double clock_hz() const override { return 1e9; }
+  hbp::CellRun find_pairs(const BoxArray& cell, std::vector<Pair>& out) override {
+    if (cell.size() > capacity()) throw hbp::CapacityExceeded("tiny engine holds 9 boxes");
+    const auto p = hbp::brute_force_pairs(cell);
+    out.insert(out.end(), p.begin(), p.end());
+    return {cell.size() * cell.size()};
+  }
+  std::unique_ptr<CellEngine> clone() const override { return std::make_unique<TinyEngine>(); }
+};
+
+TEST(HybridBroadPhase, OverfullCellsAreProcessedInTiles) {
+  hbp::register_cell_engine("test-tiny", [] { return std::unique_ptr<hbp::CellEngine>(new TinyEngine()); });
+  BoxArray boxes;
+  for (int i = 0; i < 50; ++i) boxes.push_back({{0, 0, 0}, {1, 1, 1}});        // identical
+  for (int i = 0; i < 30; ++i) boxes.push_back({{-100.f + i, -100, -100}, {100, 100, 100}});  // nested
+  for (int i = 0; i < 40; ++i) boxes.push_back({{2.f * i, 0, 0}, {2.f * i + 2, 1, 1}});  // touching chain
+  HybridBroadPhase bp({.engine = "test-tiny", .cell_limit = 9});
+  const auto& got = bp.update(boxes);
+  const auto want = hbp::brute_force_pairs(boxes);
+  EXPECT_TRUE(hbp::diff_pairs(want, got).empty()) << hbp::diff_pairs(want, got).summary();
+  EXPECT_GT(bp.stats().modelled_cycles, 0u);
+  EXPECT_GT(bp.stats().modelled_ms, 0.0);
+}
+
+TEST(HybridBroadPhase, TouchingFacesZeroSizeAndSignedZero) {
+  BoxArray boxes;
+  boxes.push_back({{0, 0, 0}, {1, 1, 1}});
+  boxes.push_back({{1, 0, 0}, {2, 1, 1}});         // touches 0 on x = 1
+  boxes.push_back({{-0.0f, 2, 2}, {-0.0f, 2, 2}});  // zero size at -0
+  boxes.push_back({{0.0f, 1, 1}, {0.5f, 2, 2}});   // touches 2 at +0 / -0, touches 0 at (y, z) = 1
+  boxes.push_back({{5, 5, 5}, {5, 5, 5}});
+  boxes.push_back({{5, 5, 5}, {5, 5, 5}});         // identical points
+  for (std::uint32_t limit : {2u, 3u, 1024u}) {
+    HybridBroadPhase bp({.engine = "sw", .cell_limit = limit});
+    EXPECT_EQ(bp.update(boxes), hbp::brute_force_pairs(boxes)) << "limit " << limit;
+  }
+  const std::vector<Pair> want = {{0, 1}, {0, 3}, {2, 3}, {4, 5}};
+  EXPECT_EQ(hbp::brute_force_pairs(boxes), want);
+}
+
+TEST(HybridBroadPhase, RejectsBadBoxesNamingTheObject) {
+  BoxArray boxes;
+  boxes.push_back({{0, 0, 0}, {1, 1, 1}});
+  boxes.push_back({{0, 0, 0}, {1, std::numeric_limits<float>::quiet_NaN(), 1}});
+  HybridBroadPhase bp;
+  try {
+    bp.update(boxes);
+    FAIL() << "NaN accepted";
+  } catch (const hbp::InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("object 1"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("NaN"), std::string::npos) << e.what();
+  }
+  boxes.set(1, {{0, 3, 0}, {1, 2, 1}});
+  EXPECT_THROW(bp.update(boxes), hbp::InvalidInput);
+  EXPECT_THROW(HybridBroadPhase({.engine = "nope"}), hbp::InvalidInput);
+  EXPECT_THROW(HybridBroadPhase({.cell_limit = 1}), hbp::InvalidInput);
+}
+
+TEST(HybridBroadPhase, MaxPairsStopsWithAClearError) {
+  BoxArray boxes;
+  for (int i = 0; i < 100; ++i) boxes.push_back({{0, 0, 0}, {1, 1, 1}});
+  HybridBroadPhase bp({.max_pairs = 1000});
+  EXPECT_THROW(bp.update(boxes), hbp::CapacityExceeded);
+  HybridBroadPhase ok({.max_pairs = 4950});
+  EXPECT_EQ(ok.update(boxes).size(), 4950u);
+}
+
+TEST(HybridBroadPhase, EmptyAndSingleFrames) {
+  HybridBroadPhase bp;
+  BoxArray boxes;
+  EXPECT_TRUE(bp.update(boxes).empty());
+  boxes.push_back({{0, 0, 0}, {1, 1, 1}});
+  EXPECT_TRUE(bp.update(boxes).empty());
+}
+
+TEST(HybridBroadPhase, SinkSeesEveryPairOnceInCellOrder) {
+  hbp::ScenarioParams p;
+  p.n = 3000;
+  hbp::Scenario scene(p);
+  BoxArray boxes;
+  scene.compute_boxes(boxes);
+  HybridBroadPhase bp({.engine = "sw", .cell_limit = 64, .threads = 2, .sorted = false});
+  std::vector<Pair> seen;
+  std::int64_t last_cell = -1;
+  bool ordered = true;
+  bp.update(boxes, [&](std::uint32_t cell, const Pair* pairs, std::size_t n) {
+    ordered &= static_cast<std::int64_t>(cell) > last_cell;
+    last_cell = cell;
+    seen.insert(seen.end(), pairs, pairs + n);
+  });
+  EXPECT_TRUE(ordered);
+  EXPECT_EQ(seen, bp.pairs());
+  hbp::canonicalize(seen);
+  EXPECT_EQ(seen, hbp::brute_force_pairs(boxes));
+}
+
+}  // namespace
