@@ -25,6 +25,9 @@ struct Convex {
 
 Convex make_convex(const Shape& shape);
 
+// Tolerance scale of a pair: sum of the bounding radii.
+inline double pair_scale(const Convex& a, const Convex& b) { return a.radius + b.radius; }
+
 // Support point in the shape's local frame for a local direction u.
 V3 local_support(ShapeKind kind, const double h[3], const V3& u);
 

@@ -44,7 +44,4 @@ struct GjkOptions {
 
 GjkResult gjk(const Convex& a, const Convex& b, const GjkOptions& options = {});
 
-// Tolerance scale of a pair: sum of the bounding radii.
-inline double pair_scale(const Convex& a, const Convex& b) { return a.radius + b.radius; }
-
 }  // namespace hbp::narrow

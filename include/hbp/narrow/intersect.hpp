@@ -1,0 +1,43 @@
+#pragma once
+// Exact intersection test of two of the paper's shapes (sphere = ellipsoid,
+// cuboid, cylinder, cone) in any orientation, with contact normal,
+// penetration depth and contact point.
+//
+//   hbp::Contact c;
+//   if (hbp::intersect(shape_a, shape_b, &c)) use(c.normal, c.depth, c.point);
+//
+// Thread-safe; no allocation (except with the libccd GJK/EPA method).
+#include <cstdint>
+
+#include "hbp/narrow/contact.hpp"
+#include "hbp/narrow/convex.hpp"
+#include "hbp/narrow/hit.hpp"
+#include "hbp/shape.hpp"
+
+namespace hbp {
+
+enum class NarrowMethod : std::uint8_t {
+  Auto,          // closed forms where they apply (true sphere-sphere,
+                 // cuboid-true sphere, cuboid-cuboid), else GJK + EPA
+  GjkEpa,        // our GJK + EPA for every pair (fixed-size buffers)
+  LibccdMpr,     // libccd MPR (boolean and penetration; depth along the
+                 // centre line, not the minimum translation)
+  LibccdGjkEpa,  // libccd GJK + EPA (allocates per query)
+};
+const char* narrow_method_name(NarrowMethod method);
+
+// True if the shapes intersect (touching counts). With contact non-null, also
+// fills normal (a -> b), depth and point; ids are left as they were.
+bool intersect(const Shape& a, const Shape& b, Contact* contact = nullptr,
+               NarrowMethod method = NarrowMethod::Auto);
+
+// Distance between the shapes if separated (> 0), minus the penetration depth
+// if they intersect (<= 0). GJK + EPA, relative accuracy about 1e-7.
+double signed_distance(const Shape& a, const Shape& b);
+
+namespace narrow {
+// The same on prepared shapes (what NarrowPhase calls).
+bool intersect(const Convex& a, const Convex& b, Hit* hit, NarrowMethod method);
+}  // namespace narrow
+
+}  // namespace hbp

@@ -1,0 +1,45 @@
+#pragma once
+// The narrow phase of the hybrid system: exact shape tests on the candidate
+// pairs the broad phase reports, one Contact per colliding pair.
+//
+//   hbp::NarrowPhase narrow;                     // closed forms + GJK/EPA
+//   std::vector<hbp::Contact> contacts;
+//   bp.update(boxes, [&](std::uint32_t, const hbp::Pair* p, std::size_t n) {
+//     narrow.process(scenario.shapes(), p, n, contacts);
+//   });
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "hbp/narrow/contact.hpp"
+#include "hbp/narrow/intersect.hpp"
+#include "hbp/pair.hpp"
+#include "hbp/shape.hpp"
+
+namespace hbp {
+
+struct NarrowOptions {
+  NarrowMethod method = NarrowMethod::Auto;
+  // False: intersection only (faster; contacts carry ids, depth 0, zero normal).
+  bool contacts = true;
+};
+
+class NarrowPhase {
+ public:
+  explicit NarrowPhase(const NarrowOptions& options = {}) : options_(options) {}
+
+  // Tests pairs[0..count) (ids index `shapes`) and appends a Contact for each
+  // colliding pair, in pair order. Returns how many were appended. Const and
+  // thread-safe: threads may share one NarrowPhase with separate outputs. No
+  // allocation besides the growth of `out`. InvalidInput if an id is out of
+  // range.
+  std::size_t process(const std::vector<Shape>& shapes, const Pair* pairs, std::size_t count,
+                      std::vector<Contact>& out) const;
+
+  const NarrowOptions& options() const { return options_; }
+
+ private:
+  NarrowOptions options_;
+};
+
+}  // namespace hbp

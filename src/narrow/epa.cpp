@@ -1,0 +1,264 @@
+#include "hbp/narrow/epa.hpp"
+
+#include <cmath>
+#include <utility>
+
+namespace hbp::narrow {
+namespace {
+
+constexpr int kMaxVertices = kEpaMaxVertices;
+constexpr int kMaxFaces = 2 * kMaxVertices + 32;
+
+// Triangle of the polytope. Edge e runs v[e] -> v[(e + 1) % 3]; adj[e] is the
+// face across it and adj_edge[e] that face's index for the same edge.
+struct Face {
+  V3 n;
+  double d;  // distance of the face plane from the origin
+  int v[3];
+  int adj[3];
+  int adj_edge[3];
+  unsigned pass;
+  bool alive;
+};
+
+struct Horizon {
+  int first = -1, last = -1, count = 0;
+  bool broken = false;
+};
+
+class Polytope {
+ public:
+  explicit Polytope(double scale)
+      : area_eps_(1e-14 * scale * scale), plane_eps_(1e-13 * scale) {}
+
+  int add_vertex(const SupportVertex& s) {
+    verts_[nv_] = s;
+    return nv_++;
+  }
+  int vertex_count() const { return nv_; }
+  const SupportVertex& vertex(int i) const { return verts_[i]; }
+  Face& face(int f) { return faces_[f]; }
+
+  // New face (a, b, c), counter-clockwise seen from outside. -1 if out of
+  // capacity or degenerate (no reliable normal).
+  int new_face(int a, int b, int c) {
+    int f;
+    if (nfree_ > 0) {
+      f = free_[--nfree_];
+    } else if (nused_ < kMaxFaces) {
+      f = nused_++;
+    } else {
+      return -1;
+    }
+    Face& F = faces_[f];
+    const V3 n = cross(verts_[b].w - verts_[a].w, verts_[c].w - verts_[a].w);
+    const double len = norm(n);
+    if (!(len > area_eps_)) {
+      free_[nfree_++] = f;
+      return -1;
+    }
+    F.n = n * (1.0 / len);
+    F.d = (dot(F.n, verts_[a].w) + dot(F.n, verts_[b].w) + dot(F.n, verts_[c].w)) / 3.0;
+    F.v[0] = a;
+    F.v[1] = b;
+    F.v[2] = c;
+    F.adj[0] = F.adj[1] = F.adj[2] = -1;
+    F.adj_edge[0] = F.adj_edge[1] = F.adj_edge[2] = 0;
+    F.pass = 0;
+    F.alive = true;
+    return f;
+  }
+
+  void release(int f) {
+    faces_[f].alive = false;
+    free_[nfree_++] = f;
+  }
+
+  void link(int f, int e, int g, int h) {
+    faces_[f].adj[e] = g;
+    faces_[f].adj_edge[e] = h;
+    faces_[g].adj[h] = f;
+    faces_[g].adj_edge[h] = e;
+  }
+
+  int closest_face() const {
+    int best = -1;
+    double best_d = INFINITY;
+    for (int f = 0; f < nused_; ++f) {
+      if (faces_[f].alive && faces_[f].d < best_d) {
+        best_d = faces_[f].d;
+        best = f;
+      }
+    }
+    return best;
+  }
+
+  // Depth-first walk over the faces visible from vertex w, starting across
+  // edge e of face f. Visible faces are queued for removal; for each horizon
+  // edge a new face (edge, w) is made and stitched to its predecessor.
+  bool silhouette(unsigned pass, int w, int f, int e, Horizon& h) {
+    Face& F = faces_[f];
+    if (F.pass == pass) return true;  // visible face reached a second time
+    const int e1 = (e + 1) % 3;
+    if (dot(F.n, verts_[w].w) - F.d < -plane_eps_) {
+      const int nf = new_face(F.v[e1], F.v[e], w);
+      if (nf < 0) return false;
+      link(nf, 0, f, e);
+      if (h.last >= 0) {
+        if (faces_[h.last].v[1] != faces_[nf].v[0]) h.broken = true;
+        link(h.last, 1, nf, 2);
+      } else {
+        h.first = nf;
+      }
+      h.last = nf;
+      ++h.count;
+      return true;
+    }
+    const int e2 = (e + 2) % 3;
+    F.pass = pass;
+    if (nremoved_ >= kMaxFaces) return false;
+    removed_[nremoved_++] = f;
+    return silhouette(pass, w, F.adj[e1], F.adj_edge[e1], h) &&
+           silhouette(pass, w, F.adj[e2], F.adj_edge[e2], h);
+  }
+
+  void begin_pass() { nremoved_ = 0; }
+  void release_removed() {
+    for (int i = 0; i < nremoved_; ++i) release(removed_[i]);
+  }
+
+
+ private:
+  double area_eps_, plane_eps_;
+  SupportVertex verts_[kMaxVertices];
+  int nv_ = 0;
+  Face faces_[kMaxFaces];
+  int free_[kMaxFaces];
+  int removed_[kMaxFaces];
+  int nfree_ = 0, nused_ = 0, nremoved_ = 0;
+};
+
+// Grows a GJK simplex touching or enclosing the origin into a tetrahedron of
+// non-zero volume by adding support points in directions that leave its span.
+bool enclose_origin(const Convex& a, const Convex& b, Simplex& s, double scale) {
+  static const V3 kAxes[3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  auto try_direction = [&](const V3& d) {
+    s.v[s.n++] = support_difference(a, b, d);
+    if (enclose_origin(a, b, s, scale)) return true;
+    --s.n;
+    return false;
+  };
+  switch (s.n) {
+    case 1:
+      for (const V3& axis : kAxes) {
+        if (try_direction(axis) || try_direction(-axis)) return true;
+      }
+      return false;
+    case 2: {
+      const V3 d = s.v[1].w - s.v[0].w;
+      for (const V3& axis : kAxes) {
+        const V3 p = cross(d, axis);
+        if (norm2(p) > 0 && (try_direction(p) || try_direction(-p))) return true;
+      }
+      return false;
+    }
+    case 3: {
+      const V3 n = cross(s.v[1].w - s.v[0].w, s.v[2].w - s.v[0].w);
+      return norm2(n) > 0 && (try_direction(n) || try_direction(-n));
+    }
+    case 4: {
+      const double vol = det3(s.v[1].w - s.v[0].w, s.v[2].w - s.v[0].w, s.v[3].w - s.v[0].w);
+      return std::fabs(vol) > 1e-15 * scale * scale * scale;
+    }
+    default: return false;
+  }
+}
+
+void fill_result(const Polytope& p, const Face& f, EpaResult& r) {
+  r.ok = true;
+  r.depth = f.d > 0 ? f.d : 0;
+  r.normal = f.n;
+  // Barycentric coordinates of the origin's projection on the face.
+  const V3 a = p.vertex(f.v[0]).w, b = p.vertex(f.v[1]).w, c = p.vertex(f.v[2]).w;
+  const V3 q = f.n * f.d;
+  const V3 v0 = b - a, v1 = c - a, v2 = q - a;
+  const double d00 = dot(v0, v0), d01 = dot(v0, v1), d11 = dot(v1, v1);
+  const double d20 = dot(v2, v0), d21 = dot(v2, v1);
+  const double den = d00 * d11 - d01 * d01;
+  double l1 = den != 0 ? (d11 * d20 - d01 * d21) / den : 1.0 / 3;
+  double l2 = den != 0 ? (d00 * d21 - d01 * d20) / den : 1.0 / 3;
+  double l0 = 1 - l1 - l2;
+  r.point_a = l0 * p.vertex(f.v[0]).a + l1 * p.vertex(f.v[1]).a + l2 * p.vertex(f.v[2]).a;
+  r.point_b = l0 * p.vertex(f.v[0]).b + l1 * p.vertex(f.v[1]).b + l2 * p.vertex(f.v[2]).b;
+}
+
+}  // namespace
+
+EpaResult epa(const Convex& a, const Convex& b, const Simplex& simplex, const EpaOptions& options) {
+  EpaResult r;
+  const double scale = pair_scale(a, b);
+  {
+    const V3 d = b.centre - a.centre;
+    const double len = norm(d);
+    r.normal = len > 0 ? d * (1.0 / len) : V3{0, 0, 1};
+  }
+  Simplex s = simplex;
+  if (s.n < 1 || !enclose_origin(a, b, s, scale)) return r;
+
+  Polytope p(scale);
+  int vi[4];
+  for (int i = 0; i < 4; ++i) vi[i] = p.add_vertex(s.v[i]);
+  // Faces of the tetrahedron (i, j, k) with opposite vertex l, wound so that
+  // their normals point away from l.
+  static constexpr int kTet[4][4] = {{0, 1, 2, 3}, {0, 3, 1, 2}, {0, 2, 3, 1}, {1, 3, 2, 0}};
+  int tf[4];
+  for (int t = 0; t < 4; ++t) {
+    int i = vi[kTet[t][0]], j = vi[kTet[t][1]], k = vi[kTet[t][2]];
+    const V3 wi = p.vertex(i).w;
+    if (dot(cross(p.vertex(j).w - wi, p.vertex(k).w - wi), p.vertex(vi[kTet[t][3]]).w - wi) > 0) std::swap(j, k);
+    tf[t] = p.new_face(i, j, k);
+    if (tf[t] < 0) return r;
+  }
+  for (int f = 0; f < 4; ++f) {
+    for (int e = 0; e < 3; ++e) {
+      const Face& F = p.face(tf[f]);
+      const int from = F.v[e], to = F.v[(e + 1) % 3];
+      for (int g = 0; g < 4; ++g) {
+        if (g == f) continue;
+        const Face& G = p.face(tf[g]);
+        for (int h = 0; h < 3; ++h) {
+          if (G.v[h] == to && G.v[(h + 1) % 3] == from) p.link(tf[f], e, tf[g], h);
+        }
+      }
+    }
+  }
+
+  unsigned pass = 0;
+  for (int it = 0;; ++it) {
+    r.iterations = it;
+    const int best = p.closest_face();
+    if (best < 0) break;
+    Face& B = p.face(best);
+    fill_result(p, B, r);
+    const SupportVertex w = support_difference(a, b, B.n);
+    const double gap = dot(B.n, w.w) - B.d;
+    if (gap <= options.rel_tolerance * std::fabs(B.d) + options.abs_tolerance * scale) {
+      r.converged = true;
+      break;
+    }
+    if (p.vertex_count() >= kMaxVertices) break;
+    const int wi = p.add_vertex(w);
+    B.pass = ++pass;
+    p.begin_pass();
+    Horizon h;
+    bool ok = true;
+    for (int e = 0; e < 3 && ok; ++e) ok = p.silhouette(pass, wi, B.adj[e], B.adj_edge[e], h);
+    if (!ok || h.broken || h.count < 3 || p.face(h.last).v[1] != p.face(h.first).v[0]) break;
+    p.link(h.last, 1, h.first, 2);
+    p.release_removed();
+    p.release(best);
+  }
+  return r;
+}
+
+}  // namespace hbp::narrow

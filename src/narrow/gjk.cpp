@@ -1,0 +1,207 @@
+#include "hbp/narrow/gjk.hpp"
+
+#include <cmath>
+#include <initializer_list>
+#include <utility>
+
+namespace hbp::narrow {
+namespace {
+
+void keep1(Simplex& s, int i) {
+  s.v[0] = s.v[i];
+  s.lambda[0] = 1;
+  s.n = 1;
+}
+
+void keep2(Simplex& s, int i, int j, double li, double lj) {
+  const SupportVertex vi = s.v[i], vj = s.v[j];
+  s.v[0] = vi;
+  s.v[1] = vj;
+  s.lambda[0] = li;
+  s.lambda[1] = lj;
+  s.n = 2;
+}
+
+void keep3(Simplex& s, int i, int j, int k, double li, double lj, double lk) {
+  const SupportVertex vi = s.v[i], vj = s.v[j], vk = s.v[k];
+  s.v[0] = vi;
+  s.v[1] = vj;
+  s.v[2] = vk;
+  s.lambda[0] = li;
+  s.lambda[1] = lj;
+  s.lambda[2] = lk;
+  s.n = 3;
+}
+
+V3 combine(const Simplex& s) {
+  V3 p;
+  for (int i = 0; i < s.n; ++i) p = p + s.lambda[i] * s.v[i].w;
+  return p;
+}
+
+// Closest point of segment (s.v[i], s.v[j]) to the origin; reduces s.
+void closest_segment(Simplex& s, int i, int j) {
+  const V3 a = s.v[i].w, b = s.v[j].w;
+  const V3 ab = b - a;
+  const double len2 = norm2(ab);
+  const double t = len2 > 0 ? -dot(a, ab) / len2 : 0;
+  if (t <= 0) {
+    keep1(s, i);
+  } else if (t >= 1) {
+    keep1(s, j);
+  } else {
+    keep2(s, i, j, 1 - t, t);
+  }
+}
+
+// Closest point of triangle (s.v[i], s.v[j], s.v[k]) to the origin, by the
+// Voronoi regions of its vertices, edges and face; reduces s.
+void closest_triangle(Simplex& s, int i, int j, int k) {
+  const V3 a = s.v[i].w, b = s.v[j].w, c = s.v[k].w;
+  const V3 ab = b - a, ac = c - a;
+  const double d1 = -dot(ab, a), d2 = -dot(ac, a);
+  if (d1 <= 0 && d2 <= 0) return keep1(s, i);
+  const double d3 = -dot(ab, b), d4 = -dot(ac, b);
+  if (d3 >= 0 && d4 <= d3) return keep1(s, j);
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) {
+    const double t = d1 / (d1 - d3);
+    return keep2(s, i, j, 1 - t, t);
+  }
+  const double d5 = -dot(ab, c), d6 = -dot(ac, c);
+  if (d6 >= 0 && d5 <= d6) return keep1(s, k);
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) {
+    const double t = d2 / (d2 - d6);
+    return keep2(s, i, k, 1 - t, t);
+  }
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
+    const double t = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+    return keep2(s, j, k, 1 - t, t);
+  }
+  const double sum = va + vb + vc;
+  if (!(sum > 0)) {  // degenerate (collinear) triangle: best of its edges
+    Simplex best = s;
+    closest_segment(best, i, j);
+    double best_d = norm2(combine(best));
+    for (const auto& e : {std::pair{j, k}, std::pair{i, k}}) {
+      Simplex t = s;
+      closest_segment(t, e.first, e.second);
+      const double d = norm2(combine(t));
+      if (d < best_d) {
+        best = t;
+        best_d = d;
+      }
+    }
+    s = best;
+    return;
+  }
+  const double v = vb / sum, w = vc / sum;
+  keep3(s, i, j, k, 1 - v - w, v, w);
+}
+
+// Tetrahedron: true if the origin is inside (s unchanged, lambda set);
+// otherwise reduces s to the closest face/edge/vertex.
+bool closest_tetrahedron(Simplex& s) {
+  static constexpr int kFaces[4][4] = {{0, 1, 2, 3}, {0, 2, 3, 1}, {0, 3, 1, 2}, {1, 3, 2, 0}};
+  bool outside_any = false;
+  Simplex best;
+  double best_d = INFINITY;
+  for (const auto& f : kFaces) {
+    const V3 a = s.v[f[0]].w, b = s.v[f[1]].w, c = s.v[f[2]].w, d = s.v[f[3]].w;
+    const V3 n = cross(b - a, c - a);
+    const double side_origin = -dot(a, n);
+    const double side_opposite = dot(d - a, n);
+    // Origin strictly on the other side of this face than the fourth vertex
+    // (or a flat tetrahedron): the closest point may lie on this face.
+    if (side_opposite == 0 || side_origin * side_opposite < 0) {
+      outside_any = true;
+      Simplex t = s;
+      closest_triangle(t, f[0], f[1], f[2]);
+      const double dist = norm2(combine(t));
+      if (dist < best_d) {
+        best_d = dist;
+        best = t;
+      }
+    }
+  }
+  if (!outside_any) {
+    // Barycentric weights from signed volumes.
+    const V3 a = s.v[0].w, b = s.v[1].w, c = s.v[2].w, d = s.v[3].w;
+    const double vol = det3(b - a, c - a, d - a);
+    const V3 o{};
+    s.lambda[0] = det3(b - o, c - o, d - o) / vol;
+    s.lambda[1] = det3(o - a, c - a, d - a) / vol;
+    s.lambda[2] = det3(b - a, o - a, d - a) / vol;
+    s.lambda[3] = det3(b - a, c - a, o - a) / vol;
+    return true;
+  }
+  s = best;
+  return false;
+}
+
+}  // namespace
+
+GjkResult gjk(const Convex& a, const Convex& b, const GjkOptions& options) {
+  GjkResult r;
+  Simplex& s = r.simplex;
+  const double scale = pair_scale(a, b);
+  const double touch2 = (1e-12 * scale) * (1e-12 * scale);
+  const double eps = options.rel_tolerance;
+
+  V3 v = a.centre - b.centre;  // a point of D (both centres are interior)
+  if (norm2(v) == 0) v = {scale, 0, 0};
+  double prev_vv = INFINITY;
+  for (int it = 0; it < options.max_iterations; ++it) {
+    r.iterations = it + 1;
+    const SupportVertex w = support_difference(a, b, -v);
+    const double vv = norm2(v);
+    const double vw = dot(v, w.w);
+    if (vw > 0 && options.boolean_only) {
+      // Separating plane found: D lies entirely on the far side of it.
+      r.intersecting = false;
+      r.distance = vw / std::sqrt(vv);
+      return r;
+    }
+    if (s.n > 0) {
+      bool duplicate = false;
+      for (int i = 0; i < s.n; ++i) duplicate |= (s.v[i].w.x == w.w.x && s.v[i].w.y == w.w.y && s.v[i].w.z == w.w.z);
+      if (duplicate || vv - vw <= eps * vv) break;  // converged: separated
+    }
+    s.v[s.n++] = w;
+    bool inside = false;
+    switch (s.n) {
+      case 1: s.lambda[0] = 1; break;
+      case 2: closest_segment(s, 0, 1); break;
+      case 3: closest_triangle(s, 0, 1, 2); break;
+      default: inside = closest_tetrahedron(s); break;
+    }
+    if (inside) {
+      r.intersecting = true;
+      r.distance = 0;
+      return r;
+    }
+    v = combine(s);
+    const double nv = norm2(v);
+    if (nv <= touch2) {  // origin on the simplex: touching counts as contact
+      r.intersecting = true;
+      r.distance = 0;
+      return r;
+    }
+    if (nv >= prev_vv) break;  // no progress: numerically converged
+    prev_vv = nv;
+  }
+  r.intersecting = false;
+  r.distance = norm(v);
+  V3 pa, pb;
+  for (int i = 0; i < s.n; ++i) {
+    pa = pa + s.lambda[i] * s.v[i].a;
+    pb = pb + s.lambda[i] * s.v[i].b;
+  }
+  r.closest_a = pa;
+  r.closest_b = pb;
+  return r;
+}
+
+}  // namespace hbp::narrow

@@ -1,0 +1,92 @@
+#include "hbp/narrow/intersect.hpp"
+
+#include "hbp/narrow/closed_forms.hpp"
+#include "hbp/narrow/epa.hpp"
+#include "hbp/narrow/gjk.hpp"
+#include "hbp/narrow/libccd_solver.hpp"
+
+namespace hbp {
+
+const char* narrow_method_name(NarrowMethod method) {
+  switch (method) {
+    case NarrowMethod::Auto: return "auto";
+    case NarrowMethod::GjkEpa: return "gjk-epa";
+    case NarrowMethod::LibccdMpr: return "libccd-mpr";
+    case NarrowMethod::LibccdGjkEpa: return "libccd-gjk-epa";
+  }
+  return "unknown";
+}
+
+namespace narrow {
+namespace {
+
+bool closed_form(const Convex& a, const Convex& b, Hit* hit, bool* applies) {
+  *applies = true;
+  const bool box_a = a.kind == ShapeKind::Cuboid, box_b = b.kind == ShapeKind::Cuboid;
+  if (box_a && box_b) return box_box(a, b, hit);
+  const bool sph_a = a.is_true_sphere(), sph_b = b.is_true_sphere();
+  if (sph_a && sph_b) return sphere_sphere(a, b, hit);
+  if (box_a && sph_b) return box_sphere(a, b, hit);
+  if (sph_a && box_b) {
+    if (!box_sphere(b, a, hit)) return false;
+    if (hit) hit->normal = -hit->normal;
+    return true;
+  }
+  *applies = false;
+  return false;
+}
+
+bool gjk_epa(const Convex& a, const Convex& b, Hit* hit) {
+  GjkOptions go;
+  go.boolean_only = hit == nullptr;
+  const GjkResult g = gjk(a, b, go);
+  if (!g.intersecting) return false;
+  if (!hit) return true;
+  const EpaResult e = epa(a, b, g.simplex);
+  hit->normal = e.normal;
+  hit->depth = e.depth;
+  hit->point = e.ok ? 0.5 * (e.point_a + e.point_b) : 0.5 * (a.centre + b.centre);
+  return true;
+}
+
+}  // namespace
+
+bool intersect(const Convex& a, const Convex& b, Hit* hit, NarrowMethod method) {
+  // Bounding spheres apart: no further work (most broad-phase false positives).
+  const double reach = a.radius + b.radius;
+  if (norm2(b.centre - a.centre) > reach * reach) return false;
+  switch (method) {
+    case NarrowMethod::Auto: {
+      bool applies = false;
+      const bool r = closed_form(a, b, hit, &applies);
+      if (applies) return r;
+      return gjk_epa(a, b, hit);
+    }
+    case NarrowMethod::GjkEpa: return gjk_epa(a, b, hit);
+    case NarrowMethod::LibccdMpr: return libccd_intersect(a, b, hit, CcdAlgorithm::Mpr);
+    case NarrowMethod::LibccdGjkEpa: return libccd_intersect(a, b, hit, CcdAlgorithm::GjkEpa);
+  }
+  return false;
+}
+
+}  // namespace narrow
+
+bool intersect(const Shape& a, const Shape& b, Contact* contact, NarrowMethod method) {
+  const narrow::Convex ca = narrow::make_convex(a), cb = narrow::make_convex(b);
+  if (!contact) return narrow::intersect(ca, cb, nullptr, method);
+  narrow::Hit hit;
+  if (!narrow::intersect(ca, cb, &hit, method)) return false;
+  contact->normal = narrow::to_vec3(hit.normal);
+  contact->depth = hit.depth;
+  contact->point = narrow::to_vec3(hit.point);
+  return true;
+}
+
+double signed_distance(const Shape& a, const Shape& b) {
+  const narrow::Convex ca = narrow::make_convex(a), cb = narrow::make_convex(b);
+  const narrow::GjkResult g = narrow::gjk(ca, cb);
+  if (!g.intersecting) return g.distance;
+  return -narrow::epa(ca, cb, g.simplex).depth;
+}
+
+}  // namespace hbp
