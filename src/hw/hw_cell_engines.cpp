@@ -1,10 +1,15 @@
 #include "hbp/hw/hw_cell_engines.hpp"
 
+#include <algorithm>
+#include <cstdint>
 #include <string>
 
 #include "hbp/error.hpp"
 #include "hbp/hw/analytic_cycles.hpp"
+#include "hbp/hw/area_efficient_model.hpp"
+#include "hbp/hw/buffer_input_checks.hpp"
 #include "hbp/hw/hardware_order_pairs.hpp"
+#include "hbp/hw/many_object_model.hpp"
 
 namespace hbp::hw {
 namespace {
@@ -21,13 +26,15 @@ class HardwareModelEngine final : public CellEngine {
     return simulate_ ? n + "-sim" : n;
   }
   std::uint32_t capacity() const override {
-    return static_cast<std::uint32_t>(buffer_capacity(design_, cfg_));
+    // Object indices are 32-bit: a deeper buffer cannot be addressed anyway.
+    return static_cast<std::uint32_t>(std::min<std::uint64_t>(buffer_capacity(design_, cfg_), UINT32_MAX));
   }
   std::uint32_t default_cell_limit() const override { return 1024; }
   double clock_hz() const override { return cfg_.clock_hz; }
 
   CellRun find_pairs(const BoxArray& cell, std::vector<Pair>& out) override {
-    check_capacity(cell.size());
+    if (simulate_) return simulate(cell, out);
+    check_capacity(design_, cfg_, cell.size());
     if (design_ == Design::AreaEfficient) {
       area_efficient_order_pairs(cell, out);
     } else {
@@ -45,18 +52,21 @@ class HardwareModelEngine final : public CellEngine {
   }
 
  private:
-  void check_capacity(std::size_t n) const {
-    if (n > capacity()) {
-      throw CapacityExceeded(std::string(design_name(design_)) + " model (m = " +
-                             std::to_string(cfg_.m) + ", depth = " + std::to_string(cfg_.depth) +
-                             ") holds at most " + std::to_string(capacity()) +
-                             " objects; the cell has " + std::to_string(n));
+  CellRun simulate(const BoxArray& cell, std::vector<Pair>& out) {
+    // Models are built on first use: the fast path never pays for buffers.
+    if (design_ == Design::AreaEfficient) {
+      if (!area_efficient_) area_efficient_ = std::make_unique<AreaEfficientModel>(cfg_);
+      return {area_efficient_->run(cell, out).cycles.total()};
     }
+    if (!many_object_) many_object_ = std::make_unique<ManyObjectModel>(cfg_);
+    return {many_object_->run(cell, out).cycles.total()};
   }
 
   Design design_;
   ModelConfig cfg_;
   bool simulate_;
+  std::unique_ptr<AreaEfficientModel> area_efficient_;
+  std::unique_ptr<ManyObjectModel> many_object_;
 };
 
 }  // namespace

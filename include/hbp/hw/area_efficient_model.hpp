@@ -1,0 +1,57 @@
+#pragma once
+// Cycle-accurate model of the area-efficient microarchitecture (paper section
+// 3.1.1, Table 1). Buffer: 6m dual-port memories in m memory groups, each
+// group holding a full copy of the n AABBs, so 2m ports read 2m objects per
+// cycle. Sequence: port 0A holds anchor i, the other 2m-1 ports hold the next
+// 2m-1 addresses and all step by 2m-1 until one selects n-1; then the anchor
+// advances. Compare: 6m-3 >= and 6m-3 <= comparators feeding 2m-1 six-input
+// AND gates, anchor against each other port; slots reading an address >= n
+// are discarded. Each colliding pair is one line of the pair output memory.
+#include <cstdint>
+#include <vector>
+
+#include "hbp/box_array.hpp"
+#include "hbp/hw/buffer_memories.hpp"
+#include "hbp/hw/counters.hpp"
+#include "hbp/hw/model_config.hpp"
+#include "hbp/hw/pair_pipeline.hpp"
+#include "hbp/hw/resources.hpp"
+#include "hbp/hw/trace.hpp"
+#include "hbp/pair.hpp"
+
+namespace hbp::hw {
+
+class AreaEfficientModel {
+ public:
+  explicit AreaEfficientModel(const ModelConfig& cfg = {});
+
+  const ModelConfig& config() const { return cfg_; }
+  // Objects the buffer holds: `depth` (every group stores all of them).
+  std::uint32_t capacity() const { return cfg_.depth; }
+  std::uint32_t comparisons_per_cycle() const { return 2 * cfg_.m - 1; }
+  std::uint32_t pipeline_depth() const;
+  Resources resources() const;
+  // Closed form of what run() counts for n objects (no capacity check).
+  CycleBreakdown analytic_cycles(std::uint64_t n) const;
+
+  // Loads `boxes` into the buffer, runs the sequence cycle by cycle and
+  // appends each colliding pair (i < j) to `pair_memory` in the order the
+  // hardware writes them. Records every issuing cycle into `trace` if given.
+  // Throws CapacityExceeded when boxes.size() > capacity(), InvalidInput
+  // naming the object when a coordinate is NaN.
+  Counters run(const BoxArray& boxes, std::vector<Pair>& pair_memory,
+               AreaEfficientTrace* trace = nullptr);
+
+  // The buffer as the last run() left it (for inspecting the layout).
+  const BufferMemories& buffer() const { return buffer_; }
+
+ private:
+  void load(const BoxArray& boxes);
+
+  ModelConfig cfg_;
+  BufferMemories buffer_;
+  PairPipeline pipeline_;
+  std::vector<AabbWords> port_data_;  // the 2m words read this cycle
+};
+
+}  // namespace hbp::hw
