@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "hbp/aabb.hpp"
@@ -64,5 +65,9 @@ std::unique_ptr<Baseline> make_bullet_dbvt(bool deferred_collide);
 std::unique_ptr<Baseline> make_bullet_axis_sweep(const BaselineOptions& options);
 std::unique_ptr<Baseline> make_cgal_box_intersection();
 std::unique_ptr<Baseline> make_brute_force_baseline();
+
+// Versions of the libraries behind the baselines, for reports:
+// {{"Bullet", "3.24 (single precision)"}, {"CGAL", "5.5.1"}}.
+std::vector<std::pair<std::string, std::string>> baseline_library_versions();
 
 }  // namespace hbp::baselines

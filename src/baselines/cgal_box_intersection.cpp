@@ -25,7 +25,7 @@ using CgalBox = CGAL::Box_intersection_d::Box_with_info_d<float, 3, std::uint32_
 class CgalBoxIntersection final : public Baseline {
  public:
   std::string name() const override { return "cgal"; }
-  std::string label() const override { return "CGAL box_intersection_d"; }
+  std::string label() const override { return "CGAL"; }
 
   void setup(const BoxArray& boxes) override { update(boxes); }
 

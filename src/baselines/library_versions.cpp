@@ -1,0 +1,16 @@
+// Versions of Bullet and CGAL this binary was compiled against.
+#include <CGAL/version.h>
+
+#include "baselines/baseline.hpp"
+#include "baselines/bullet_headers.hpp"
+
+namespace hbp::baselines {
+
+std::vector<std::pair<std::string, std::string>> baseline_library_versions() {
+  const int bt = btGetVersion();
+  std::string bullet = std::to_string(bt / 100) + "." + std::to_string(bt % 100);
+  bullet += sizeof(btScalar) == sizeof(float) ? " (single precision)" : " (double precision)";
+  return {{"Bullet", bullet}, {"CGAL", CGAL_VERSION_STR}};
+}
+
+}  // namespace hbp::baselines

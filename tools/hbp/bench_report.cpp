@@ -1,0 +1,398 @@
+#include "bench_report.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "bench_paper_table4.hpp"
+#include "hbp/error.hpp"
+
+namespace hbp::cli {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+std::string fmt(const char* f, double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, f, v);
+  return buf;
+}
+
+// Milliseconds with the paper's precision for small values.
+std::string fmt_ms(double v) {
+  if (std::isnan(v)) return "";
+  if (v >= 100) return fmt("%.1f", v);
+  if (v >= 1) return fmt("%.3f", v);
+  if (v >= 0.01) return fmt("%.4f", v);
+  return fmt("%.6f", v);
+}
+
+std::string fmt_factor(double v) {
+  if (std::isnan(v) || std::isinf(v)) return "";
+  if (v >= 100) return fmt("%.0fx", v);
+  if (v >= 10) return fmt("%.1fx", v);
+  return fmt("%.2fx", v);
+}
+
+const char* status_name(CellStatus s) {
+  switch (s) {
+    case CellStatus::Ran: return "ran";
+    case CellStatus::Skipped: return "skipped";
+    case CellStatus::NotApplicable: return "n/a";
+    case CellStatus::Failed: return "failed";
+  }
+  return "?";
+}
+
+int index_of(const BenchResult& r, const std::string& key) {
+  for (std::size_t i = 0; i < r.keys.size(); ++i)
+    if (r.keys[i] == key) return static_cast<int>(i);
+  return -1;
+}
+
+// Median of a system in a row, or NaN when it did not run.
+double median_of(const BenchResult& r, const RowResult& row, const std::string& key) {
+  const int i = index_of(r, key);
+  if (i < 0) return kNaN;
+  const CellResult& c = row.cells[static_cast<std::size_t>(i)];
+  return c.status == CellStatus::Ran && c.frames > 0 ? c.median_ms : kNaN;
+}
+
+double min_ignoring_nan(std::initializer_list<double> vs) {
+  double m = kNaN;
+  for (double v : vs)
+    if (!std::isnan(v) && (std::isnan(m) || v < m)) m = v;
+  return m;
+}
+
+std::string column_label(const BenchResult& r, std::size_t i) {
+  return r.labels[i] + (r.modelled[i] ? " (model)" : " (m)");
+}
+
+std::string cell_text(const CellResult& c) {
+  switch (c.status) {
+    case CellStatus::NotApplicable: return "n/a";
+    case CellStatus::Skipped: return c.note;
+    case CellStatus::Failed: return "FAILED";
+    case CellStatus::Ran: break;
+  }
+  std::string s = fmt_ms(c.median_ms);
+  if (c.mismatched_frames) s += " MISMATCH x" + std::to_string(c.mismatched_frames);
+  if (!c.note.empty()) s += " *";
+  return s;
+}
+
+void table_row(std::ostringstream& o, const std::vector<std::string>& cells) {
+  o << "|";
+  for (const auto& c : cells) o << " " << c << " |";
+  o << "\n";
+}
+
+void table_head(std::ostringstream& o, const std::vector<std::string>& cells) {
+  table_row(o, cells);
+  o << "|";
+  for (std::size_t i = 0; i < cells.size(); ++i) o << (i == 0 ? " ---: |" : " ---: |");
+  o << "\n";
+}
+
+double paper_ae_best(const PaperTable4Row& p) { return min_ignoring_nan({p.ae_none, p.ae_1024}); }
+double paper_mo_best(const PaperTable4Row& p) {
+  return min_ignoring_nan({p.mo_none, p.mo_1024, p.mo_2048, p.mo_4096, p.mo_8192, p.mo_16384});
+}
+double ours_ae_best(const BenchResult& r, const RowResult& row) {
+  return min_ignoring_nan({median_of(r, row, "ae-none"), median_of(r, row, "ae-1024")});
+}
+double ours_mo_best(const BenchResult& r, const RowResult& row) {
+  return min_ignoring_nan({median_of(r, row, "mo-none"), median_of(r, row, "mo-1024"), median_of(r, row, "mo-2048"),
+                           median_of(r, row, "mo-4096"), median_of(r, row, "mo-8192"),
+                           median_of(r, row, "mo-16384")});
+}
+
+std::string header_text(const BenchHeader& h) {
+  std::ostringstream o;
+  const BenchConfig& c = h.config;
+  o << "# hbp bench: " << h.title << "\n\n";
+  o << "Command: `" << h.command << "`  \n";
+  o << "Started: " << h.started << "  \n";
+  o << "Frames: " << h.scene << "  \n";
+  o << "Per row: " << c.variants << " variant(s) x " << c.frames << " timed frame(s), after " << c.warmup
+    << " untimed warm-up frame(s) and an untimed setup frame (the paper: 20 variants x 1000 frames). "
+    << "Medians over all timed frames.  \n";
+  o << "Threads: our software hybrid and the models' partition run with " << c.choice.threads
+    << " thread(s); Bullet and CGAL are single-threaded.  \n";
+  o << "Budget: a system is skipped in a row when its projected time there exceeds "
+    << format_duration(c.budget_s) << " (projected from its earlier rows).  \n";
+  o << "Machine:\n\n";
+  for (const auto& [k, v] : h.machine) o << "- " << k << ": " << v << "\n";
+  o << "\n";
+  return o.str();
+}
+
+}  // namespace
+
+std::string format_tables(const BenchResult& r, const BenchHeader& h) {
+  std::ostringstream o;
+  o << header_text(h);
+  const int dbvt = index_of(r, "bullet-dbvt");
+
+  // 1. Medians.
+  o << "## Median time per frame (ms)\n\n";
+  std::vector<std::string> head = {"n", "pairs"};
+  for (std::size_t i = 0; i < r.keys.size(); ++i) head.push_back(column_label(r, i));
+  head.push_back("GPU");
+  table_head(o, head);
+  for (const auto& row : r.rows) {
+    std::vector<std::string> cells = {std::to_string(row.n), std::to_string(row.median_pairs)};
+    for (const auto& c : row.cells) cells.push_back(cell_text(c));
+    cells.push_back("not run");
+    table_row(o, cells);
+  }
+  o << "\n(m): measured wall time of one frame on this machine (Bullet: setAabb of every proxy + "
+       "calculateOverlappingPairs; CGAL: box copy + box_self_intersection_d; hybrid sw: HybridBroadPhase::update, "
+       "partition included).  \n"
+       "(model): modelled accelerator time, cycles at the model's clock (500 MHz, m = 16), spatial partition "
+       "excluded as in the paper; \"none\" = the whole world in one accelerator load, only up to its capacity "
+       "(1024 area-efficient, 16,384 many-object), else n/a like the paper; a cell size is used only when n "
+       "exceeds it.  \n"
+       "GPU: the paper's GPU column is Bullet's OpenCL sweep and prune on a GeForce GTX 670. This machine has "
+       "no GPU, so it is not run and no figure is invented; the published figures are in the paper table "
+       "below.  \n"
+       "Every system's exact pair set (Bullet's pair cache filtered with the closed-interval test) is compared "
+       "with " << r.reference << "'s every frame; MISMATCH xk marks k frames that differed (listed below).\n";
+  bool notes = false;
+  for (const auto& row : r.rows)
+    for (std::size_t i = 0; i < row.cells.size(); ++i) {
+      const CellResult& c = row.cells[i];
+      if ((c.status == CellStatus::Ran && !c.note.empty()) || c.status == CellStatus::Failed) {
+        if (!notes) o << "\nNotes:\n\n";
+        notes = true;
+        o << "- n=" << row.n << ", " << r.labels[i] << ": " << (c.status == CellStatus::Failed ? "FAILED, " : "* ")
+          << c.note << "\n";
+      }
+    }
+  if (!r.missing.empty()) {
+    o << "\nNot in this binary: ";
+    for (std::size_t i = 0; i < r.missing.size(); ++i) o << (i ? "; " : "") << r.missing[i];
+    o << ".\n";
+  }
+
+  // 2. Acceleration factors against Bullet DBVT.
+  if (dbvt >= 0) {
+    o << "\n## Acceleration against Bullet DBVT (DBVT median / system median, same run)\n\n";
+    std::vector<std::string> ah = {"n"};
+    for (std::size_t i = 0; i < r.keys.size(); ++i)
+      if (static_cast<int>(i) != dbvt) ah.push_back(column_label(r, i));
+    table_head(o, ah);
+    for (const auto& row : r.rows) {
+      const double base = median_of(r, row, "bullet-dbvt");
+      std::vector<std::string> cells = {std::to_string(row.n)};
+      for (std::size_t i = 0; i < r.keys.size(); ++i) {
+        if (static_cast<int>(i) == dbvt) continue;
+        const double v = median_of(r, row, r.keys[i]);
+        cells.push_back(std::isnan(base) || std::isnan(v) ? "" : fmt_factor(base / v));
+      }
+      table_row(o, cells);
+    }
+  }
+
+  // 3. The paper beside ours.
+  if (h.paper) {
+    o << "\n## Beside the paper's Table 4 (ms; acceleration = Bullet DBVT / best area-efficient, Fig. 4's "
+         "quantity)\n\n";
+    table_head(o, {"n", "DBVT here (m)", "DBVT paper", "AE best here (model)", "AE best paper",
+                   "MO best here (model)", "MO best paper", "accel here", "accel paper", "hybrid sw here (m)",
+                   "sw accel here", "GPU paper"});
+    for (const auto& row : r.rows) {
+      const PaperTable4Row* p = paper_table4_row(row.n);
+      const double d = median_of(r, row, "bullet-dbvt");
+      const double ae = ours_ae_best(r, row), mo = ours_mo_best(r, row), sw = median_of(r, row, "sw");
+      table_row(o, {std::to_string(row.n), fmt_ms(d), p ? fmt_ms(p->cpu) : "", fmt_ms(ae),
+                    p ? fmt_ms(paper_ae_best(*p)) : "", fmt_ms(mo), p ? fmt_ms(paper_mo_best(*p)) : "",
+                    fmt_factor(d / ae), p ? fmt_factor(p->cpu / paper_ae_best(*p)) : "", fmt_ms(sw),
+                    fmt_factor(d / sw), p ? fmt_ms(p->gpu) : ""});
+    }
+    o << "\nThe paper's CPU is a 2 GHz quad-core AMD Opteron 2350 (2007) running Bullet's DBVT; its modelled "
+         "times come from FPGA throughput scaled to 500 MHz. \"here\" is this run.\n";
+    o << "\n## The paper's Table 4 as published (ms), for the rows of this run\n\n";
+    table_head(o, {"n", "CPU", "GPU", "AE none", "AE 1024", "MO none", "MO 1024", "MO 2048", "MO 4096", "MO 8192",
+                   "MO 16384"});
+    for (const auto& row : r.rows) {
+      const PaperTable4Row* p = paper_table4_row(row.n);
+      if (!p) continue;
+      table_row(o, {std::to_string(p->n), fmt_ms(p->cpu), fmt_ms(p->gpu), fmt_ms(p->ae_none), fmt_ms(p->ae_1024),
+                    fmt_ms(p->mo_none), fmt_ms(p->mo_1024), fmt_ms(p->mo_2048), fmt_ms(p->mo_4096),
+                    fmt_ms(p->mo_8192), fmt_ms(p->mo_16384)});
+    }
+  }
+
+  // 4. Mismatches, never hidden.
+  o << "\n## Pair-set check\n\n";
+  if (r.mismatches.empty()) {
+    o << "Every system that ran found exactly the reference's pairs in every timed frame.\n";
+  } else {
+    o << r.mismatches.size() << " frame(s) differed:\n\n";
+    for (const auto& m : r.mismatches)
+      o << "- n=" << m.n << " variant " << m.variant << " frame " << m.frame << ": " << m.system << " vs "
+        << m.reference << ": " << m.summary << "\n";
+  }
+  o << "\nTotal run time: " << format_duration(r.total_s) << ".\n";
+  return o.str();
+}
+
+std::vector<std::string> write_report_files(const std::string& dir, const BenchResult& r, const BenchHeader& h) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) throw FileError("cannot create output directory '" + dir + "': " + ec.message());
+  std::vector<std::string> written;
+  auto open = [&](const std::string& name) {
+    const std::string path = (fs::path(dir) / name).string();
+    std::ofstream f(path);
+    if (!f) throw FileError("cannot write '" + path + "'");
+    written.push_back(path);
+    return f;
+  };
+  auto kind = [&](std::size_t i) { return r.modelled[i] ? "modelled" : "measured"; };
+
+  {
+    auto f = open("tables.md");
+    f << format_tables(r, h);
+  }
+  {
+    auto f = open("samples.csv");
+    f << "n,variant,frame,system,label,kind,ms,wall_ms,raw_pairs,exact_pairs,match\n";
+    for (const auto& s : r.samples)
+      f << s.n << "," << s.variant << "," << s.frame << "," << r.keys[s.system] << ",\"" << r.labels[s.system]
+        << "\"," << kind(s.system) << "," << fmt("%.6f", s.reported_ms) << "," << fmt("%.6f", s.wall_ms) << ","
+        << s.raw_pairs << "," << s.exact_pairs << "," << (s.match ? 1 : 0) << "\n";
+  }
+  {
+    auto f = open("summary.csv");
+    f << "n,system,label,kind,status,median_ms,min_ms,max_ms,median_wall_ms,setup_s,frames,mismatched_frames,"
+         "median_raw_pairs,reference_pairs,note\n";
+    for (const auto& row : r.rows)
+      for (std::size_t i = 0; i < row.cells.size(); ++i) {
+        const CellResult& c = row.cells[i];
+        f << row.n << "," << r.keys[i] << ",\"" << r.labels[i] << "\"," << kind(i) << "," << status_name(c.status)
+          << "," << fmt("%.6f", c.median_ms) << "," << fmt("%.6f", c.min_ms) << "," << fmt("%.6f", c.max_ms) << ","
+          << fmt("%.6f", c.median_wall_ms) << "," << fmt("%.6f", c.setup_s) << "," << c.frames << ","
+          << c.mismatched_frames << "," << c.median_raw_pairs << "," << row.median_pairs << ",\"" << c.note
+          << "\"\n";
+      }
+  }
+  {
+    nlohmann::json j;
+    j["tool"] = "hbp bench";
+    j["title"] = h.title;
+    j["command"] = h.command;
+    j["started"] = h.started;
+    j["frames_description"] = h.scene;
+    j["parameters"] = {{"frames", h.config.frames},     {"variants", h.config.variants},
+                       {"warmup", h.config.warmup},     {"threads", h.config.choice.threads},
+                       {"budget_s", h.config.budget_s}, {"reference", r.reference}};
+    for (const auto& [k, v] : h.machine) j["machine"][k] = v;
+    j["total_s"] = r.total_s;
+    j["not_built"] = r.missing;
+    for (std::size_t i = 0; i < r.keys.size(); ++i)
+      j["systems"].push_back({{"key", r.keys[i]}, {"label", r.labels[i]}, {"kind", kind(i)}});
+    for (const auto& row : r.rows) {
+      nlohmann::json jr = {{"n", row.n}, {"reference_pairs", row.median_pairs}};
+      for (std::size_t i = 0; i < row.cells.size(); ++i) {
+        const CellResult& c = row.cells[i];
+        jr["systems"][r.keys[i]] = {{"status", status_name(c.status)},
+                                    {"median_ms", c.median_ms},
+                                    {"min_ms", c.min_ms},
+                                    {"max_ms", c.max_ms},
+                                    {"median_wall_ms", c.median_wall_ms},
+                                    {"setup_s", c.setup_s},
+                                    {"frames", c.frames},
+                                    {"mismatched_frames", c.mismatched_frames},
+                                    {"median_raw_pairs", c.median_raw_pairs},
+                                    {"note", c.note}};
+      }
+      if (const PaperTable4Row* p = paper_table4_row(row.n); p && h.paper) {
+        auto num = [](double v) { return std::isnan(v) ? nlohmann::json(nullptr) : nlohmann::json(v); };
+        jr["paper_table4"] = {{"cpu", num(p->cpu)},         {"gpu", num(p->gpu)},
+                              {"ae_none", num(p->ae_none)}, {"ae_1024", num(p->ae_1024)},
+                              {"mo_none", num(p->mo_none)}, {"mo_1024", num(p->mo_1024)},
+                              {"mo_2048", num(p->mo_2048)}, {"mo_4096", num(p->mo_4096)},
+                              {"mo_8192", num(p->mo_8192)}, {"mo_16384", num(p->mo_16384)}};
+      }
+      j["rows"].push_back(jr);
+    }
+    j["mismatches"] = nlohmann::json::array();
+    for (const auto& m : r.mismatches)
+      j["mismatches"].push_back({{"n", m.n},
+                                 {"variant", m.variant},
+                                 {"frame", m.frame},
+                                 {"system", m.system},
+                                 {"reference", m.reference},
+                                 {"summary", m.summary}});
+    j["samples"] = nlohmann::json::array();
+    for (const auto& s : r.samples)
+      j["samples"].push_back({{"n", s.n},
+                              {"variant", s.variant},
+                              {"frame", s.frame},
+                              {"system", r.keys[s.system]},
+                              {"ms", s.reported_ms},
+                              {"wall_ms", s.wall_ms},
+                              {"raw_pairs", s.raw_pairs},
+                              {"exact_pairs", s.exact_pairs},
+                              {"match", s.match}});
+    auto f = open("report.json");
+    f << j.dump(1) << "\n";
+  }
+  // Plot data: whitespace-separated, "?" for a missing value, quoted titles.
+  {
+    auto f = open("times.dat");
+    f << "n";
+    for (std::size_t i = 0; i < r.keys.size(); ++i) f << " \"" << column_label(r, i) << "\"";
+    if (h.paper) f << " \"paper CPU (DBVT)\" \"paper AE best (model)\"";
+    f << "\n";
+    for (const auto& row : r.rows) {
+      f << row.n;
+      for (const auto& key : r.keys) {
+        const double v = median_of(r, row, key);
+        f << " " << (std::isnan(v) ? std::string("?") : fmt("%.9g", v));
+      }
+      if (h.paper) {
+        const PaperTable4Row* p = paper_table4_row(row.n);
+        f << " " << (p ? fmt("%.9g", p->cpu) : "?") << " " << (p ? fmt("%.9g", paper_ae_best(*p)) : "?");
+      }
+      f << "\n";
+    }
+  }
+  {
+    auto f = open("accel.dat");
+    f << "n";
+    for (std::size_t i = 0; i < r.keys.size(); ++i)
+      if (r.keys[i] != "bullet-dbvt") f << " \"" << column_label(r, i) << "\"";
+    f << " \"AE best (model)\" \"MO best (model)\"";
+    if (h.paper) f << " \"paper: AE best vs CPU\" \"paper: AE best vs GPU\"";
+    f << "\n";
+    for (const auto& row : r.rows) {
+      const double base = median_of(r, row, "bullet-dbvt");
+      auto factor = [&](double v) {
+        return std::isnan(base) || std::isnan(v) ? std::string("?") : fmt("%.9g", base / v);
+      };
+      f << row.n;
+      for (const auto& key : r.keys)
+        if (key != "bullet-dbvt") f << " " << factor(median_of(r, row, key));
+      f << " " << factor(ours_ae_best(r, row)) << " " << factor(ours_mo_best(r, row));
+      if (h.paper) {
+        const PaperTable4Row* p = paper_table4_row(row.n);
+        f << " " << (p ? fmt("%.9g", p->cpu / paper_ae_best(*p)) : "?") << " "
+          << (p ? fmt("%.9g", p->gpu / paper_ae_best(*p)) : "?");
+      }
+      f << "\n";
+    }
+  }
+  return written;
+}
+
+}  // namespace hbp::cli

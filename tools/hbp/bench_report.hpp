@@ -1,0 +1,32 @@
+#pragma once
+// `hbp bench` output: Table-4-shaped tables (medians in ms, measured and
+// modelled columns labelled), acceleration factors against Bullet DBVT, the
+// paper's own figures beside ours, and files for every per-frame sample
+// (CSV, JSON) plus plot data.
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "bench_machine.hpp"
+#include "bench_runner.hpp"
+
+namespace hbp::cli {
+
+struct BenchHeader {
+  std::string title;    // "paper scenario" / "scene FILE"
+  std::string command;  // the command line that produced the run
+  std::string scene;    // what the frames are
+  bool paper = true;    // compare with the paper's Table 4
+  BenchConfig config;
+  MachineDescription machine;
+  std::string started;  // ISO 8601 local time
+};
+
+// The tables as Markdown (what `hbp bench` prints and docs/results.md shows).
+std::string format_tables(const BenchResult& r, const BenchHeader& h);
+
+// Writes tables.md, summary.csv, samples.csv, report.json, times.dat and
+// accel.dat into dir (created if needed). Returns the files written.
+std::vector<std::string> write_report_files(const std::string& dir, const BenchResult& r, const BenchHeader& h);
+
+}  // namespace hbp::cli

@@ -1,0 +1,114 @@
+#pragma once
+// Runs every bench system on the same frames, row by row (one row per object
+// count), checks each system's exact pair set against the reference (our
+// software hybrid) every frame, and skips systems whose projected time for a
+// row exceeds the budget.
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "bench_systems.hpp"
+#include "hbp/box_array.hpp"
+
+namespace hbp::cli {
+
+// Frames of one world: variant v starts with frame 0 (setup, untimed), then
+// next() yields the following frames. The same boxes go to every system.
+class FrameSource {
+ public:
+  virtual ~FrameSource() = default;
+  virtual std::uint32_t object_count() const = 0;
+  virtual void begin_variant(std::uint32_t variant, BoxArray& first) = 0;
+  virtual void next(BoxArray& boxes) = 0;
+};
+
+struct BenchConfig {
+  std::uint32_t frames = 10;   // timed frames per variant
+  std::uint32_t variants = 3;  // worlds per row (paper scenario: seed = variant)
+  std::uint32_t warmup = 1;    // untimed frames after setup, per variant
+  double budget_s = 120;       // per system per row: skip when projected beyond
+  std::vector<std::string> only;  // system keys to run (empty: all)
+  SystemChoice choice;
+};
+
+enum class CellStatus { Ran, Skipped, NotApplicable, Failed };
+
+struct CellResult {
+  CellStatus status = CellStatus::NotApplicable;
+  double median_ms = 0, min_ms = 0, max_ms = 0;  // reported (measured or modelled)
+  double median_wall_ms = 0;                     // this machine's cost
+  double setup_s = 0;                            // mean one-time setup per variant
+  std::uint32_t frames = 0;                      // timed frames recorded
+  std::uint32_t mismatched_frames = 0;
+  std::uint64_t median_raw_pairs = 0;
+  std::string note;  // "skipped, projected 31 min", "n > capacity 1024", error text
+};
+
+struct Sample {
+  std::uint32_t n, variant, frame;
+  std::uint32_t system;  // index into BenchResult::keys
+  double reported_ms, wall_ms;
+  std::uint64_t raw_pairs, exact_pairs;
+  bool match;
+};
+
+struct Mismatch {
+  std::uint32_t n, variant, frame;
+  std::string system, reference, summary;
+};
+
+struct RowResult {
+  std::uint32_t n = 0;
+  std::uint64_t median_pairs = 0;  // reference's exact pairs
+  std::vector<CellResult> cells;   // per system, in BenchResult::keys order
+};
+
+struct BenchResult {
+  std::vector<std::string> keys, labels;
+  std::vector<bool> modelled;
+  std::vector<std::string> missing;  // systems not built into this binary
+  std::string reference = "sw";
+  std::vector<RowResult> rows;
+  std::vector<Sample> samples;
+  std::vector<Mismatch> mismatches;
+  double total_s = 0;
+};
+
+class BenchRunner {
+ public:
+  // progress(done, total, what): work is counted in object-frames.
+  using Progress = std::function<void(double done, double total, const std::string& what)>;
+  // Messages (mismatches, failures) printed as they happen.
+  using Log = std::function<void(const std::string& line)>;
+
+  BenchRunner(const BenchConfig& config, Progress progress, Log log);
+  ~BenchRunner();
+
+  // Total work of the rows to come, for the progress bar's ETA.
+  void plan(const std::vector<std::uint32_t>& object_counts);
+  void run_row(FrameSource& source);
+  BenchResult& result() { return result_; }
+
+ private:
+  struct History {
+    std::uint32_t n;
+    double frame_wall_ms;  // median per timed frame
+    double setup_s;        // mean per variant
+  };
+  double project_seconds(std::size_t system, std::uint32_t n) const;
+
+  BenchConfig config_;
+  Progress progress_;
+  Log log_;
+  std::vector<std::unique_ptr<BenchSystem>> systems_;
+  std::vector<std::vector<History>> history_;
+  BenchResult result_;
+  double work_total_ = 0, work_done_ = 0;
+};
+
+// "31 min", "45 s", "2.1 h".
+std::string format_duration(double seconds);
+
+}  // namespace hbp::cli

@@ -1,0 +1,181 @@
+#include "bench_systems.hpp"
+
+#include <chrono>
+#include <cstdio>
+#include <utility>
+
+#include "hbp/cell_engine.hpp"
+#include "hbp/error.hpp"
+#include "hbp/hybrid_broadphase.hpp"
+
+#ifdef HBP_HAVE_BASELINES
+#include "baselines/baseline.hpp"
+#endif
+
+namespace hbp::cli {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double ms_since(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+constexpr std::uint32_t kCellSizes[] = {1024, 2048, 4096, 8192, 16384};
+
+#ifdef HBP_HAVE_BASELINES
+class BaselineSystem final : public BenchSystem {
+ public:
+  explicit BaselineSystem(std::unique_ptr<baselines::Baseline> b) : b_(std::move(b)) {}
+  std::string key() const override { return b_->name(); }
+  std::string label() const override { return b_->label(); }
+  bool modelled() const override { return false; }
+  bool applies(std::uint32_t) const override { return true; }
+  std::string not_applicable_reason(std::uint32_t) const override { return {}; }
+  void setup(const BoxArray& boxes) override { b_->setup(boxes); }
+  FrameTime update(const BoxArray& boxes) override {
+    const auto t0 = Clock::now();
+    b_->update(boxes);
+    const double ms = ms_since(t0);
+    return {ms, ms};
+  }
+  std::uint64_t raw_pairs() const override { return b_->raw_pairs(); }
+  const std::vector<Pair>& exact_pairs() override { return b_->exact_pairs(); }
+
+ private:
+  std::unique_ptr<baselines::Baseline> b_;
+};
+#endif
+
+// HybridBroadPhase: measured wall time for the software engine; the
+// accelerator's modelled time (cycles of every cell at the model's clock,
+// partition excluded as in the paper) for the hardware models.
+class HybridSystem final : public BenchSystem {
+ public:
+  HybridSystem(std::string key, std::string label, const BroadPhaseOptions& options, bool modelled)
+      : key_(std::move(key)), label_(std::move(label)), options_(options), modelled_(modelled) {}
+  std::string key() const override { return key_; }
+  std::string label() const override { return label_; }
+  bool modelled() const override { return modelled_; }
+  // With a cell size, the paper runs only worlds larger than a cell.
+  bool applies(std::uint32_t n) const override { return options_.cell_limit == 0 || n > options_.cell_limit; }
+  std::string not_applicable_reason(std::uint32_t) const override {
+    return "n <= cell size " + std::to_string(options_.cell_limit);
+  }
+  void setup(const BoxArray& boxes) override {
+    bp_ = std::make_unique<HybridBroadPhase>(options_);
+    bp_->update(boxes);
+  }
+  FrameTime update(const BoxArray& boxes) override {
+    const auto t0 = Clock::now();
+    bp_->update(boxes);
+    const double wall = ms_since(t0);
+    return {modelled_ ? bp_->stats().modelled_ms : wall, wall};
+  }
+  std::uint64_t raw_pairs() const override { return bp_->stats().candidate_pairs; }
+  const std::vector<Pair>& exact_pairs() override { return bp_->pairs(); }
+
+ private:
+  std::string key_, label_;
+  BroadPhaseOptions options_;
+  bool modelled_;
+  std::unique_ptr<HybridBroadPhase> bp_;
+};
+
+// One accelerator holding the whole world: the paper's "none" columns, valid
+// up to the engine's capacity (1024 area-efficient, 16,384 many-object).
+class WholeWorldModel final : public BenchSystem {
+ public:
+  WholeWorldModel(std::string key, std::string label, std::unique_ptr<CellEngine> engine)
+      : key_(std::move(key)), label_(std::move(label)), engine_(std::move(engine)) {}
+  std::string key() const override { return key_; }
+  std::string label() const override { return label_; }
+  bool modelled() const override { return true; }
+  bool applies(std::uint32_t n) const override { return n <= engine_->capacity(); }
+  std::string not_applicable_reason(std::uint32_t) const override {
+    return "n > capacity " + std::to_string(engine_->capacity());
+  }
+  void setup(const BoxArray& boxes) override { update(boxes); }
+  FrameTime update(const BoxArray& boxes) override {
+    pairs_.clear();
+    const auto t0 = Clock::now();
+    const CellRun run = engine_->find_pairs(boxes, pairs_);
+    const double wall = ms_since(t0);
+    const auto n = static_cast<std::uint32_t>(boxes.size());
+    // The analytic count must equal what the model ran: a disagreement is a
+    // model bug the report must not smooth over.
+    if (run.cycles != engine_->cycles_for(n))
+      throw Error(key_ + ": model ran " + std::to_string(run.cycles) + " cycles for n=" + std::to_string(n) +
+                  " but its analytic count is " + std::to_string(engine_->cycles_for(n)));
+    raw_ = pairs_.size();
+    canonicalize(pairs_);
+    return {static_cast<double>(run.cycles) / engine_->clock_hz() * 1e3, wall};
+  }
+  std::uint64_t raw_pairs() const override { return raw_; }
+  const std::vector<Pair>& exact_pairs() override { return pairs_; }
+
+ private:
+  std::string key_, label_;
+  std::unique_ptr<CellEngine> engine_;
+  std::vector<Pair> pairs_;
+  std::uint64_t raw_ = 0;
+};
+
+bool engine_built(const std::string& name) {
+  try {
+    (void)make_cell_engine(name);
+    return true;
+  } catch (const InvalidInput&) {
+    return false;
+  }
+}
+
+}  // namespace
+
+std::vector<std::string> bench_system_keys() {
+  std::vector<std::string> keys = {"bullet-dbvt", "bullet-dbvt-deferred", "bullet-axis-sweep", "cgal", "brute",
+                                   "sw", "ae-none", "ae-1024", "mo-none"};
+  for (std::uint32_t c : kCellSizes) keys.push_back("mo-" + std::to_string(c));
+  return keys;
+}
+
+std::vector<std::unique_ptr<BenchSystem>> make_bench_systems(const SystemChoice& choice,
+                                                             std::vector<std::string>& missing) {
+  std::vector<std::unique_ptr<BenchSystem>> systems;
+#ifdef HBP_HAVE_BASELINES
+  for (const auto& name : baselines::baseline_names())
+    systems.push_back(std::make_unique<BaselineSystem>(baselines::make_baseline(name)));
+#else
+  missing.push_back("baselines (built without Bullet/CGAL)");
+#endif
+  BroadPhaseOptions sw;
+  sw.engine = "sw";
+  sw.threads = choice.threads;
+  systems.push_back(std::make_unique<HybridSystem>("sw", "hybrid sw", sw, false));
+
+  if (engine_built("ae")) {
+    systems.push_back(std::make_unique<WholeWorldModel>("ae-none", "AE none", make_cell_engine("ae")));
+    BroadPhaseOptions ae;
+    ae.engine = "ae";
+    ae.cell_limit = 1024;
+    ae.threads = choice.threads;
+    systems.push_back(std::make_unique<HybridSystem>("ae-1024", "AE 1024", ae, true));
+  } else {
+    missing.push_back("area-efficient model (engine 'ae' not built)");
+  }
+  if (engine_built("mo")) {
+    systems.push_back(std::make_unique<WholeWorldModel>("mo-none", "MO none", make_cell_engine("mo")));
+    for (std::uint32_t c : kCellSizes) {
+      BroadPhaseOptions mo;
+      mo.engine = "mo";
+      mo.cell_limit = c;
+      mo.threads = choice.threads;
+      systems.push_back(std::make_unique<HybridSystem>("mo-" + std::to_string(c), "MO " + std::to_string(c), mo, true));
+    }
+  } else {
+    missing.push_back("many-object model (engine 'mo' not built)");
+  }
+  return systems;
+}
+
+}  // namespace hbp::cli

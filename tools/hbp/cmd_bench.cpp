@@ -1,0 +1,241 @@
+// hbp bench paper | scene: the paper's evaluation (Table 4, Fig. 4) against
+// real baselines on the same frames, with exact pair sets checked every
+// frame, Table-4-shaped output, CSV/JSON of every sample and gnuplot plots.
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "bench_machine.hpp"
+#include "bench_report.hpp"
+#include "bench_runner.hpp"
+#include "bench_sources.hpp"
+#include "command_registry.hpp"
+#include "hbp/error.hpp"
+#include "progress.hpp"
+
+namespace hbp::cli {
+namespace {
+
+// The rows of the paper's Table 4.
+const std::vector<std::uint32_t> kTable4Rows = {100,   200,   300,   400,    500,    600,    700,
+                                                800,   900,   1000,  2000,   4000,   8000,   16000,
+                                                32000, 64000, 128000, 256000, 512000, 1024000};
+// --quick: one row per regime (no partition, small cells, large worlds),
+// under 3 minutes on 2 cores.
+const std::vector<std::uint32_t> kQuickRows = {100, 1000, 4000, 16000, 64000};
+
+struct BenchArgs {
+  std::vector<std::uint32_t> n;
+  std::string file;
+  std::uint32_t frames = 10, variants = 3, warmup = 1;
+  unsigned threads = 1;
+  double budget_s = 120;
+  std::vector<std::string> systems;
+  bool quick = false, no_plots = false;
+  std::string out;
+};
+
+std::string now_text(const char* format) {
+  const std::time_t t = std::time(nullptr);
+  std::tm tm{};
+  localtime_r(&t, &tm);
+  char buf[64];
+  std::strftime(buf, sizeof buf, format, &tm);
+  return buf;
+}
+
+std::string command_line() {
+  std::ifstream in("/proc/self/cmdline", std::ios::binary);
+  std::string arg, line;
+  while (std::getline(in, arg, '\0')) {
+    if (!line.empty()) line += ' ';
+    line += arg.find(' ') == std::string::npos ? arg : "'" + arg + "'";
+  }
+  return line.empty() ? "hbp bench" : line;
+}
+
+// scripts/plot-bench: next to the sources this binary was built from, or
+// next to the binary (build directory inside the source tree).
+std::optional<std::string> find_plot_script() {
+  namespace fs = std::filesystem;
+  std::vector<fs::path> candidates;
+  if (const char* env = std::getenv("HBP_PLOT_BENCH")) candidates.emplace_back(env);
+  candidates.push_back(fs::path(__FILE__).parent_path().parent_path().parent_path() / "scripts" / "plot-bench");
+  std::error_code ec;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  if (!ec)
+    for (fs::path d = exe.parent_path(); !d.empty() && d != d.root_path(); d = d.parent_path())
+      candidates.push_back(d / "scripts" / "plot-bench");
+  for (const auto& c : candidates)
+    if (fs::exists(c, ec)) return c.string();
+  return std::nullopt;
+}
+
+std::string shell_quote(const std::string& s) {
+  std::string q = "'";
+  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+void run_bench(const BenchArgs& a, bool paper) {
+  BenchConfig config;
+  config.frames = a.frames;
+  config.variants = a.variants;
+  config.warmup = a.warmup;
+  config.budget_s = a.budget_s;
+  config.only = a.systems;
+  config.choice.threads = a.threads;
+  if (config.frames == 0) throw InvalidInput("--frames must be at least 1");
+  if (config.variants == 0) throw InvalidInput("--variants must be at least 1");
+
+  std::unique_ptr<SceneFrames> scene;
+  std::vector<std::uint32_t> rows;
+  BenchHeader header;
+  header.command = command_line();
+  header.started = now_text("%Y-%m-%dT%H:%M:%S%z");
+  header.paper = paper;
+  if (paper) {
+    rows = a.n.empty() ? (a.quick ? kQuickRows : kTable4Rows) : a.n;
+    for (std::uint32_t n : rows)
+      if (n < 2) throw InvalidInput("--n: every object count must be at least 2 (got " + std::to_string(n) + ")");
+    header.title = "paper scenario";
+    header.scene = "the paper's scenario (section 5): cube of side cbrt(50^3 * 5n) m, sizes 25-75 m, "
+                   "|v| <= 25 m/s, |w| <= 2.5 rad/s per axis, spheres/cuboids/cylinders/cones, dt = 1/60 s; "
+                   "variant v uses seed v";
+  } else {
+    scene = std::make_unique<SceneFrames>(a.file);
+    const std::uint32_t available = scene->frames_after_first();
+    if (config.warmup >= available) config.warmup = 0;
+    if (config.warmup + config.frames > available) config.frames = available - config.warmup;
+    config.variants = 1;
+    rows = {scene->object_count()};
+    header.title = "scene " + a.file;
+    header.scene = a.file + " (" + scene_format_name(scene->info().format) + ", " +
+                   std::to_string(scene->object_count()) + " objects, " +
+                   std::to_string(scene->info().frame_count) + " frames; frame 0 sets up)";
+  }
+  header.config = config;
+  header.machine = describe_machine();
+
+  const std::string out = !a.out.empty() ? a.out
+                                         : (paper ? "bench-results/paper-" : "bench-results/scene-") +
+                                               now_text("%Y%m%d-%H%M%S");
+
+  std::fprintf(stderr, "hbp bench: %s, %zu row(s), %u variant(s) x %u frame(s) (+%u warm-up), budget %s per "
+               "system per row, %u thread(s); the paper used 20 x 1000\n",
+               header.title.c_str(), rows.size(), config.variants, config.frames, config.warmup,
+               format_duration(config.budget_s).c_str(), config.choice.threads);
+  std::fprintf(stderr, "machine: %s\n", machine_summary(header.machine).c_str());
+
+  double total_work = 0;
+  for (std::uint32_t n : rows) total_work += n * double(config.variants) * (config.warmup + config.frames + 1);
+  ProgressBar bar("bench", static_cast<std::uint64_t>(total_work / 1000), "k object-frames");
+  auto log = [&](const std::string& line) {
+    if (bar.enabled()) std::fputs("\r\033[K", stderr);
+    std::fprintf(stderr, "%s\n", line.c_str());
+  };
+  auto progress = [&](double done, double, const std::string&) { bar.update(static_cast<std::uint64_t>(done / 1000)); };
+
+  const auto t0 = std::chrono::steady_clock::now();
+  BenchRunner runner(config, progress, log);
+  runner.plan(rows);
+  for (std::uint32_t n : rows) {
+    if (paper) {
+      PaperFrames frames(n);
+      runner.run_row(frames);
+    } else {
+      runner.run_row(*scene);
+    }
+    if (!bar.enabled()) {
+      // Without a terminal, one line per finished row keeps logs informative.
+      const auto& row = runner.result().rows.back();
+      std::fprintf(stderr, "  n=%u done (%s elapsed)\n", row.n,
+                   format_duration(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count())
+                       .c_str());
+    }
+  }
+  bar.finish();
+  BenchResult& result = runner.result();
+  result.total_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+  std::fputs(format_tables(result, header).c_str(), stdout);
+  const auto files = write_report_files(out, result, header);
+  std::printf("\nReport: %s/tables.md, summary.csv, samples.csv (every per-frame sample), report.json\n",
+              out.c_str());
+  if (!a.no_plots) {
+    const auto script = find_plot_script();
+    if (!script) {
+      std::printf("Plots: scripts/plot-bench not found; run it by hand: scripts/plot-bench %s\n", out.c_str());
+    } else {
+      const std::string cmd = shell_quote(*script) + " " + shell_quote(out);
+      if (std::system(cmd.c_str()) == 0)
+        std::printf("Plots: %s/accel.png, accel.svg (acceleration vs n, like Fig. 4), times.png, times.svg\n",
+                    out.c_str());
+      else
+        std::printf("Plots: %s failed (is gnuplot installed? scripts/install-deps)\n", cmd.c_str());
+    }
+  }
+  if (!result.mismatches.empty())
+    throw Error(std::to_string(result.mismatches.size()) + " frame(s) where a system's pairs differed from " +
+                result.reference + "'s (listed above)");
+}
+
+void add_common(CLI::App* cmd, BenchArgs& a) {
+  cmd->add_option("--frames", a.frames, "Timed frames per variant")->capture_default_str();
+  cmd->add_option("--warmup", a.warmup, "Untimed frames after setup, per variant")->capture_default_str();
+  cmd->add_option("--threads", a.threads, "Threads for our software hybrid (baselines are single-threaded)")
+      ->capture_default_str();
+  cmd->add_option("--budget", a.budget_s, "Seconds per system per row; skip systems projected beyond it")
+      ->capture_default_str();
+  cmd->add_option("--systems", a.systems, "Only these systems (comma list): bullet-dbvt, bullet-dbvt-deferred, "
+                                           "bullet-axis-sweep, cgal, brute, sw, ae-none, ae-1024, mo-none, "
+                                           "mo-1024 ... mo-16384")
+      ->delimiter(',');
+  cmd->add_option("--out", a.out, "Output directory (default bench-results/<kind>-<time>)");
+  cmd->add_flag("--no-plots", a.no_plots, "Do not run gnuplot");
+}
+
+const RegisterCommand reg([](CLI::App& app) {
+  CLI::App* bench = app.add_subcommand("bench", "Benchmarks against Bullet, CGAL and the paper's Table 4");
+  bench->require_subcommand(1);
+
+  auto pa = std::make_shared<BenchArgs>();
+  CLI::App* paper = bench->add_subcommand(
+      "paper", "The paper's scenario for each n: every engine and baseline on the same frames (Table 4, Fig. 4)");
+  paper->add_option("--n", pa->n, "Object counts (comma list; default: Table 4's rows 100 ... 1,024,000)")
+      ->delimiter(',');
+  paper->add_option("--variants", pa->variants, "Variants (seeds) per row")->capture_default_str();
+  paper->add_flag("--quick", pa->quick,
+                  "A few rows (100, 1000, 4000, 16000, 64000), 2 variants x 5 frames, 15 s budget: under 3 "
+                  "minutes on 2 cores");
+  add_common(paper, *pa);
+  paper->callback([pa, paper] {
+    BenchArgs a = *pa;
+    if (a.quick) {
+      if (paper->count("--frames") == 0) a.frames = 5;
+      if (paper->count("--variants") == 0) a.variants = 2;
+      if (paper->count("--budget") == 0) a.budget_s = 15;
+    }
+    run_bench(a, true);
+  });
+
+  auto sa = std::make_shared<BenchArgs>();
+  CLI::App* scene = bench->add_subcommand("scene", "Every engine and baseline on a recorded scene (native or "
+                                                   "Broadmark .aabbs), same tables");
+  scene->add_option("file", sa->file, "Scene file")->required();
+  add_common(scene, *sa);
+  scene->callback([sa] { run_bench(*sa, false); });
+});
+
+}  // namespace
+}  // namespace hbp::cli
