@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <utility>
 
 #include "hbp/aabb.hpp"
 
@@ -20,8 +21,18 @@ class BoxArray {
   explicit BoxArray(std::size_t n) { resize(n); }
   BoxArray(const BoxArray& other);
   BoxArray& operator=(const BoxArray& other);
-  BoxArray(BoxArray&&) noexcept = default;
-  BoxArray& operator=(BoxArray&&) noexcept = default;
+  // A moved-from array is empty and reusable (the defaulted moves left its
+  // size and capacity pointing at storage it no longer owned).
+  BoxArray(BoxArray&& other) noexcept
+      : data_(std::move(other.data_)),
+        size_(std::exchange(other.size_, 0)),
+        capacity_(std::exchange(other.capacity_, 0)) {}
+  BoxArray& operator=(BoxArray&& other) noexcept {
+    data_ = std::move(other.data_);
+    size_ = std::exchange(other.size_, 0);
+    capacity_ = std::exchange(other.capacity_, 0);
+    return *this;
+  }
 
   // Keeps existing boxes; new ones are the never-overlapping padding box.
   // Never shrinks the allocation, so a per-frame resize does not allocate.
