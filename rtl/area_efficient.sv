@@ -102,21 +102,20 @@ module hbp_area_efficient #(
         S_RUN: begin
           if (seq_step) cyc_seq <= cyc_seq + 1;
           if (seq_finish) begin
-            // n < 2: nothing in flight, no drain
+            // n < 2: nothing in flight, no drain. Otherwise this is drain
+            // cycle 1 of LAT; done rises the cycle after the last one.
             if (cyc_seq == 0 && !seq_step) state <= S_DONE;
             else begin
-              state      <= S_DRAIN;
-              drain_left <= 2'(LAT - 1);
               cyc_drain  <= cyc_drain + 1;
+              state      <= (LAT > 1) ? S_DRAIN : S_DONE;
+              drain_left <= 2'(LAT - 2);
             end
           end
         end
         S_DRAIN: begin
+          cyc_drain <= cyc_drain + 1;
           if (drain_left == 0) state <= S_DONE;
-          else begin
-            drain_left <= drain_left - 1'b1;
-            cyc_drain  <= cyc_drain + 1;
-          end
+          else drain_left <= drain_left - 1'b1;
         end
         default: ;
       endcase
