@@ -192,6 +192,39 @@ void fill_result(const Polytope& p, const Face& f, EpaResult& r) {
   r.point_b = l0 * p.vertex(f.v[0]).b + l1 * p.vertex(f.v[1]).b + l2 * p.vertex(f.v[2]).b;
 }
 
+// Lowers the upper bound f = h_D(u) by projected gradient descent on the unit
+// sphere (the gradient of the support function h_D at u is the support point
+// s_D(u)); with backtracking every accepted step is a valid, smaller bound.
+// Used where EPA stops early: deep, nearly concentric curved shapes, whose
+// Minkowski difference is almost a sphere about the origin.
+void refine_upper_bound(const Convex& a, const Convex& b, double scale, double& f, V3& u, V3& pa, V3& pb) {
+  V3 s = pa - pb;
+  double step = 1.0 / std::fmax(norm(s), 1e-300);
+  for (int k = 0; k < 40; ++k) {
+    const V3 g = s - dot(s, u) * u;  // tangential part of the gradient
+    if (norm(g) <= 1e-12 * scale) return;
+    bool improved = false;
+    for (int t = 0; t < 10 && !improved; ++t) {
+      V3 c = u - step * g;
+      c = c * (1.0 / norm(c));
+      const SupportVertex w = support_difference(a, b, c);
+      const double fc = dot(c, w.w);
+      if (fc < f) {
+        f = fc;
+        u = c;
+        pa = w.a;
+        pb = w.b;
+        s = w.w;
+        step *= 1.5;
+        improved = true;
+      } else {
+        step *= 0.5;
+      }
+    }
+    if (!improved) return;
+  }
+}
+
 }  // namespace
 
 EpaResult epa(const Convex& a, const Convex& b, const Simplex& simplex, const EpaOptions& options) {
@@ -233,6 +266,13 @@ EpaResult epa(const Convex& a, const Convex& b, const Simplex& simplex, const Ep
     }
   }
 
+  // Every support query along a unit normal n gives an upper bound h_D(n) of
+  // the depth (moving b by n * h_D(n) separates the shapes); the closest face
+  // gives a lower bound. If EPA stops short of its tolerance (capacity, or a
+  // degenerate update) the best upper bound is reported: a translation that
+  // does separate, not one that falls short.
+  double upper = INFINITY;
+  V3 upper_normal, upper_a, upper_b;
   unsigned pass = 0;
   for (int it = 0;; ++it) {
     r.iterations = it;
@@ -241,7 +281,14 @@ EpaResult epa(const Convex& a, const Convex& b, const Simplex& simplex, const Ep
     Face& B = p.face(best);
     fill_result(p, B, r);
     const SupportVertex w = support_difference(a, b, B.n);
-    const double gap = dot(B.n, w.w) - B.d;
+    const double hd = dot(B.n, w.w);
+    if (hd < upper) {
+      upper = hd;
+      upper_normal = B.n;
+      upper_a = w.a;
+      upper_b = w.b;
+    }
+    const double gap = hd - B.d;
     if (gap <= options.rel_tolerance * std::fabs(B.d) + options.abs_tolerance * scale) {
       r.converged = true;
       break;
@@ -257,6 +304,14 @@ EpaResult epa(const Convex& a, const Convex& b, const Simplex& simplex, const Ep
     p.link(h.last, 1, h.first, 2);
     p.release_removed();
     p.release(best);
+  }
+  r.lower_bound = r.depth;
+  if (!r.converged && upper < INFINITY) {
+    refine_upper_bound(a, b, scale, upper, upper_normal, upper_a, upper_b);
+    r.depth = upper > 0 ? upper : 0;
+    r.normal = upper_normal;
+    r.point_a = upper_a;
+    r.point_b = upper_b;
   }
   return r;
 }

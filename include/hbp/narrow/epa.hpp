@@ -11,14 +11,15 @@ struct EpaResult {
   // best estimate available (depth 0, normal from the centres).
   bool ok = false;
   bool converged = false;  // gap below tolerance (else capacity or degeneracy)
-  double depth = 0;        // >= 0
+  double depth = 0;        // >= 0 (if not converged: the best upper bound)
+  double lower_bound = 0;  // the closest polytope face: depth >= lower_bound
   V3 normal;               // unit, from A towards B
   V3 point_a, point_b;     // deepest points of A and B along the normal
   int iterations = 0;
 };
 
 struct EpaOptions {
-  double rel_tolerance = 1e-7;  // on the depth
+  double rel_tolerance = 1e-6;  // on the depth
   double abs_tolerance = 1e-10; // times the pair scale
 };
 

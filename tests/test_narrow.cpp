@@ -1,0 +1,276 @@
+// Narrow phase: support mapping, closed forms against hand-computed values,
+// GJK/EPA against the closed forms, separation by the reported depth, the
+// cone's apex convention, symmetry, libccd, and the NarrowPhase batch API.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "hbp/error.hpp"
+#include "hbp/narrow/closed_forms.hpp"
+#include "hbp/narrow/convex.hpp"
+#include "hbp/narrow/epa.hpp"
+#include "hbp/narrow/gjk.hpp"
+#include "hbp/narrow/intersect.hpp"
+#include "hbp/narrow/libccd_solver.hpp"
+#include "hbp/narrow/narrow_phase.hpp"
+#include "hbp/narrow/random_pairs.hpp"
+
+namespace hbp {
+namespace {
+
+Shape make(ShapeKind kind, Vec3 size, Vec3 pos, Quat q = {}) {
+  Shape s;
+  s.kind = kind;
+  s.size = size;
+  s.position = pos;
+  s.orientation = normalized(q);
+  return s;
+}
+
+Shape translated(Shape s, const Vec3& n, double t) {
+  s.position = {s.position.x + n.x * t, s.position.y + n.y * t, s.position.z + n.z * t};
+  return s;
+}
+
+double dotv(const Vec3& a, const Vec3& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+
+constexpr ShapeKind kKinds[] = {ShapeKind::Sphere, ShapeKind::Cuboid, ShapeKind::Cylinder, ShapeKind::Cone};
+
+TEST(NarrowSupport, MatchesGeometrySupportPoint) {
+  ShapePairGenerator gen(11);
+  for (int i = 0; i < 400; ++i) {
+    const ShapePair p = gen.next();
+    const narrow::Convex c = narrow::make_convex(p.a);
+    const ShapePair q = gen.next();
+    const Vec3 d{q.b.position.x - q.a.position.x, q.b.position.y - q.a.position.y, q.b.position.z - q.a.position.z};
+    const Vec3 ref = support_point(p.a, d);
+    const narrow::V3 got = c.support(narrow::to_v3(d));
+    // Same support value (the point itself may differ on flat features).
+    EXPECT_NEAR(dotv(narrow::to_vec3(got), d), dotv(ref, d), 1e-9 * std::sqrt(dotv(d, d)) * 200);
+  }
+}
+
+TEST(NarrowClosedForms, SphereSphereDepthNormalPoint) {
+  const Shape a = make(ShapeKind::Sphere, {10, 10, 10}, {0, 0, 0});
+  const Shape b = make(ShapeKind::Sphere, {6, 6, 6}, {0, 7, 0});
+  Contact c;
+  ASSERT_TRUE(intersect(a, b, &c));
+  EXPECT_DOUBLE_EQ(c.depth, 1.0);  // 5 + 3 - 7
+  EXPECT_DOUBLE_EQ(c.normal.y, 1.0);
+  EXPECT_DOUBLE_EQ(c.point.y, 4.5);  // between y = 5 (a) and y = 4 (b)
+  EXPECT_FALSE(intersect(a, make(ShapeKind::Sphere, {6, 6, 6}, {0, 8.000001, 0})));
+  EXPECT_TRUE(intersect(a, make(ShapeKind::Sphere, {6, 6, 6}, {0, 8, 0})));  // touching counts
+}
+
+TEST(NarrowClosedForms, BoxSphereOutsideAndInside) {
+  const Shape box = make(ShapeKind::Cuboid, {4, 6, 8}, {1, 1, 1});
+  // Sphere centre beyond the +x face, level with the face's interior.
+  Contact c;
+  ASSERT_TRUE(intersect(box, make(ShapeKind::Sphere, {2, 2, 2}, {3.5, 1, 1}), &c));
+  EXPECT_NEAR(c.depth, 0.5, 1e-12);
+  EXPECT_NEAR(c.normal.x, 1.0, 1e-12);
+  // Near the corner (3, 4, 5): distance sqrt(3) * 0.5.
+  const double off = 0.5;
+  ASSERT_TRUE(intersect(box, make(ShapeKind::Sphere, {2, 2, 2}, {3 + off, 4 + off, 5 + off}), &c));
+  EXPECT_NEAR(c.depth, 1 - std::sqrt(3.0) * off, 1e-12);
+  EXPECT_NEAR(c.normal.z, 1 / std::sqrt(3.0), 1e-12);
+  // Centre inside, nearest face -y (room 0.5): depth r + 0.5; sphere first.
+  ASSERT_TRUE(intersect(make(ShapeKind::Sphere, {2, 2, 2}, {1, -1.5, 1}), box, &c));
+  EXPECT_NEAR(c.depth, 1.5, 1e-12);
+  EXPECT_NEAR(c.normal.y, 1.0, 1e-12);  // from the sphere towards the box
+  EXPECT_FALSE(intersect(box, make(ShapeKind::Sphere, {2, 2, 2}, {4.01, 1, 1})));
+}
+
+TEST(NarrowClosedForms, BoxBoxFaceAndEdge) {
+  const Shape a = make(ShapeKind::Cuboid, {2, 2, 2}, {0, 0, 0});
+  Contact c;
+  ASSERT_TRUE(intersect(a, make(ShapeKind::Cuboid, {2, 4, 2}, {0.3, 0.2, 1.75}), &c));
+  EXPECT_NEAR(c.depth, 0.25, 1e-12);
+  EXPECT_NEAR(c.normal.z, 1.0, 1e-12);
+  EXPECT_NEAR(c.point.z, 0.875, 1e-12);
+  // b rotated 45 degrees about x and about z: its lower edge meets a's top
+  // face... check against GJK/EPA for the depth and normal.
+  const Quat q = multiply(Quat{std::cos(0.3927), 0, 0, std::sin(0.3927)}, Quat{std::cos(0.3927), std::sin(0.3927), 0, 0});
+  const Shape b = make(ShapeKind::Cuboid, {2, 2, 2}, {0.5, 0.4, 2.2}, q);
+  Contact e;
+  ASSERT_TRUE(intersect(a, b, &c, NarrowMethod::Auto));
+  ASSERT_TRUE(intersect(a, b, &e, NarrowMethod::GjkEpa));
+  EXPECT_NEAR(c.depth, e.depth, 1e-7);
+  EXPECT_GT(dotv(c.normal, e.normal), 1 - 1e-9);
+  EXPECT_FALSE(intersect(a, make(ShapeKind::Cuboid, {2, 2, 2}, {0, 0, 2.74}, q)));
+}
+
+TEST(NarrowGjkEpa, AgreesWithClosedForms) {
+  // Pairs where a closed form applies: GJK/EPA must give the same answers.
+  ShapePairOptions o;
+  o.circular_fraction = 1.0;  // true spheres
+  ShapePairGenerator gen(5, o);
+  const std::pair<ShapeKind, ShapeKind> combos[] = {{ShapeKind::Sphere, ShapeKind::Sphere},
+                                                    {ShapeKind::Cuboid, ShapeKind::Sphere},
+                                                    {ShapeKind::Sphere, ShapeKind::Cuboid},
+                                                    {ShapeKind::Cuboid, ShapeKind::Cuboid}};
+  int hits = 0;
+  for (const auto& [ka, kb] : combos) {
+    for (int i = 0; i < 500; ++i) {
+      const ShapePair p = gen.next(ka, kb);
+      Contact c, e;
+      const bool rc = intersect(p.a, p.b, &c, NarrowMethod::Auto);
+      const bool re = intersect(p.a, p.b, &e, NarrowMethod::GjkEpa);
+      const double scale = 100;
+      if (rc != re) {
+        // Only within a hair of touching.
+        EXPECT_LT(std::fabs(signed_distance(p.a, p.b)), 1e-8 * scale) << shape_kind_name(ka) << shape_kind_name(kb);
+        continue;
+      }
+      if (!rc) continue;
+      ++hits;
+      EXPECT_NEAR(c.depth, e.depth, 1e-6 * c.depth + 1e-8 * scale) << shape_kind_name(ka) << "-" << shape_kind_name(kb);
+      if (c.depth > 1e-3) {
+        EXPECT_GT(dotv(c.normal, e.normal), 0.999);
+      }
+    }
+  }
+  EXPECT_GT(hits, 800);
+}
+
+TEST(NarrowGjkEpa, SphereDistanceExact) {
+  const Shape a = make(ShapeKind::Sphere, {10, 10, 10}, {0, 0, 0});
+  const Shape b = make(ShapeKind::Sphere, {4, 4, 4}, {3, 4, 12});  // |d| = 13
+  EXPECT_NEAR(signed_distance(a, b), 13 - 7, 1e-8);
+  const Shape c = make(ShapeKind::Sphere, {4, 4, 4}, {3, 4, 0});  // |d| = 5
+  EXPECT_NEAR(signed_distance(a, c), -(7 - 5), 1e-6);
+}
+
+TEST(NarrowGjkEpa, EllipsoidAlongAxis) {
+  // Ellipsoids touching along x: semi-axes 10 and 4 -> touching at 14.
+  const Shape a = make(ShapeKind::Sphere, {20, 8, 6}, {0, 0, 0});
+  EXPECT_TRUE(intersect(a, make(ShapeKind::Sphere, {8, 30, 30}, {14 - 1e-7, 0, 0})));
+  EXPECT_FALSE(intersect(a, make(ShapeKind::Sphere, {8, 30, 30}, {14 + 1e-7, 0, 0})));
+  EXPECT_NEAR(signed_distance(a, make(ShapeKind::Sphere, {8, 30, 30}, {16, 0, 0})), 2.0, 1e-7);
+}
+
+TEST(NarrowGjkEpa, ConeApexAtPlusZ) {
+  // Cone of height 10 (apex z = +5, base z = -5, base radius 4); a tiny cube
+  // probing just above and below the apex, and beside the base rim.
+  const Shape cone = make(ShapeKind::Cone, {8, 8, 10}, {0, 0, 0});
+  const Vec3 s{0.02, 0.02, 0.02};
+  EXPECT_TRUE(intersect(cone, make(ShapeKind::Cuboid, s, {0, 0, 5.005})));
+  EXPECT_FALSE(intersect(cone, make(ShapeKind::Cuboid, s, {0, 0, 5.02})));
+  EXPECT_FALSE(intersect(cone, make(ShapeKind::Cuboid, s, {0, 0, -5.02})));
+  EXPECT_TRUE(intersect(cone, make(ShapeKind::Cuboid, s, {3.995, 0, -4.995})));
+  EXPECT_FALSE(intersect(cone, make(ShapeKind::Cuboid, s, {3.995, 0, 4.0})));  // beside the apex
+}
+
+TEST(NarrowGjkEpa, DepthSeparatesAndIsMinimalAlongNormal) {
+  // Moving b by (1 + 1e-6) * depth along the normal separates the pair;
+  // moving it by (1 - 1e-3) * depth does not.
+  ShapePairOptions o;
+  o.near_fraction = 0;
+  ShapePairGenerator gen(7, o);
+  int checked = 0;
+  for (ShapeKind ka : kKinds) {
+    for (ShapeKind kb : kKinds) {
+      for (int i = 0; i < 60; ++i) {
+        const ShapePair p = gen.next(ka, kb);
+        Contact c;
+        if (!intersect(p.a, p.b, &c) || c.depth < 1e-3) continue;
+        ++checked;
+        EXPECT_NEAR(dotv(c.normal, c.normal), 1.0, 1e-12);
+        EXPECT_FALSE(intersect(p.a, translated(p.b, c.normal, c.depth * (1 + 1e-6) + 1e-9)))
+            << shape_kind_name(ka) << "-" << shape_kind_name(kb) << " depth " << c.depth;
+        EXPECT_TRUE(intersect(p.a, translated(p.b, c.normal, c.depth * (1 - 1e-3))))
+            << shape_kind_name(ka) << "-" << shape_kind_name(kb) << " depth " << c.depth;
+      }
+    }
+  }
+  EXPECT_GT(checked, 400);
+}
+
+TEST(NarrowGjkEpa, SymmetricInArgumentOrder) {
+  ShapePairGenerator gen(9);
+  for (int i = 0; i < 1000; ++i) {
+    const ShapePair p = gen.next();
+    Contact ab, ba;
+    const bool r1 = intersect(p.a, p.b, &ab), r2 = intersect(p.b, p.a, &ba);
+    if (r1 != r2) {
+      EXPECT_LT(std::fabs(signed_distance(p.a, p.b)), 1e-8);
+      continue;
+    }
+    if (!r1) continue;
+    EXPECT_NEAR(ab.depth, ba.depth, 1e-6 * ab.depth + 1e-8);
+    if (ab.depth > 1e-3) {
+      EXPECT_LT(dotv(ab.normal, ba.normal), -0.999);
+    }
+  }
+}
+
+TEST(NarrowGjkEpa, ContactPointMidwayBetweenSupportPoints) {
+  // point +- normal * depth / 2 are the deepest points of a and b: a's
+  // support along the normal and b's support against it, and the depth is
+  // the Minkowski difference's support value h_A(n) + h_B(-n) along it.
+  ShapePairOptions o;
+  o.near_fraction = 0;
+  ShapePairGenerator gen(13, o);
+  int checked = 0;
+  for (int i = 0; i < 1500; ++i) {
+    const ShapePair p = gen.next();
+    Contact c;
+    if (!intersect(p.a, p.b, &c) || c.depth < 0.5) continue;
+    ++checked;
+    const Vec3 n = c.normal, m{-n.x, -n.y, -n.z};
+    const Vec3 pa{c.point.x + n.x * c.depth / 2, c.point.y + n.y * c.depth / 2, c.point.z + n.z * c.depth / 2};
+    const Vec3 pb{c.point.x - n.x * c.depth / 2, c.point.y - n.y * c.depth / 2, c.point.z - n.z * c.depth / 2};
+    const double ha = dotv(support_point(p.a, n), n), hb = dotv(support_point(p.b, m), m);
+    const std::string what = std::string(shape_kind_name(p.a.kind)) + "-" + shape_kind_name(p.b.kind);
+    EXPECT_NEAR(dotv(pa, n), ha, 1e-3) << what;
+    EXPECT_NEAR(dotv(pb, m), hb, 1e-3) << what;
+    EXPECT_NEAR(c.depth, ha + hb, 1e-5 * c.depth) << what;
+  }
+  EXPECT_GT(checked, 500);
+}
+
+TEST(NarrowLibccd, BooleanAgreesAwayFromTouching) {
+  ASSERT_TRUE(narrow::libccd_available());
+  ShapePairGenerator gen(17);
+  int compared = 0, hits = 0;
+  for (int i = 0; i < 2000; ++i) {
+    const ShapePair p = gen.next();
+    const double sd = signed_distance(p.a, p.b);
+    if (std::fabs(sd) < 1e-6 * 100) continue;
+    ++compared;
+    const bool ours = intersect(p.a, p.b);
+    hits += ours;
+    EXPECT_EQ(ours, intersect(p.a, p.b, nullptr, NarrowMethod::LibccdMpr)) << "sd " << sd;
+    EXPECT_EQ(ours, intersect(p.a, p.b, nullptr, NarrowMethod::LibccdGjkEpa)) << "sd " << sd;
+  }
+  EXPECT_GT(compared, 1500);
+  EXPECT_GT(hits, 300);
+}
+
+TEST(NarrowPhaseBatch, ProcessReportsCollidingPairsInOrder) {
+  std::vector<Shape> shapes = {
+      make(ShapeKind::Sphere, {2, 2, 2}, {0, 0, 0}), make(ShapeKind::Cuboid, {2, 2, 2}, {1.5, 0, 0}),
+      make(ShapeKind::Cone, {2, 2, 2}, {10, 0, 0}), make(ShapeKind::Cylinder, {2, 2, 2}, {10, 0, 1.5})};
+  const std::vector<Pair> pairs = {{0, 1}, {0, 2}, {1, 2}, {2, 3}};
+  std::vector<Contact> out;
+  NarrowPhase narrow;
+  EXPECT_EQ(narrow.process(shapes, pairs.data(), pairs.size(), out), 2u);
+  ASSERT_EQ(out.size(), 2u);
+  EXPECT_EQ(out[0].a, 0u);
+  EXPECT_EQ(out[0].b, 1u);
+  EXPECT_NEAR(out[0].depth, 0.5, 1e-12);
+  EXPECT_EQ(out[1].a, 2u);
+  EXPECT_EQ(out[1].b, 3u);
+  EXPECT_NEAR(out[1].depth, 0.5, 1e-6);  // cylinder bottom face meets the apex
+  EXPECT_NEAR(out[1].normal.z, 1.0, 1e-6);
+  const std::vector<Pair> bad = {{0, 9}};
+  EXPECT_THROW(narrow.process(shapes, bad.data(), bad.size(), out), InvalidInput);
+  NarrowPhase boolean_only({.method = NarrowMethod::Auto, .contacts = false});
+  std::vector<Contact> out2;
+  EXPECT_EQ(boolean_only.process(shapes, pairs.data(), pairs.size(), out2), 2u);
+}
+
+}  // namespace
+}  // namespace hbp
