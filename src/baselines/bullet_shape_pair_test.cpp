@@ -108,15 +108,18 @@ BulletPairResult bullet_shape_pair_test(const Shape& a, const Shape& b) {
   if (btGjkEpaSolver2::Penetration(sa.shape(), ta, sb.shape(), tb, guess, res)) {
     r.intersecting = true;
     r.signed_distance = res.distance;  // negative: minus the depth
-    // Bullet's normal points from b into a; ours points from a to b.
-    r.normal = {-res.normal.x(), -res.normal.y(), -res.normal.z()};
+    // Bullet's normal is in a's local frame and points from b into a; ours is
+    // in the world frame and points from a to b.
+    const btVector3 n = ta.getBasis() * (-res.normal);
+    r.normal = {n.x(), n.y(), n.z()};
     return r;
   }
   r.failed = res.status == btGjkEpaSolver2::sResults::GJK_Failed || res.status == btGjkEpaSolver2::sResults::EPA_Failed;
   btGjkEpaSolver2::sResults dres;
   if (btGjkEpaSolver2::Distance(sa.shape(), ta, sb.shape(), tb, guess, dres)) {
     r.signed_distance = dres.distance;
-    r.normal = {dres.normal.x(), dres.normal.y(), dres.normal.z()};
+    const btVector3 n = ta.getBasis() * (-dres.normal);  // a's frame, b -> a
+    r.normal = {n.x(), n.y(), n.z()};
   }
   return r;
 }

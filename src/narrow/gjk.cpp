@@ -169,6 +169,8 @@ GjkResult gjk(const Convex& a, const Convex& b, const GjkOptions& options) {
       for (int i = 0; i < s.n; ++i) duplicate |= (s.v[i].w.x == w.w.x && s.v[i].w.y == w.w.y && s.v[i].w.z == w.w.z);
       if (duplicate || vv - vw <= eps * vv) break;  // converged: separated
     }
+    const Simplex before = s;
+    const V3 v_before = v;
     s.v[s.n++] = w;
     bool inside = false;
     switch (s.n) {
@@ -189,7 +191,11 @@ GjkResult gjk(const Convex& a, const Convex& b, const GjkOptions& options) {
       r.distance = 0;
       return r;
     }
-    if (nv >= prev_vv) break;  // no progress: numerically converged
+    if (nv >= prev_vv) {  // no progress: numerically converged; keep the last good simplex
+      s = before;
+      v = v_before;
+      break;
+    }
     prev_vv = nv;
   }
   r.intersecting = false;
