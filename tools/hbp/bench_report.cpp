@@ -123,6 +123,11 @@ std::string header_text(const BenchHeader& h) {
   o << "Per row: " << c.variants << " variant(s) x " << c.frames << " timed frame(s), after " << c.warmup
     << " untimed warm-up frame(s) and an untimed setup frame (the paper: 20 variants x 1000 frames). "
     << "Medians over all timed frames.  \n";
+  o << "Clock: " << (c.choice.clock == BenchClock::Cpu
+                        ? "CPU time of the calling thread (all work runs on it with --threads 1; robust to other "
+                          "load on the machine)"
+                        : "wall time (steady_clock)")
+    << " for measured systems.  \n";
   o << "Threads: our software hybrid and the models' partition run with " << c.choice.threads
     << " thread(s); Bullet and CGAL are single-threaded.  \n";
   o << "Budget: a system is skipped in a row when its projected time there exceeds "
@@ -152,7 +157,8 @@ std::string format_tables(const BenchResult& r, const BenchHeader& h) {
     cells.push_back("not run");
     table_row(o, cells);
   }
-  o << "\n(m): measured wall time of one frame on this machine (Bullet: setAabb of every proxy + "
+  o << "\n(m): measured " << (h.config.choice.clock == BenchClock::Cpu ? "CPU" : "wall")
+    << " time of one frame on this machine (Bullet: setAabb of every proxy + "
        "calculateOverlappingPairs; CGAL: box copy + box_self_intersection_d; hybrid sw: HybridBroadPhase::update, "
        "partition included).  \n"
        "(model): modelled accelerator time, cycles at the model's clock (500 MHz, m = 16), spatial partition "
@@ -160,8 +166,8 @@ std::string format_tables(const BenchResult& r, const BenchHeader& h) {
        "(1024 area-efficient, 16,384 many-object), else n/a like the paper; a cell size is used only when n "
        "exceeds it.  \n"
        "GPU: the paper's GPU column is Bullet's OpenCL sweep and prune on a GeForce GTX 670. This machine has "
-       "no GPU, so it is not run and no figure is invented; the published figures are in the paper table "
-       "below.  \n"
+       "no GPU, so it is not run and no figure is invented"
+    << (h.paper ? "; the published figures are in the paper table below" : "") << ".  \n"
        "Every system's exact pair set (Bullet's pair cache filtered with the closed-interval test) is compared "
        "with " << r.reference << "'s every frame; MISMATCH xk marks k frames that differed (listed below).\n";
   bool notes = false;
@@ -265,22 +271,23 @@ std::vector<std::string> write_report_files(const std::string& dir, const BenchR
   }
   {
     auto f = open("samples.csv");
-    f << "n,variant,frame,system,label,kind,ms,wall_ms,raw_pairs,exact_pairs,match\n";
+    f << "n,variant,frame,system,label,kind,ms,wall_ms,cpu_ms,raw_pairs,exact_pairs,match\n";
     for (const auto& s : r.samples)
       f << s.n << "," << s.variant << "," << s.frame << "," << r.keys[s.system] << ",\"" << r.labels[s.system]
         << "\"," << kind(s.system) << "," << fmt("%.6f", s.reported_ms) << "," << fmt("%.6f", s.wall_ms) << ","
-        << s.raw_pairs << "," << s.exact_pairs << "," << (s.match ? 1 : 0) << "\n";
+        << fmt("%.6f", s.cpu_ms) << "," << s.raw_pairs << "," << s.exact_pairs << "," << (s.match ? 1 : 0) << "\n";
   }
   {
     auto f = open("summary.csv");
-    f << "n,system,label,kind,status,median_ms,min_ms,max_ms,median_wall_ms,setup_s,frames,mismatched_frames,"
+    f << "n,system,label,kind,status,median_ms,min_ms,max_ms,median_wall_ms,median_cpu_ms,setup_s,frames,"
+         "mismatched_frames,"
          "median_raw_pairs,reference_pairs,note\n";
     for (const auto& row : r.rows)
       for (std::size_t i = 0; i < row.cells.size(); ++i) {
         const CellResult& c = row.cells[i];
         f << row.n << "," << r.keys[i] << ",\"" << r.labels[i] << "\"," << kind(i) << "," << status_name(c.status)
           << "," << fmt("%.6f", c.median_ms) << "," << fmt("%.6f", c.min_ms) << "," << fmt("%.6f", c.max_ms) << ","
-          << fmt("%.6f", c.median_wall_ms) << "," << fmt("%.6f", c.setup_s) << "," << c.frames << ","
+          << fmt("%.6f", c.median_wall_ms) << "," << fmt("%.6f", c.median_cpu_ms) << "," << fmt("%.6f", c.setup_s) << "," << c.frames << ","
           << c.mismatched_frames << "," << c.median_raw_pairs << "," << row.median_pairs << ",\"" << c.note
           << "\"\n";
       }
@@ -294,7 +301,8 @@ std::vector<std::string> write_report_files(const std::string& dir, const BenchR
     j["frames_description"] = h.scene;
     j["parameters"] = {{"frames", h.config.frames},     {"variants", h.config.variants},
                        {"warmup", h.config.warmup},     {"threads", h.config.choice.threads},
-                       {"budget_s", h.config.budget_s}, {"reference", r.reference}};
+                       {"budget_s", h.config.budget_s}, {"reference", r.reference},
+                       {"clock", h.config.choice.clock == BenchClock::Cpu ? "cpu" : "wall"}};
     for (const auto& [k, v] : h.machine) j["machine"][k] = v;
     j["total_s"] = r.total_s;
     j["not_built"] = r.missing;
@@ -309,6 +317,7 @@ std::vector<std::string> write_report_files(const std::string& dir, const BenchR
                                     {"min_ms", c.min_ms},
                                     {"max_ms", c.max_ms},
                                     {"median_wall_ms", c.median_wall_ms},
+                                    {"median_cpu_ms", c.median_cpu_ms},
                                     {"setup_s", c.setup_s},
                                     {"frames", c.frames},
                                     {"mismatched_frames", c.mismatched_frames},
@@ -341,6 +350,7 @@ std::vector<std::string> write_report_files(const std::string& dir, const BenchR
                               {"system", r.keys[s.system]},
                               {"ms", s.reported_ms},
                               {"wall_ms", s.wall_ms},
+                              {"cpu_ms", s.cpu_ms},
                               {"raw_pairs", s.raw_pairs},
                               {"exact_pairs", s.exact_pairs},
                               {"match", s.match}});

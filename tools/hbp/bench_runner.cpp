@@ -122,7 +122,7 @@ void BenchRunner::run_row(FrameSource& source) {
     for (std::size_t i = 0; i < count && ref == count; ++i)
       if (active[i]) ref = i;
 
-  std::vector<std::vector<double>> reported(count), wall(count);
+  std::vector<std::vector<double>> reported(count), wall(count), cpu(count);
   std::vector<std::vector<double>> raw(count);
   std::vector<double> spent(count, 0), setup(count, 0);
   std::vector<double> ref_pairs;
@@ -205,9 +205,10 @@ void BenchRunner::run_row(FrameSource& source) {
         }
         reported[i].push_back(t.reported_ms);
         wall[i].push_back(t.wall_ms);
+        cpu[i].push_back(t.cpu_ms);
         raw[i].push_back(static_cast<double>(systems_[i]->raw_pairs()));
         result_.samples.push_back({n, v, frame, static_cast<std::uint32_t>(i), t.reported_ms, t.wall_ms,
-                                   systems_[i]->raw_pairs(), static_cast<std::uint64_t>(got.size()), match});
+                                   t.cpu_ms, systems_[i]->raw_pairs(), static_cast<std::uint64_t>(got.size()), match});
       }
       tick(row_name + " v" + std::to_string(v) + " frame " + std::to_string(frame));
     }
@@ -226,6 +227,7 @@ void BenchRunner::run_row(FrameSource& source) {
     c.min_ms = *std::min_element(reported[i].begin(), reported[i].end());
     c.max_ms = *std::max_element(reported[i].begin(), reported[i].end());
     c.median_wall_ms = median(wall[i]);
+    c.median_cpu_ms = median(cpu[i]);
     c.median_raw_pairs = static_cast<std::uint64_t>(median(raw[i]));
     c.setup_s = setup[i] / config_.variants;
     history_[i].push_back({n, c.median_wall_ms, c.setup_s});

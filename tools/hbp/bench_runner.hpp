@@ -27,7 +27,7 @@ class FrameSource {
 struct BenchConfig {
   std::uint32_t frames = 10;   // timed frames per variant
   std::uint32_t variants = 3;  // worlds per row (paper scenario: seed = variant)
-  std::uint32_t warmup = 1;    // untimed frames after setup, per variant
+  std::uint32_t warmup = 3;    // untimed frames after setup, per variant
   double budget_s = 120;       // per system per row: skip when projected beyond
   std::vector<std::string> only;  // system keys to run (empty: all)
   SystemChoice choice;
@@ -39,6 +39,7 @@ struct CellResult {
   CellStatus status = CellStatus::NotApplicable;
   double median_ms = 0, min_ms = 0, max_ms = 0;  // reported (measured or modelled)
   double median_wall_ms = 0;                     // this machine's cost
+  double median_cpu_ms = 0;                      // calling thread's CPU time
   double setup_s = 0;                            // mean one-time setup per variant
   std::uint32_t frames = 0;                      // timed frames recorded
   std::uint32_t mismatched_frames = 0;
@@ -49,7 +50,7 @@ struct CellResult {
 struct Sample {
   std::uint32_t n, variant, frame;
   std::uint32_t system;  // index into BenchResult::keys
-  double reported_ms, wall_ms;
+  double reported_ms, wall_ms, cpu_ms;
   std::uint64_t raw_pairs, exact_pairs;
   bool match;
 };

@@ -1,5 +1,7 @@
 #include "bench_systems.hpp"
 
+#include <time.h>
+
 #include <chrono>
 #include <cstdio>
 #include <utility>
@@ -17,16 +19,36 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-double ms_since(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+double thread_cpu_ms() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
 }
+
+// Wall and calling-thread CPU time of one frame.
+class Stopwatch {
+ public:
+  Stopwatch() : wall0_(Clock::now()), cpu0_(thread_cpu_ms()) {}
+  // reported: the chosen clock's reading.
+  FrameTime stop(BenchClock clock) const {
+    FrameTime t;
+    t.cpu_ms = thread_cpu_ms() - cpu0_;
+    t.wall_ms = std::chrono::duration<double, std::milli>(Clock::now() - wall0_).count();
+    t.reported_ms = clock == BenchClock::Cpu ? t.cpu_ms : t.wall_ms;
+    return t;
+  }
+
+ private:
+  Clock::time_point wall0_;
+  double cpu0_;
+};
 
 constexpr std::uint32_t kCellSizes[] = {1024, 2048, 4096, 8192, 16384};
 
 #ifdef HBP_HAVE_BASELINES
 class BaselineSystem final : public BenchSystem {
  public:
-  explicit BaselineSystem(std::unique_ptr<baselines::Baseline> b) : b_(std::move(b)) {}
+  BaselineSystem(std::unique_ptr<baselines::Baseline> b, BenchClock clock) : b_(std::move(b)), clock_(clock) {}
   std::string key() const override { return b_->name(); }
   std::string label() const override { return b_->label(); }
   bool modelled() const override { return false; }
@@ -34,16 +56,16 @@ class BaselineSystem final : public BenchSystem {
   std::string not_applicable_reason(std::uint32_t) const override { return {}; }
   void setup(const BoxArray& boxes) override { b_->setup(boxes); }
   FrameTime update(const BoxArray& boxes) override {
-    const auto t0 = Clock::now();
+    const Stopwatch watch;
     b_->update(boxes);
-    const double ms = ms_since(t0);
-    return {ms, ms};
+    return watch.stop(clock_);
   }
   std::uint64_t raw_pairs() const override { return b_->raw_pairs(); }
   const std::vector<Pair>& exact_pairs() override { return b_->exact_pairs(); }
 
  private:
   std::unique_ptr<baselines::Baseline> b_;
+  BenchClock clock_;
 };
 #endif
 
@@ -52,8 +74,9 @@ class BaselineSystem final : public BenchSystem {
 // partition excluded as in the paper) for the hardware models.
 class HybridSystem final : public BenchSystem {
  public:
-  HybridSystem(std::string key, std::string label, const BroadPhaseOptions& options, bool modelled)
-      : key_(std::move(key)), label_(std::move(label)), options_(options), modelled_(modelled) {}
+  HybridSystem(std::string key, std::string label, const BroadPhaseOptions& options, bool modelled,
+               BenchClock clock)
+      : key_(std::move(key)), label_(std::move(label)), options_(options), modelled_(modelled), clock_(clock) {}
   std::string key() const override { return key_; }
   std::string label() const override { return label_; }
   bool modelled() const override { return modelled_; }
@@ -67,10 +90,11 @@ class HybridSystem final : public BenchSystem {
     bp_->update(boxes);
   }
   FrameTime update(const BoxArray& boxes) override {
-    const auto t0 = Clock::now();
+    const Stopwatch watch;
     bp_->update(boxes);
-    const double wall = ms_since(t0);
-    return {modelled_ ? bp_->stats().modelled_ms : wall, wall};
+    FrameTime t = watch.stop(clock_);
+    if (modelled_) t.reported_ms = bp_->stats().modelled_ms;
+    return t;
   }
   std::uint64_t raw_pairs() const override { return bp_->stats().candidate_pairs; }
   const std::vector<Pair>& exact_pairs() override { return bp_->pairs(); }
@@ -79,6 +103,7 @@ class HybridSystem final : public BenchSystem {
   std::string key_, label_;
   BroadPhaseOptions options_;
   bool modelled_;
+  BenchClock clock_;
   std::unique_ptr<HybridBroadPhase> bp_;
 };
 
@@ -98,9 +123,9 @@ class WholeWorldModel final : public BenchSystem {
   void setup(const BoxArray& boxes) override { update(boxes); }
   FrameTime update(const BoxArray& boxes) override {
     pairs_.clear();
-    const auto t0 = Clock::now();
+    const Stopwatch watch;
     const CellRun run = engine_->find_pairs(boxes, pairs_);
-    const double wall = ms_since(t0);
+    FrameTime t = watch.stop(BenchClock::Wall);
     const auto n = static_cast<std::uint32_t>(boxes.size());
     // The analytic count must equal what the model ran: a disagreement is a
     // model bug the report must not smooth over.
@@ -109,7 +134,8 @@ class WholeWorldModel final : public BenchSystem {
                   " but its analytic count is " + std::to_string(engine_->cycles_for(n)));
     raw_ = pairs_.size();
     canonicalize(pairs_);
-    return {static_cast<double>(run.cycles) / engine_->clock_hz() * 1e3, wall};
+    t.reported_ms = static_cast<double>(run.cycles) / engine_->clock_hz() * 1e3;
+    return t;
   }
   std::uint64_t raw_pairs() const override { return raw_; }
   const std::vector<Pair>& exact_pairs() override { return pairs_; }
@@ -144,14 +170,14 @@ std::vector<std::unique_ptr<BenchSystem>> make_bench_systems(const SystemChoice&
   std::vector<std::unique_ptr<BenchSystem>> systems;
 #ifdef HBP_HAVE_BASELINES
   for (const auto& name : baselines::baseline_names())
-    systems.push_back(std::make_unique<BaselineSystem>(baselines::make_baseline(name)));
+    systems.push_back(std::make_unique<BaselineSystem>(baselines::make_baseline(name), choice.clock));
 #else
   missing.push_back("baselines (built without Bullet/CGAL)");
 #endif
   BroadPhaseOptions sw;
   sw.engine = "sw";
   sw.threads = choice.threads;
-  systems.push_back(std::make_unique<HybridSystem>("sw", "hybrid sw", sw, false));
+  systems.push_back(std::make_unique<HybridSystem>("sw", "hybrid sw", sw, false, choice.clock));
 
   if (engine_built("ae")) {
     systems.push_back(std::make_unique<WholeWorldModel>("ae-none", "AE none", make_cell_engine("ae")));
@@ -159,7 +185,7 @@ std::vector<std::unique_ptr<BenchSystem>> make_bench_systems(const SystemChoice&
     ae.engine = "ae";
     ae.cell_limit = 1024;
     ae.threads = choice.threads;
-    systems.push_back(std::make_unique<HybridSystem>("ae-1024", "AE 1024", ae, true));
+    systems.push_back(std::make_unique<HybridSystem>("ae-1024", "AE 1024", ae, true, choice.clock));
   } else {
     missing.push_back("area-efficient model (engine 'ae' not built)");
   }
@@ -170,7 +196,8 @@ std::vector<std::unique_ptr<BenchSystem>> make_bench_systems(const SystemChoice&
       mo.engine = "mo";
       mo.cell_limit = c;
       mo.threads = choice.threads;
-      systems.push_back(std::make_unique<HybridSystem>("mo-" + std::to_string(c), "MO " + std::to_string(c), mo, true));
+      systems.push_back(std::make_unique<HybridSystem>("mo-" + std::to_string(c), "MO " + std::to_string(c), mo,
+                                                         true, choice.clock));
     }
   } else {
     missing.push_back("many-object model (engine 'mo' not built)");

@@ -15,8 +15,9 @@
 namespace hbp::cli {
 
 struct FrameTime {
-  double reported_ms = 0;  // what the table shows: measured wall time, or modelled time
+  double reported_ms = 0;  // what the table shows: measured (wall or CPU) time, or modelled time
   double wall_ms = 0;      // what the frame cost this machine (for budgets and ETA)
+  double cpu_ms = 0;       // CPU time of the calling thread during the frame
 };
 
 class BenchSystem {
@@ -40,8 +41,15 @@ class BenchSystem {
   virtual const std::vector<Pair>& exact_pairs() = 0;
 };
 
+enum class BenchClock {
+  Wall,  // steady_clock: what a user waits (the paper's measure)
+  Cpu,   // CPU time of the calling thread: robust on a loaded, shared machine;
+         // only meaningful when all work runs on that thread (--threads 1)
+};
+
 struct SystemChoice {
   unsigned threads = 1;  // our software hybrid (the baselines are single-threaded)
+  BenchClock clock = BenchClock::Wall;
 };
 
 // Every system, in table order. Systems whose engine is not built into this
