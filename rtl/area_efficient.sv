@@ -35,7 +35,8 @@ module hbp_area_efficient #(
     output logic [31:0]       cyc_load,
     output logic [31:0]       cyc_seq,
     output logic [31:0]       cyc_drain,
-    output logic [31:0]       cycles,       // cyc_load + cyc_seq + cyc_drain
+    output logic [31:0]       cyc_restart,  // always 0 here (many-object only)
+    output logic [31:0]       cycles,       // cyc_seq + cyc_restart + cyc_drain (load excluded, as the models)
     // compare-stage output: the bus into the pair memory (lane l: a = i, b = j)
     output logic              out_valid,
     output logic [L-1:0]      out_hit,
@@ -60,12 +61,13 @@ module hbp_area_efficient #(
   logic [IW-1:0] seq_i, seq_base;
   logic [L-1:0]  seq_ok;
   logic          loading;
-  logic [1:0]    drain_left;
+  logic [3:0]    drain_left;
 
   assign loading  = (state == S_LOAD) && load_valid && (32'(n_loaded) < 32'(CAP));
   assign busy     = (state == S_RUN) || (state == S_DRAIN);
   assign done     = (state == S_DONE);
-  assign cycles   = cyc_load + cyc_seq + cyc_drain;
+  assign cycles   = cyc_seq + cyc_drain;
+  assign cyc_restart = '0;
   assign dbg_step = seq_step;
   assign dbg_i    = seq_i;
   assign dbg_base = seq_base;
@@ -75,9 +77,10 @@ module hbp_area_efficient #(
       .n(IW'(n_loaded)), .step(seq_step), .obj_i(seq_i), .base(seq_base),
       .lane_ok(seq_ok), .finish(seq_finish));
 
-  // Pipeline: step at cycle t -> memory data at t+1 -> compare result
-  // registered, on out_* and written to the pair memory at t+2.
-  localparam int LAT = 2;
+  // Pipeline (= hbp::hw::PipelineLatencies defaults, depth 6): step at cycle
+  // t -> memory array t+1 -> memory output register t+2 -> comparator stages
+  // t+3, t+4 -> AND t+5 -> pair line on out_* and written at t+6.
+  localparam int LAT = 6;
 
   always_ff @(posedge clk) begin
     if (rst || clear) begin
@@ -108,7 +111,7 @@ module hbp_area_efficient #(
             else begin
               cyc_drain  <= cyc_drain + 1;
               state      <= (LAT > 1) ? S_DRAIN : S_DONE;
-              drain_left <= 2'(LAT - 2);
+              drain_left <= 4'(LAT - 2);
             end
           end
         end
@@ -153,36 +156,36 @@ module hbp_area_efficient #(
   endgenerate
 
   // ---------------------------------------------------------------- compare
-  logic          s1_step;
-  logic [IW-1:0] s1_i, s1_base;  // s1_i: low PW bits used
-  logic [L-1:0]  s1_ok, s1_hit;
-  always_ff @(posedge clk) begin
-    if (rst || clear) s1_step <= 1'b0;
-    else s1_step <= seq_step;
-    s1_i    <= seq_i;
-    s1_base <= seq_base;
-    s1_ok   <= seq_ok;
-  end
+  // Sideband of the step, delayed to meet its AND result (t+5).
+  localparam int SBW = 1 + IW + IW + L;
+  logic          s5_step;
+  logic [IW-1:0] s5_i, s5_base;
+  logic [L-1:0]  s5_ok, s5_hit;
+  hbp_delay #(.W(SBW), .N(LAT - 1)) u_sideband (
+      .clk(clk), .rst(rst || clear),
+      .d({seq_step, seq_i, seq_base, seq_ok}),
+      .q({s5_step, s5_i, s5_base, s5_ok}));
 
   genvar l;
   generate
     for (l = 0; l < L; l = l + 1) begin : g_lane
       hbp_box_overlap u_cmp (
-          .a(port_data[0 +: 192]), .b(port_data[(l+1)*192 +: 192]), .hit(s1_hit[l]));
+          .clk(clk), .a(port_data[0 +: 192]), .b(port_data[(l+1)*192 +: 192]), .hit(s5_hit[l]));
     end
   endgenerate
 
+  // Pair write stage.
   always_ff @(posedge clk) begin
     if (rst || clear) begin
       out_valid <= 1'b0;
       out_hit   <= '0;
     end else begin
-      out_valid <= s1_step;
-      out_hit   <= s1_step ? (s1_hit & s1_ok) : '0;
+      out_valid <= s5_step;
+      out_hit   <= s5_step ? (s5_hit & s5_ok) : '0;
     end
     for (int k = 0; k < L; k = k + 1) begin
-      out_a[k*PW +: PW] <= PW'(s1_i);
-      out_b[k*PW +: PW] <= PW'(s1_base + IW'(k));
+      out_a[k*PW +: PW] <= s5_i[PW-1:0];
+      out_b[k*PW +: PW] <= PW'(s5_base + IW'(k));
     end
   end
 
@@ -194,6 +197,6 @@ module hbp_area_efficient #(
       .pop(pair_pop), .rvalid(pair_rvalid), .rdata(pair_rdata),
       .count(pair_count), .available(pair_available), .overflow(pair_overflow));
   logic unused;
-  assign unused = ^{pair_available, s1_i[IW-1:PW]};
+  assign unused = ^{pair_available, s5_i[IW-1:PW]};
 endmodule
 /* verilator lint_on DECLFILENAME */

@@ -7,16 +7,21 @@
 // (j + kr) mod m: lane j compares object a*m+j with object a*m+j+k.
 // Lanes whose partner is >= n are removed. Steps for row a: n - a*m - 1
 // (rows with no step are skipped); total = the paper's sum.
+// RESTART > 0: after a row's last step the sequencer holds for RESTART
+// cycles (`bubble`) so the pipeline empties before the A address changes,
+// as the C++ model's row_change_drains_pipeline (RESTART = pipeline depth).
 module hbp_mo_sequencer #(
     parameter int M  = 4,
     parameter int AW = 10,  // memory address width
-    parameter int IW = 16   // index width, holds n-1 + m
+    parameter int IW = 16,  // index width, holds n-1 + m
+    parameter int RESTART = 0
 ) (
     input  logic              clk,
     input  logic              rst,
     input  logic              start,
     input  logic [IW-1:0]     n,
     output logic              step,
+    output logic              bubble,    // holding between rows
     output logic [AW-1:0]     addr_a,    // every group's port A
     output logic [M*AW-1:0]   addr_b,    // group g's port B at [g*AW +: AW]
     output logic [IW-1:0]     row_base,  // a*m: object index of lane 0's A side
@@ -29,11 +34,13 @@ module hbp_mo_sequencer #(
   localparam int KR0 = (M == 1) ? 0 : 1;
 
   logic          run;
+  logic [7:0]    hold;
   logic [AW-1:0] a_q, kq_q;
   logic [7:0]    kr_q;
   logic [IW-1:0] rb_q, k_q;
 
-  assign step     = run;
+  assign step     = run && hold == 0;
+  assign bubble   = run && hold != 0;
   assign addr_a   = a_q;
   assign row_base = rb_q;
   assign offset   = k_q;
@@ -52,6 +59,7 @@ module hbp_mo_sequencer #(
     finish <= 1'b0;
     if (rst) begin
       run  <= 1'b0;
+      hold <= '0;
       a_q  <= '0;
       kq_q <= '0;
       kr_q <= '0;
@@ -64,7 +72,10 @@ module hbp_mo_sequencer #(
       kq_q   <= AW'(KQ0);
       kr_q   <= 8'(KR0);
       run    <= (n >= IW'(2));
+      hold   <= '0;
       finish <= (n < IW'(2));
+    end else if (bubble) begin
+      hold <= hold - 8'd1;
     end else if (run) begin
       if (rb_q + k_q + IW'(1) >= n) begin
         // row done; the next row has n - (a+1)*m - 1 steps
@@ -72,6 +83,7 @@ module hbp_mo_sequencer #(
           run    <= 1'b0;
           finish <= 1'b1;
         end else begin
+          hold <= 8'(RESTART);
           a_q  <= a_q + AW'(1);
           rb_q <= rb_q + IW'(M);
           k_q  <= IW'(1);

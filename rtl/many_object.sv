@@ -14,6 +14,7 @@ module hbp_many_object #(
     parameter int M         = 4,
     parameter int DEPTH     = 1024,
     parameter int PAIR_ROWS = 64,                      // pair memory: m*PAIR_ROWS lines
+    parameter bit ROW_DRAIN = 1,                       // = ModelConfig::row_change_drains_pipeline
     // derived, do not override
     parameter int L         = M,                       // compare lanes
     parameter int CAP       = DEPTH * M,               // boxes
@@ -35,7 +36,8 @@ module hbp_many_object #(
     output logic [31:0]       cyc_load,
     output logic [31:0]       cyc_seq,
     output logic [31:0]       cyc_drain,
-    output logic [31:0]       cycles,
+    output logic [31:0]       cyc_restart,
+    output logic [31:0]       cycles,       // cyc_seq + cyc_restart + cyc_drain (load excluded, as the models)
     output logic              out_valid,
     output logic [L-1:0]      out_hit,
     output logic [L*PW-1:0]   out_a,
@@ -62,7 +64,8 @@ module hbp_many_object #(
   logic [M*8-1:0]  seq_sel;
   logic [L-1:0]    seq_ok;
   logic            loading;
-  logic [1:0]      drain_left;
+  logic [3:0]      drain_left;
+  logic            seq_bubble;
   // load position: group ld_g, address ld_a (box n_loaded)
   logic [7:0]      ld_g;
   logic [AW-1:0]   ld_a;
@@ -70,22 +73,25 @@ module hbp_many_object #(
   assign loading    = (state == S_LOAD) && load_valid && (32'(n_loaded) < 32'(CAP));
   assign busy       = (state == S_RUN) || (state == S_DRAIN);
   assign done       = (state == S_DONE);
-  assign cycles     = cyc_load + cyc_seq + cyc_drain;
+  assign cycles     = cyc_seq + cyc_restart + cyc_drain;
   assign dbg_step   = seq_step;
   assign dbg_addr_a = seq_addr_a;
   assign dbg_addr_b = seq_addr_b;
   assign dbg_offset = seq_k;
   assign dbg_sel    = seq_sel;
 
-  hbp_mo_sequencer #(.M(M), .AW(AW), .IW(IW)) u_seq (
+  // Pipeline (= hbp::hw::PipelineLatencies defaults, depth 7): step at t ->
+  // memory array t+1 -> memory output register t+2 -> reorder register t+3
+  // -> comparator stages t+4, t+5 -> AND t+6 -> pair line on out_* and
+  // written at t+7.
+  localparam int LAT = 7;
+
+  hbp_mo_sequencer #(.M(M), .AW(AW), .IW(IW), .RESTART(ROW_DRAIN ? LAT : 0)) u_seq (
       .clk(clk), .rst(rst || clear), .start(start && state == S_LOAD),
-      .n(IW'(n_loaded)), .step(seq_step), .addr_a(seq_addr_a), .addr_b(seq_addr_b),
+      .n(IW'(n_loaded)), .step(seq_step), .bubble(seq_bubble), .addr_a(seq_addr_a), .addr_b(seq_addr_b),
       .row_base(seq_rb), .offset(seq_k), .sel(seq_sel), .lane_ok(seq_ok),
       .finish(seq_finish));
 
-  // Pipeline: step at t -> memory data at t+1 -> reorder register at t+2 ->
-  // compare result registered, on out_* and written at t+3.
-  localparam int LAT = 3;
 
   always_ff @(posedge clk) begin
     if (rst || clear) begin
@@ -95,6 +101,7 @@ module hbp_many_object #(
       cyc_load   <= '0;
       cyc_seq    <= '0;
       cyc_drain  <= '0;
+      cyc_restart <= '0;
       drain_left <= '0;
       ld_g       <= '0;
       ld_a       <= '0;
@@ -117,6 +124,7 @@ module hbp_many_object #(
         end
         S_RUN: begin
           if (seq_step) cyc_seq <= cyc_seq + 1;
+          if (seq_bubble) cyc_restart <= cyc_restart + 1;
           if (seq_finish) begin
             // n < 2: nothing in flight, no drain. Otherwise this is drain
             // cycle 1 of LAT; done rises the cycle after the last one.
@@ -124,7 +132,7 @@ module hbp_many_object #(
             else begin
               cyc_drain  <= cyc_drain + 1;
               state      <= (LAT > 1) ? S_DRAIN : S_DONE;
-              drain_left <= 2'(LAT - 2);
+              drain_left <= 4'(LAT - 2);
             end
           end
         end
@@ -157,53 +165,48 @@ module hbp_many_object #(
   endgenerate
 
   // ---------------------------------------------------------------- reorder
-  logic          s1_step, s2_step;
-  logic [IW-1:0] s1_rb, s1_k, s2_rb, s2_k;
-  logic [M*8-1:0] s1_sel;
-  logic [L-1:0]  s1_ok, s2_ok, s2_hit;
-  logic [M*192-1:0] s2_a, s2_b;
-
+  // Selectors travel with the memory read (2 cycles); the reorder register
+  // holds lane j's A box (group j) and B box (group sel_j).
+  logic [M*8-1:0]   s2_sel;
+  logic [M*192-1:0] s3_a, s3_b;
+  hbp_delay #(.W(M * 8), .N(2)) u_sel (.clk(clk), .rst(rst || clear), .d(seq_sel), .q(s2_sel));
   always_ff @(posedge clk) begin
-    if (rst || clear) begin
-      s1_step <= 1'b0;
-      s2_step <= 1'b0;
-    end else begin
-      s1_step <= seq_step;
-      s2_step <= s1_step;
-    end
-    s1_rb  <= seq_rb;
-    s1_k   <= seq_k;
-    s1_sel <= seq_sel;
-    s1_ok  <= seq_ok;
-    s2_rb  <= s1_rb;
-    s2_k   <= s1_k;
-    s2_ok  <= s1_ok;
-    s2_a   <= data_a;
+    s3_a <= data_a;
     for (int j = 0; j < M; j = j + 1) begin
-      s2_b[j*192 +: 192] <= data_b[s1_sel[8*j +: 8]*192 +: 192];
+      s3_b[j*192 +: 192] <= data_b[s2_sel[8*j +: 8]*192 +: 192];
     end
   end
 
   // ---------------------------------------------------------------- compare
+  localparam int SBW = 1 + IW + IW + L;
+  logic          s6_step;
+  logic [IW-1:0] s6_rb, s6_k;
+  logic [L-1:0]  s6_ok, s6_hit;
+  hbp_delay #(.W(SBW), .N(LAT - 1)) u_sideband (
+      .clk(clk), .rst(rst || clear),
+      .d({seq_step, seq_rb, seq_k, seq_ok}),
+      .q({s6_step, s6_rb, s6_k, s6_ok}));
+
   genvar l;
   generate
     for (l = 0; l < L; l = l + 1) begin : g_lane
       hbp_box_overlap u_cmp (
-          .a(s2_a[l*192 +: 192]), .b(s2_b[l*192 +: 192]), .hit(s2_hit[l]));
+          .clk(clk), .a(s3_a[l*192 +: 192]), .b(s3_b[l*192 +: 192]), .hit(s6_hit[l]));
     end
   endgenerate
 
+  // Pair write stage.
   always_ff @(posedge clk) begin
     if (rst || clear) begin
       out_valid <= 1'b0;
       out_hit   <= '0;
     end else begin
-      out_valid <= s2_step;
-      out_hit   <= s2_step ? (s2_hit & s2_ok) : '0;
+      out_valid <= s6_step;
+      out_hit   <= s6_step ? (s6_hit & s6_ok) : '0;
     end
     for (int k = 0; k < L; k = k + 1) begin
-      out_a[k*PW +: PW] <= PW'(s2_rb + IW'(k));
-      out_b[k*PW +: PW] <= PW'(s2_rb + IW'(k) + s2_k);
+      out_a[k*PW +: PW] <= PW'(s6_rb + IW'(k));
+      out_b[k*PW +: PW] <= PW'(s6_rb + IW'(k) + s6_k);
     end
   end
 

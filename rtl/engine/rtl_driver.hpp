@@ -32,8 +32,8 @@ struct RtlStep {
 struct RtlResult {
   std::vector<Pair> pairs;                // compare-stage lines, in order
   std::vector<std::uint64_t> pair_cycle;  // cycle (since start) each line appeared
-  std::uint64_t cycles = 0;               // RTL counters
-  std::uint64_t cyc_load = 0, cyc_seq = 0, cyc_drain = 0;
+  std::uint64_t cycles = 0;               // RTL counters; cycles = seq + restart + drain
+  std::uint64_t cyc_load = 0, cyc_seq = 0, cyc_restart = 0, cyc_drain = 0;
   std::uint64_t cycles_to_done = 0;       // cycle (since start) in which done is first high
   std::vector<Pair> memory_pairs;         // read back from the pair memory
   std::uint32_t memory_count = 0;
@@ -115,7 +115,7 @@ class RtlDriver {
     tick();
     top_->start = 0;
     const std::uint64_t n = boxes.size();
-    const std::uint64_t limit = 16 + n * n + n;  // generous: at least one pair per step
+    const std::uint64_t limit = 64 + 16 * n * n;  // generous bound on steps + bubbles
     // Cycle 1 is the first cycle after the start edge (the first step).
     std::uint64_t now = 1;
     for (;;) {
@@ -131,6 +131,7 @@ class RtlDriver {
     r.cyc_load = top_->cyc_load;
     r.cyc_seq = top_->cyc_seq;
     r.cyc_drain = top_->cyc_drain;
+    r.cyc_restart = top_->cyc_restart;
     r.memory_count = top_->pair_count;
     r.memory_overflow = top_->pair_overflow;
     if (read_memory) {
