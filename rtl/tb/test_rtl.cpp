@@ -414,3 +414,51 @@ TEST(RtlBoxes, NaNCoordinateNeverOverlapsLikeTheCppTest) {
 
 }  // namespace
 }  // namespace hbp::rtl
+
+// ------------------------------------------------ rtl-ae / rtl-mo engines
+#include "hbp/cell_engine.hpp"
+#include "hbp/error.hpp"
+#include "hbp/rtl/rtl_engines.hpp"
+
+namespace hbp::rtl {
+namespace {
+
+TEST(RtlEngines, RegisteredAndEqualToTheOracle) {
+  register_rtl_engines();
+  register_rtl_engines();  // idempotent
+  for (const char* name : {"rtl-ae", "rtl-mo"}) {
+    SCOPED_TRACE(name);
+    std::unique_ptr<CellEngine> e = make_cell_engine(name);
+    ASSERT_NE(e, nullptr);
+    EXPECT_EQ(e->name(), name);
+    EXPECT_EQ(e->capacity(), std::string(name) == "rtl-ae" ? 1024u : 16384u);
+    EXPECT_EQ(e->clock_hz(), 500e6);
+    const BoxArray cell = random_boxes(200, 9, 60.f, 1.f, 20.f);
+    std::vector<Pair> pairs = {{7, 9}};  // appends
+    const CellRun run = e->find_pairs(cell, pairs);
+    ASSERT_FALSE(pairs.empty());
+    EXPECT_EQ(pairs.front(), (Pair{7, 9}));
+    pairs.erase(pairs.begin());
+    EXPECT_EQ(run.cycles, e->cycles_for(200));
+    EXPECT_GT(run.cycles, 0u);
+    sort_pairs(pairs);
+    EXPECT_EQ(pairs, brute_force_pairs(cell));
+    // A clone is an independent RTL instance.
+    std::unique_ptr<CellEngine> c = e->clone();
+    std::vector<Pair> again;
+    EXPECT_EQ(c->find_pairs(cell, again).cycles, run.cycles);
+    sort_pairs(again);
+    EXPECT_EQ(again, pairs);
+  }
+  // Same modelled cycles as the C++ model engines "ae" / "mo".
+  for (std::uint32_t n : {0u, 1u, 2u, 100u, 1000u}) {
+    EXPECT_EQ(make_cell_engine("rtl-ae")->cycles_for(n), make_cell_engine("ae")->cycles_for(n)) << n;
+    EXPECT_EQ(make_cell_engine("rtl-mo")->cycles_for(n), make_cell_engine("mo")->cycles_for(n)) << n;
+  }
+  std::unique_ptr<CellEngine> ae = make_cell_engine("rtl-ae");
+  std::vector<Pair> out;
+  EXPECT_THROW(ae->find_pairs(random_boxes(1025, 1, 10.f, 1.f, 2.f), out), CapacityExceeded);
+}
+
+}  // namespace
+}  // namespace hbp::rtl
