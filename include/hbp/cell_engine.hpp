@@ -27,6 +27,10 @@ class CellEngine {
   virtual std::uint32_t capacity() const = 0;
   // Cell limit to use when the user does not choose one.
   virtual std::uint32_t default_cell_limit() const = 0;
+  // Weight of the x spread when the partition picks a split axis. A sweep on
+  // x wants cells longer in x (fewer candidates per box): < 1. All-pairs
+  // engines do not care about cell shape: 1.
+  virtual float x_split_weight() const { return 1.0f; }
   // Clock for converting cycles to modelled time (0 for software engines).
   virtual double clock_hz() const { return 0.0; }
   // Appends the pairs (i < j, local indices into `cell`) of every overlapping

@@ -31,6 +31,11 @@ struct FrameStats {
   std::uint32_t cells = 0;
   std::uint32_t min_cell = 0, median_cell = 0, max_cell = 0;
   double duplication = 1.0;  // cell entries / objects
+  std::uint32_t oversized_cells = 0;  // could not be split: processed in tiles
+  bool rebuilt = false;               // partition rebuilt from scratch this frame
+  std::uint32_t splits = 0, merges = 0;  // incremental partition maintenance
+  // Measured wall times: partition (validation, maintenance, routing), engine
+  // (cells, with de-duplication fused in), merge (gathering the cells' pairs).
   double wall_ms = 0, partition_ms = 0, engine_ms = 0, dedup_ms = 0;
   std::uint64_t modelled_cycles = 0;  // sum over cells (one accelerator)
   double modelled_ms = 0;             // modelled_cycles / clock (0 if software)

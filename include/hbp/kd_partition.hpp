@@ -5,13 +5,14 @@
 // through the existing planes, over-full leaves are split, sparse sibling
 // leaves merged, and the tree is rebuilt when its quality degrades.
 //
-// Split rule: median of box centres on the axis of largest centre spread; if
+// Split rule: median of box centres on the axis of largest centre spread
+// (the x spread optionally weighted, see the constructor); if
 // that split does not shrink both children, the other axes are tried; if none
 // does (identical or nested boxes), the leaf stays over-full and the engines
 // process it in tiles.
 //
 // Routing uses half-open cell regions: a box goes left when min < split and
-// right when max >= split. Every cell is listed in increasing min-x order.
+// right when max >= split.
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -32,25 +33,37 @@ struct PartitionStats {
   std::uint32_t splits = 0, merges = 0;
 };
 
+// One object's membership of one cell: a copy of its box, so engines never
+// chase ids into the frame's arrays. 32 bytes: one write stream per cell when
+// the partition scatters entries.
+struct CellEntry {
+  float min[3];
+  float max[3];
+  std::uint32_t id;
+  std::uint32_t unused;
+};
+
 class KdPartition {
  public:
-  explicit KdPartition(std::uint32_t cell_limit);
+  // x_split_weight scales the x spread when choosing the split axis (< 1
+  // favours splitting y and z: cells longer in x, for a sweep along x).
+  explicit KdPartition(std::uint32_t cell_limit, float x_split_weight = 1.0f);
 
-  // Partitions a frame. Boxes must be valid (no NaN, min <= max).
+  // Partitions a frame. Boxes must be valid (no NaN, min <= max). Object i of
+  // this frame is assumed to be object i of the previous one (coherence).
   void update(const BoxArray& boxes);
   // Drops the tree; the next update builds from scratch.
   void reset();
 
   std::uint32_t cell_limit() const { return cell_limit_; }
   std::uint32_t cell_count() const { return static_cast<std::uint32_t>(regions_.size()); }
-  // Positions into sorted_boxes() of the objects in cell c, increasing.
-  std::span<const std::uint32_t> cell(std::uint32_t c) const {
-    return {entries_.data() + offsets_[c], entries_.data() + offsets_[c + 1]};
+  // Cell c's objects (id and box), by increasing id, contiguous in memory.
+  std::span<const CellEntry> cell(std::uint32_t c) const {
+    const Node& leaf = nodes_[leaf_nodes_[c]];
+    return {entries_.data() + leaf.first, leaf.size};
   }
+  std::uint32_t cell_size(std::uint32_t c) const { return nodes_[leaf_nodes_[c]].size; }
   const CellRegion& region(std::uint32_t c) const { return regions_[c]; }
-  // The frame's boxes in increasing min-x order, and the object id of each.
-  const BoxArray& sorted_boxes() const { return sorted_; }
-  const std::vector<std::uint32_t>& sorted_ids() const { return ids_; }
   const PartitionStats& stats() const { return stats_; }
 
  private:
@@ -59,36 +72,37 @@ class KdPartition {
     std::int32_t axis = -1;    // -1: leaf
     std::uint32_t child = 0;   // left child; right child is child + 1
     std::uint32_t leaf = 0;    // cell index when a leaf
-    std::uint32_t size = 0;    // entries routed here last frame (leaves)
+    std::uint32_t size = 0;    // leaves: entries routed here (this frame once routed)
+    std::uint32_t first = 0;   // leaves: position of the first entry in entries_
+    std::uint32_t epoch = 0;   // numbering pass that last reached this node
   };
+  static constexpr std::uint32_t kNoHome = 0xFFFFFFFFu;
 
-  void sort_by_min_x(const BoxArray& boxes);
-  void build(std::vector<std::uint32_t>& positions);
-  void build_node(std::uint32_t node, std::vector<std::uint32_t>& positions, std::uint32_t depth);
+  void build(std::vector<std::uint32_t>& ids);
+  void build_node(std::uint32_t node, std::vector<std::uint32_t>& ids, std::uint32_t depth);
   void route_all();
-  void split_oversized();
+  bool split_oversized();
+  void route_subtree(std::uint32_t node, const std::vector<CellEntry>& entries);
   void merge_sparse();
   void number_leaves();
-  void collect_entries();
   void compute_stats();
 
   std::uint32_t cell_limit_;
+  float x_split_weight_;
+  const BoxArray* boxes_ = nullptr;  // the frame being partitioned
   std::vector<Node> nodes_;
-  // Routing results per leaf node (node index -> positions), rebuilt each frame.
-  std::vector<std::vector<std::uint32_t>> leaf_lists_;
-  std::vector<std::uint32_t> leaf_nodes_;  // cell index -> node index
-  std::vector<std::uint32_t> offsets_;
-  std::vector<std::uint32_t> entries_;
-  std::vector<CellRegion> regions_;
-  BoxArray sorted_;
-  std::vector<std::uint32_t> ids_;
-  std::vector<std::uint32_t> keys_, keys_tmp_, ids_tmp_;
+  std::vector<CellRegion> node_regions_;   // per node, valid for live nodes
+  std::vector<std::uint32_t> home_;        // object -> root of the subtree holding its cells
+  std::uint32_t epoch_ = 0;
+  std::vector<CellEntry> entries_;         // leaf after leaf (split leaves' at the end)
+  std::vector<CellRegion> regions_;        // cell -> region
+  std::vector<std::uint32_t> leaf_nodes_;  // cell -> node
   std::vector<std::vector<std::uint64_t>> chunk_routes_;
+  std::vector<std::uint32_t> chunk_counts_;
   std::vector<float> scratch_;
   PartitionStats stats_;
   double rebuild_duplication_ = 0;
   std::uint32_t rebuild_cells_ = 0;
-  std::uint32_t frames_since_rebuild_ = 0;
 };
 
 }  // namespace hbp

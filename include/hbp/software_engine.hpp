@@ -25,6 +25,7 @@ class SoftwareEngine final : public CellEngine {
   std::string name() const override;
   std::uint32_t capacity() const override { return 0xFFFFFFFFu; }
   std::uint32_t default_cell_limit() const override;
+  float x_split_weight() const override { return kernel_ == Kernel::Sweep ? 0.5f : 1.0f; }
   CellRun find_pairs(const BoxArray& cell, std::vector<Pair>& out) override;
   CellRun find_owned_pairs(const BoxArray& cell, const CellRegion& region, std::vector<Pair>& out) override;
   std::unique_ptr<CellEngine> clone() const override;
@@ -36,7 +37,7 @@ class SoftwareEngine final : public CellEngine {
   void run(const BoxArray& cell, const CellRegion& region, std::vector<Pair>& out);
 
   Kernel kernel_;
-  std::vector<std::uint32_t> buffer_;  // kernel output, reused across cells
+  std::vector<std::uint32_t> first_, second_;  // kernel output, reused across cells
   BoxArray sorted_;                    // find_pairs on unsorted input
   std::vector<std::uint32_t> order_;
 };

@@ -18,14 +18,18 @@ struct KernelInput {
 };
 
 struct KernelOutput {
-  std::uint32_t* pairs;   // 2 entries (i, j) per pair, i < j local indices
-  std::size_t capacity;   // in pairs
+  std::uint32_t* first;   // pair k is (first[k], second[k]), local indices, first < second
+  std::uint32_t* second;
+  std::size_t capacity;   // entries in each array
   std::size_t count;      // pairs written so far
 };
 
 // Both kernels process rows from `row` on and return the row they stopped at:
-// n when done, earlier when the output might overflow (a row can emit up to
-// n - row - 1 pairs; the caller grows the buffer and resumes).
+// n when done, earlier when the output might overflow. Row i starts only when
+// n - i + kOutputSlack entries are free (a row emits at most n - i - 1 pairs;
+// vector kernels store whole vectors past the last pair); the caller grows the
+// buffers and resumes.
+inline constexpr std::size_t kOutputSlack = 16;
 //   sweep:     boxes sorted by min x; scans j > i while min_x[j] <= max_x[i]
 //   all-pairs: any order; every j > i (the area-efficient datapath's work)
 using Kernel = std::uint32_t (*)(const KernelInput& in, std::uint32_t row, KernelOutput& out);

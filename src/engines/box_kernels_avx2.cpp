@@ -26,12 +26,10 @@ inline __m256 owned(const RegionVec& r, __m256 px, __m256 py, __m256 pz) {
 }
 
 inline void emit(std::uint32_t i, std::uint32_t j, unsigned mask, KernelOutput& out) {
-  std::uint32_t* p = out.pairs + 2 * out.count;
   while (mask) {
     const unsigned bit = static_cast<unsigned>(__builtin_ctz(mask));
-    p[0] = i;
-    p[1] = j + bit;
-    p += 2;
+    out.first[out.count] = i;
+    out.second[out.count] = j + bit;
     ++out.count;
     mask &= mask - 1;
   }
@@ -44,7 +42,7 @@ std::uint32_t sweep_avx2(const KernelInput& in, std::uint32_t row, KernelOutput&
   const float *maxx = in.max[0], *maxy = in.max[1], *maxz = in.max[2];
   const RegionVec rv = load_region(in.region);
   for (std::uint32_t i = row; i < in.n; ++i) {
-    if (out.capacity - out.count < in.n - i) return i;
+    if (out.capacity - out.count < std::size_t{in.n - i} + kOutputSlack) return i;
     const __m256 bx = _mm256_set1_ps(maxx[i]);
     const __m256 ly = _mm256_set1_ps(miny[i]), hy = _mm256_set1_ps(maxy[i]);
     const __m256 lz = _mm256_set1_ps(minz[i]), hz = _mm256_set1_ps(maxz[i]);
@@ -73,7 +71,7 @@ std::uint32_t allpairs_avx2(const KernelInput& in, std::uint32_t row, KernelOutp
   const float *maxx = in.max[0], *maxy = in.max[1], *maxz = in.max[2];
   const RegionVec rv = load_region(in.region);
   for (std::uint32_t i = row; i < in.n; ++i) {
-    if (out.capacity - out.count < in.n - i) return i;
+    if (out.capacity - out.count < std::size_t{in.n - i} + kOutputSlack) return i;
     const __m256 lx = _mm256_set1_ps(minx[i]), hx = _mm256_set1_ps(maxx[i]);
     const __m256 ly = _mm256_set1_ps(miny[i]), hy = _mm256_set1_ps(maxy[i]);
     const __m256 lz = _mm256_set1_ps(minz[i]), hz = _mm256_set1_ps(maxz[i]);

@@ -31,16 +31,15 @@ inline __mmask16 owned(const RegionVec& r, __m512 px, __m512 py, __m512 pz) {
   return _mm512_mask_cmp_ps_mask(m, pz, r.hi[2], _CMP_LT_OQ);
 }
 
-inline void emit(std::uint32_t i, std::uint32_t j, unsigned mask, KernelOutput& out) {
-  std::uint32_t* p = out.pairs + 2 * out.count;
-  while (mask) {
-    const unsigned bit = static_cast<unsigned>(__builtin_ctz(mask));
-    p[0] = i;
-    p[1] = j + bit;
-    p += 2;
-    ++out.count;
-    mask &= mask - 1;
-  }
+// Branch-free: compress the hit lanes' j into the front of a vector and
+// store all 16 lanes (the output keeps kOutputSlack spare entries); a branch
+// on "any hit" mispredicts too often to pay.
+inline void emit(std::uint32_t i, std::uint32_t j, __mmask16 mask, KernelOutput& out) {
+  const __m512i lanes = _mm512_set_epi32(15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0);
+  const __m512i js = _mm512_maskz_compress_epi32(mask, _mm512_add_epi32(_mm512_set1_epi32(static_cast<int>(j)), lanes));
+  _mm512_storeu_si512(out.second + out.count, js);
+  _mm512_storeu_si512(out.first + out.count, _mm512_set1_epi32(static_cast<int>(i)));
+  out.count += static_cast<std::size_t>(__builtin_popcount(mask));
 }
 
 }  // namespace
@@ -50,24 +49,22 @@ std::uint32_t sweep_avx512(const KernelInput& in, std::uint32_t row, KernelOutpu
   const float *maxx = in.max[0], *maxy = in.max[1], *maxz = in.max[2];
   const RegionVec rv = load_region(in.region);
   for (std::uint32_t i = row; i < in.n; ++i) {
-    if (out.capacity - out.count < in.n - i) return i;
+    if (out.capacity - out.count < std::size_t{in.n - i} + kOutputSlack) return i;
     const __m512 bx = _mm512_set1_ps(maxx[i]);
     const __m512 ly = _mm512_set1_ps(miny[i]), hy = _mm512_set1_ps(maxy[i]);
     const __m512 lz = _mm512_set1_ps(minz[i]), hz = _mm512_set1_ps(maxz[i]);
     for (std::uint32_t j = i + 1;; j += 16) {
       const __m512 vminx = _mm512_loadu_ps(minx + j);
+      const __m512 vminy = _mm512_loadu_ps(miny + j), vminz = _mm512_loadu_ps(minz + j);
       // Padding boxes have min = +inf, so the scan always ends inside the lane.
       const __mmask16 mx = _mm512_cmp_ps_mask(vminx, bx, _CMP_LE_OQ);
-      if (!mx) break;
-      const __m512 vminy = _mm512_loadu_ps(miny + j), vminz = _mm512_loadu_ps(minz + j);
-      __mmask16 m = _mm512_mask_cmp_ps_mask(mx, _mm512_loadu_ps(maxy + j), ly, _CMP_GE_OQ);
-      m = _mm512_mask_cmp_ps_mask(m, vminy, hy, _CMP_LE_OQ);
-      m = _mm512_mask_cmp_ps_mask(m, _mm512_loadu_ps(maxz + j), lz, _CMP_GE_OQ);
-      m = _mm512_mask_cmp_ps_mask(m, vminz, hz, _CMP_LE_OQ);
-      if (m) {
-        m &= owned(rv, vminx, _mm512_max_ps(vminy, ly), _mm512_max_ps(vminz, lz));
-        emit(i, j, m, out);
-      }
+      // Independent compares joined by kand: a short dependency chain.
+      const __mmask16 my = _mm512_cmp_ps_mask(_mm512_loadu_ps(maxy + j), ly, _CMP_GE_OQ) &
+                           _mm512_cmp_ps_mask(vminy, hy, _CMP_LE_OQ);
+      const __mmask16 mz = _mm512_cmp_ps_mask(_mm512_loadu_ps(maxz + j), lz, _CMP_GE_OQ) &
+                           _mm512_cmp_ps_mask(vminz, hz, _CMP_LE_OQ);
+      const __mmask16 m = mx & my & mz & owned(rv, vminx, _mm512_max_ps(vminy, ly), _mm512_max_ps(vminz, lz));
+      emit(i, j, m, out);
       if (mx != 0xFFFF) break;
     }
   }
@@ -79,7 +76,7 @@ std::uint32_t allpairs_avx512(const KernelInput& in, std::uint32_t row, KernelOu
   const float *maxx = in.max[0], *maxy = in.max[1], *maxz = in.max[2];
   const RegionVec rv = load_region(in.region);
   for (std::uint32_t i = row; i < in.n; ++i) {
-    if (out.capacity - out.count < in.n - i) return i;
+    if (out.capacity - out.count < std::size_t{in.n - i} + kOutputSlack) return i;
     const __m512 lx = _mm512_set1_ps(minx[i]), hx = _mm512_set1_ps(maxx[i]);
     const __m512 ly = _mm512_set1_ps(miny[i]), hy = _mm512_set1_ps(maxy[i]);
     const __m512 lz = _mm512_set1_ps(minz[i]), hz = _mm512_set1_ps(maxz[i]);

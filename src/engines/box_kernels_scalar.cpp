@@ -11,15 +11,15 @@ std::uint32_t sweep_scalar(const KernelInput& in, std::uint32_t row, KernelOutpu
   const float *maxx = in.max[0], *maxy = in.max[1], *maxz = in.max[2];
   const CellRegion& r = in.region;
   for (std::uint32_t i = row; i < in.n; ++i) {
-    if (out.capacity - out.count < in.n - i) return i;
+    if (out.capacity - out.count < std::size_t{in.n - i} + kOutputSlack) return i;
     const float bx = maxx[i], ly = miny[i], hy = maxy[i], lz = minz[i], hz = maxz[i];
     // Sorted by min x: min_x[j] >= min_x[i] and max_x[j] >= min_x[j], so only
     // min_x[j] <= max_x[i] remains to test on x, and it ends the scan.
     for (std::uint32_t j = i + 1; j < in.n && minx[j] <= bx; ++j) {
       if (maxy[j] >= ly && miny[j] <= hy && maxz[j] >= lz && minz[j] <= hz &&
           r.contains(minx[j], max_of(miny[j], ly), max_of(minz[j], lz))) {
-        out.pairs[2 * out.count] = i;
-        out.pairs[2 * out.count + 1] = j;
+        out.first[out.count] = i;
+        out.second[out.count] = j;
         ++out.count;
       }
     }
@@ -32,13 +32,13 @@ std::uint32_t allpairs_scalar(const KernelInput& in, std::uint32_t row, KernelOu
   const float *maxx = in.max[0], *maxy = in.max[1], *maxz = in.max[2];
   const CellRegion& r = in.region;
   for (std::uint32_t i = row; i < in.n; ++i) {
-    if (out.capacity - out.count < in.n - i) return i;
+    if (out.capacity - out.count < std::size_t{in.n - i} + kOutputSlack) return i;
     const float lx = minx[i], hx = maxx[i], ly = miny[i], hy = maxy[i], lz = minz[i], hz = maxz[i];
     for (std::uint32_t j = i + 1; j < in.n; ++j) {
       if (maxx[j] >= lx && minx[j] <= hx && maxy[j] >= ly && miny[j] <= hy && maxz[j] >= lz && minz[j] <= hz &&
           r.contains(max_of(minx[j], lx), max_of(miny[j], ly), max_of(minz[j], lz))) {
-        out.pairs[2 * out.count] = i;
-        out.pairs[2 * out.count + 1] = j;
+        out.first[out.count] = i;
+        out.second[out.count] = j;
         ++out.count;
       }
     }

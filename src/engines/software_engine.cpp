@@ -26,16 +26,21 @@ void SoftwareEngine::run(const BoxArray& cell, const CellRegion& region, std::ve
   kernels::KernelInput in{{cell.min(0), cell.min(1), cell.min(2)}, {cell.max(0), cell.max(1), cell.max(2)}, n, region};
   const kernels::Isa isa = kernels::selected_isa();
   const kernels::Kernel k = kernel_ == Kernel::Sweep ? kernels::sweep_kernel(isa) : kernels::allpairs_kernel(isa);
-  if (buffer_.size() < 2 * std::size_t{n} + 64) buffer_.resize(4 * std::size_t{n} + 64);
+  const std::size_t want = 2 * (std::size_t{n} + kernels::kOutputSlack);
+  if (first_.size() < want) {
+    first_.resize(want);
+    second_.resize(want);
+  }
   std::uint32_t row = 0;
   while (true) {
-    kernels::KernelOutput o{buffer_.data(), buffer_.size() / 2, 0};
+    kernels::KernelOutput o{first_.data(), second_.data(), first_.size(), 0};
     row = k(in, row, o);
     const std::size_t base = out.size();
     out.resize(base + o.count);
-    for (std::size_t p = 0; p < o.count; ++p) out[base + p] = {buffer_[2 * p], buffer_[2 * p + 1]};
+    for (std::size_t p = 0; p < o.count; ++p) out[base + p] = {first_[p], second_[p]};
     if (row >= n) break;
-    buffer_.resize(buffer_.size() * 2);  // a dense cell: grow and resume
+    first_.resize(first_.size() * 2);  // a dense cell: grow and resume
+    second_.resize(second_.size() * 2);
   }
 }
 

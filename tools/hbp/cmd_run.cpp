@@ -85,8 +85,8 @@ void run(const RunArgs& a) {
   if (!a.json && !a.quiet) {
     std::printf("engine %s (simd %s), cell limit %u, threads %u, %zu objects, %u frames\n", a.engine.c_str(),
                 SoftwareEngine::isa(), bp.cell_limit(), threads, source.objects(), source.frames());
-    std::printf("%6s %10s %9s %9s %9s %9s %12s %7s %6s\n", "frame", "pairs", "wall_ms", "part_ms", "engine_ms",
-                "merge_ms", "modelled_ms", "cells", "dup");
+    std::printf("%6s %10s %9s %9s %9s %9s %12s %7s %6s %s\n", "frame", "pairs", "wall_ms", "part_ms", "engine_ms",
+                "merge_ms", "modelled_ms", "cells", "dup", "maintenance");
   }
   for (std::uint32_t k = 0; k < source.frames(); ++k) {
     source.frame(k, boxes);
@@ -103,14 +103,20 @@ void run(const RunArgs& a) {
                         {"engine_ms", s.engine_ms},
                         {"dedup_ms", s.dedup_ms},
                         {"cells", s.cells},
+                        {"median_cell", s.median_cell},
+                        {"max_cell", s.max_cell},
+                        {"rebuilt", s.rebuilt},
+                        {"splits", s.splits},
+                        {"merges", s.merges},
                         {"duplication", s.duplication},
                         {"modelled_ms", modelled_engine ? nlohmann::json(s.modelled_ms) : nlohmann::json(nullptr)}};
     frames.push_back(f);
     if (!a.json && !a.quiet) {
       char model[32] = "-";
       if (modelled_engine) std::snprintf(model, sizeof model, "%.4f", s.modelled_ms);
-      std::printf("%6u %10llu %9.3f %9.3f %9.3f %9.3f %12s %7u %6.3f\n", k, static_cast<unsigned long long>(s.pairs),
-                  s.wall_ms, s.partition_ms, s.engine_ms, s.dedup_ms, model, s.cells, s.duplication);
+      std::printf("%6u %10llu %9.3f %9.3f %9.3f %9.3f %12s %7u %6.3f %s+%us-%um\n", k,
+                  static_cast<unsigned long long>(s.pairs), s.wall_ms, s.partition_ms, s.engine_ms, s.dedup_ms, model,
+                  s.cells, s.duplication, s.rebuilt ? "rebuild" : "keep", s.splits, s.merges);
     }
   }
   const double med = percentile(wall, 0.5), p95 = percentile(wall, 0.95);
