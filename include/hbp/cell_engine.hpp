@@ -47,6 +47,15 @@ class CellEngine {
   virtual std::uint64_t cycles_for(std::uint32_t n) const { (void)n; return 0; }
   // Engines are used by one thread at a time; each worker gets a clone.
   virtual std::unique_ptr<CellEngine> clone() const = 0;
+
+  // Most pairs one call may append before it stops with CapacityExceeded
+  // (the hybrid system passes BroadPhaseOptions::max_pairs), so a pair
+  // explosion inside one cell never exhausts memory.
+  void set_pair_limit(std::uint64_t limit) { pair_limit_ = limit; }
+  std::uint64_t pair_limit() const { return pair_limit_; }
+
+ protected:
+  std::uint64_t pair_limit_ = ~std::uint64_t{0};
 };
 
 // Engine names accepted by the library and `hbp --engine`:

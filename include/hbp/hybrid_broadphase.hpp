@@ -41,8 +41,11 @@ struct FrameStats {
   double modelled_ms = 0;             // modelled_cycles / clock (0 if software)
 };
 
-// Called for each cell's de-duplicated pairs, in cell order, on one thread at
-// a time, while later cells are still in the engine (the narrow phase hook).
+// Called with each cell's de-duplicated pairs (global ids, canonical). The
+// ordered sink sees cells in cell order, one call at a time, while later
+// cells are still in the engine; the parallel consumer runs on any worker
+// thread, several cells at once, right after the cell's engine run (the
+// narrow phase hook: consume in parallel, publish in order).
 using PairSink = std::function<void(std::uint32_t cell, const Pair* pairs, std::size_t count)>;
 
 class HybridBroadPhase {
@@ -53,7 +56,10 @@ class HybridBroadPhase {
   HybridBroadPhase& operator=(HybridBroadPhase&&) noexcept;
 
   // Runs one frame. Boxes are validated (InvalidInput names the object).
-  const std::vector<Pair>& update(const BoxArray& boxes, const PairSink& sink = {});
+  // CapacityExceeded when the frame has more than options().max_pairs pairs
+  // (checked as cells complete, so memory stays bounded).
+  const std::vector<Pair>& update(const BoxArray& boxes, const PairSink& sink = {},
+                                  const PairSink& parallel_consumer = {});
   const std::vector<Pair>& pairs() const;
   const FrameStats& stats() const;
   const BroadPhaseOptions& options() const;

@@ -5,6 +5,8 @@
 
 #include "engines/box_kernels.hpp"
 #include "hbp/brute_force.hpp"
+#include "hbp/error.hpp"
+#include <string>
 
 namespace hbp {
 
@@ -39,6 +41,9 @@ void SoftwareEngine::run(const BoxArray& cell, const CellRegion& region, std::ve
     out.resize(base + o.count);
     for (std::size_t p = 0; p < o.count; ++p) out[base + p] = {first_[p], second_[p]};
     if (row >= n) break;
+    if (out.size() > pair_limit_)
+      throw CapacityExceeded("cell of " + std::to_string(n) + " boxes has more than " + std::to_string(pair_limit_) +
+                             " overlapping pairs (max_pairs)");
     first_.resize(first_.size() * 2);  // a dense cell: grow and resume
     second_.resize(second_.size() * 2);
   }

@@ -68,6 +68,7 @@ struct HybridBroadPhase::Impl {
   std::vector<std::size_t> offsets;
   std::vector<Pair> pairs;
   FrameStats stats;
+  std::atomic<std::uint64_t> running_pairs{0};
 
   static std::uint32_t choose_limit(const BroadPhaseOptions& o, const CellEngine& e) {
     const std::uint32_t limit = o.cell_limit ? o.cell_limit : e.default_cell_limit();
@@ -81,7 +82,19 @@ struct HybridBroadPhase::Impl {
         cell_limit(choose_limit(o, *prototype)),
         arena(o.threads ? static_cast<int>(o.threads) : tbb::task_arena::automatic),
         partition(cell_limit, prototype->x_split_weight()),
-        workers([this] { return Worker{prototype->clone(), BoxArray{}, {}, {}, {}, {}}; }) {}
+        workers([this] {
+          Worker w{prototype->clone(), BoxArray{}, {}, {}, {}, {}};
+          if (options.max_pairs) w.engine->set_pair_limit(options.max_pairs);
+          return w;
+        }) {}
+
+  void charge(std::size_t pairs_added) {
+    if (!options.max_pairs) return;
+    const std::uint64_t total = running_pairs.fetch_add(pairs_added) + pairs_added;
+    if (total > options.max_pairs)
+      throw CapacityExceeded("frame has more than max_pairs = " + std::to_string(options.max_pairs) +
+                             " overlapping pairs (stopped at " + std::to_string(total) + ")");
+  }
 
   // Copies entries [first, first + count) of the cell, in min-x order, to
   // dst starting at `at`.
@@ -119,6 +132,7 @@ struct HybridBroadPhase::Impl {
       w.local.clear();
       cycles += w.engine->find_owned_pairs(w.cell, region, w.local).cycles;
       found = w.local.size();
+      charge(found);
       out.resize(w.local.size());
       for (std::size_t i = 0; i < w.local.size(); ++i)
         out[i] = make_pair(cell[w.order[w.local[i].a]].id, cell[w.order[w.local[i].b]].id);
@@ -137,6 +151,7 @@ struct HybridBroadPhase::Impl {
           gather(w, cell, oj, nj, w.cell, ni);
           w.local.clear();
           cycles += w.engine->find_owned_pairs(w.cell, region, w.local).cycles;
+          const std::size_t before = out.size();
           const bool keep_i = bj == bi + 1;
           const bool keep_j = bi + 2 == k && bj + 1 == k;
           auto global = [&](std::uint32_t local) { return cell[w.order[local < ni ? oi + local : oj + (local - ni)]].id; };
@@ -145,6 +160,7 @@ struct HybridBroadPhase::Impl {
             const bool keep = (a_in_i != b_in_i) || (a_in_i && keep_i) || (!a_in_i && keep_j);
             if (keep) out.push_back(make_pair(global(p.a), global(p.b)));
           }
+          charge(out.size() - before);
           found += w.local.size();
         }
       }
@@ -153,7 +169,8 @@ struct HybridBroadPhase::Impl {
     candidates[c] = found;
   }
 
-  void run(const BoxArray& boxes, const PairSink& sink) {
+  void run(const BoxArray& boxes, const PairSink& sink, const PairSink& consumer) {
+    running_pairs = 0;
     const auto t0 = Clock::now();
     validate_boxes(boxes);
     partition.update(boxes);
@@ -164,6 +181,10 @@ struct HybridBroadPhase::Impl {
     if (cell_pairs.size() < cells) cell_pairs.resize(cells);
     cell_cycles.assign(cells, 0);
     candidates.assign(cells, 0);
+    auto cell_task = [&](std::uint32_t c) {
+      process_cell(c);
+      if (consumer) consumer(c, cell_pairs[c].data(), cell_pairs[c].size());
+    };
     if (sink) {
       // Consumer (narrow phase) on cell k while the engine works on k+1...
       std::uint32_t next = 0;
@@ -180,7 +201,7 @@ struct HybridBroadPhase::Impl {
                                                 }) &
               tbb::make_filter<std::uint32_t, std::uint32_t>(tbb::filter_mode::parallel,
                                                              [&](std::uint32_t c) {
-                                                               process_cell(c);
+                                                               cell_task(c);
                                                                return c;
                                                              }) &
               tbb::make_filter<std::uint32_t, void>(tbb::filter_mode::serial_in_order, [&](std::uint32_t c) {
@@ -188,7 +209,7 @@ struct HybridBroadPhase::Impl {
               }));
     } else {
       tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, cells, 1), [&](const auto& r) {
-        for (std::uint32_t c = r.begin(); c != r.end(); ++c) process_cell(c);
+        for (std::uint32_t c = r.begin(); c != r.end(); ++c) cell_task(c);
       });
     }
     const double engine_ms = ms_since(t1);
@@ -240,8 +261,9 @@ HybridBroadPhase::~HybridBroadPhase() = default;
 HybridBroadPhase::HybridBroadPhase(HybridBroadPhase&&) noexcept = default;
 HybridBroadPhase& HybridBroadPhase::operator=(HybridBroadPhase&&) noexcept = default;
 
-const std::vector<Pair>& HybridBroadPhase::update(const BoxArray& boxes, const PairSink& sink) {
-  impl_->arena.execute([&] { impl_->run(boxes, sink); });
+const std::vector<Pair>& HybridBroadPhase::update(const BoxArray& boxes, const PairSink& sink,
+                                                  const PairSink& parallel_consumer) {
+  impl_->arena.execute([&] { impl_->run(boxes, sink, parallel_consumer); });
   return impl_->pairs;
 }
 const std::vector<Pair>& HybridBroadPhase::pairs() const { return impl_->pairs; }

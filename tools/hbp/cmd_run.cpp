@@ -1,6 +1,9 @@
 // hbp run: the hybrid system on a generated or recorded scene, per-frame
 // timings by stage, modelled accelerator time, pairs, and a summary.
 #include <nlohmann/json.hpp>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <chrono>
@@ -12,6 +15,7 @@
 #include <vector>
 
 #include "command_registry.hpp"
+#include "hbp/collision_pipeline.hpp"
 #include "hbp/error.hpp"
 #include "hbp/hybrid_broadphase.hpp"
 #include "hbp/scenario.hpp"
@@ -32,6 +36,7 @@ struct RunArgs {
   unsigned threads = 0;
   bool json = false;
   bool quiet = false;
+  bool narrow = false;
 };
 
 double percentile(std::vector<double> v, double q) {
@@ -60,6 +65,7 @@ class FrameSource {
   }
   std::uint32_t frames() const { return frames_; }
   std::size_t objects() const { return reader_ ? reader_->info().object_count : scenario_->size(); }
+  const std::vector<Shape>* shapes() const { return scenario_ ? &scenario_->shapes() : nullptr; }
   void frame(std::uint32_t k, BoxArray& out) {
     if (reader_) {
       reader_->read_frame(k, out);
@@ -75,8 +81,53 @@ class FrameSource {
   std::uint32_t frames_ = 0;
 };
 
+// The narrow phase's figures for one frame: the pipelined whole, and the two
+// stages run one after the other on the same frame for comparison.
+struct NarrowFrame {
+  std::uint64_t contacts = 0;
+  double pipelined_ms = 0, narrow_cpu_ms = 0, sequential_broad_ms = 0, sequential_narrow_ms = 0;
+};
+
+NarrowFrame run_narrow(CollisionPipeline& cp, HybridBroadPhase& reference, const NarrowPhase& narrow,
+                       const BoxArray& boxes, const std::vector<Shape>& shapes) {
+  NarrowFrame f;
+  cp.update(boxes, shapes);
+  f.contacts = cp.stats().contacts;
+  f.pipelined_ms = cp.stats().wall_ms;
+  f.narrow_cpu_ms = cp.stats().narrow_cpu_ms;
+  reference.update(boxes);
+  f.sequential_broad_ms = reference.stats().wall_ms;
+  const auto& pairs = reference.pairs();
+  const auto t = std::chrono::steady_clock::now();
+  tbb::enumerable_thread_specific<std::vector<Contact>> outs;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pairs.size(), 256), [&](const auto& r) {
+    narrow.process(shapes, pairs.data() + r.begin(), r.size(), outs.local());
+  });
+  f.sequential_narrow_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t).count();
+  std::uint64_t hits = 0;
+  for (const auto& o : outs) hits += o.size();
+  if (hits != f.contacts)
+    throw Error("narrow phase: pipelined run found " + std::to_string(f.contacts) + " contacts, sequential run " +
+                std::to_string(hits));
+  return f;
+}
+
 void run(const RunArgs& a) {
   FrameSource source(a);
+  if (a.narrow && !source.shapes())
+    throw InvalidInput("--narrow needs shapes: use --scene (scene files hold boxes only)");
+  std::unique_ptr<tbb::global_control> limit;
+  if (a.threads) limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, a.threads);
+  std::unique_ptr<CollisionPipeline> pipeline;
+  std::unique_ptr<HybridBroadPhase> reference;
+  const NarrowPhase narrow;
+  if (a.narrow) {
+    pipeline = std::make_unique<CollisionPipeline>(
+        BroadPhaseOptions{.engine = a.engine, .cell_limit = a.cell_limit, .threads = a.threads});
+    reference = std::make_unique<HybridBroadPhase>(
+        BroadPhaseOptions{.engine = a.engine, .cell_limit = a.cell_limit, .threads = a.threads, .sorted = false});
+  }
+  std::vector<double> pipelined, sequential;
   HybridBroadPhase bp({.engine = a.engine, .cell_limit = a.cell_limit, .threads = a.threads, .sorted = false});
   const unsigned threads = a.threads ? a.threads : std::max(1u, std::thread::hardware_concurrency());
   nlohmann::json frames = nlohmann::json::array();
@@ -92,6 +143,12 @@ void run(const RunArgs& a) {
     source.frame(k, boxes);
     bp.update(boxes);
     const FrameStats& s = bp.stats();
+    NarrowFrame nf;
+    if (a.narrow) {
+      nf = run_narrow(*pipeline, *reference, narrow, boxes, *source.shapes());
+      pipelined.push_back(nf.pipelined_ms);
+      sequential.push_back(nf.sequential_broad_ms + nf.sequential_narrow_ms);
+    }
     const bool modelled_engine = s.modelled_cycles > 0 || a.engine.rfind("ae", 0) == 0 ||
                                  a.engine.rfind("mo", 0) == 0 || a.engine.rfind("rtl", 0) == 0;
     wall.push_back(s.wall_ms);
@@ -110,6 +167,13 @@ void run(const RunArgs& a) {
                         {"merges", s.merges},
                         {"duplication", s.duplication},
                         {"modelled_ms", modelled_engine ? nlohmann::json(s.modelled_ms) : nlohmann::json(nullptr)}};
+    if (a.narrow) {
+      f["narrow"] = {{"contacts", nf.contacts},
+                     {"pipelined_wall_ms", nf.pipelined_ms},
+                     {"narrow_cpu_ms", nf.narrow_cpu_ms},
+                     {"sequential_broad_ms", nf.sequential_broad_ms},
+                     {"sequential_narrow_ms", nf.sequential_narrow_ms}};
+    }
     frames.push_back(f);
     if (!a.json && !a.quiet) {
       char model[32] = "-";
@@ -117,6 +181,11 @@ void run(const RunArgs& a) {
       std::printf("%6u %10llu %9.3f %9.3f %9.3f %9.3f %12s %7u %6.3f %s+%us-%um\n", k,
                   static_cast<unsigned long long>(s.pairs), s.wall_ms, s.partition_ms, s.engine_ms, s.dedup_ms, model,
                   s.cells, s.duplication, s.rebuilt ? "rebuild" : "keep", s.splits, s.merges);
+      if (a.narrow)
+        std::printf("       narrow: %llu contacts of %llu candidates; pipelined %.3f ms (narrow CPU %.3f ms) vs "
+                    "broad %.3f + narrow %.3f ms one after the other\n",
+                    static_cast<unsigned long long>(nf.contacts), static_cast<unsigned long long>(s.pairs),
+                    nf.pipelined_ms, nf.narrow_cpu_ms, nf.sequential_broad_ms, nf.sequential_narrow_ms);
     }
   }
   const double med = percentile(wall, 0.5), p95 = percentile(wall, 0.95);
@@ -134,11 +203,18 @@ void run(const RunArgs& a) {
                               {"p95_wall_ms", p95},
                               {"median_modelled_ms", modelled.empty() ? nlohmann::json(nullptr)
                                                                       : nlohmann::json(percentile(modelled, 0.5))}};
+    if (a.narrow) {
+      summary["median_pipelined_wall_ms"] = percentile(pipelined, 0.5);
+      summary["median_sequential_wall_ms"] = percentile(sequential, 0.5);
+    }
     std::printf("%s\n", nlohmann::json{{"params", params}, {"frames", frames}, {"summary", summary}}.dump(1).c_str());
   } else {
     std::printf("summary: wall (measured) median %.3f ms, p95 %.3f ms", med, p95);
     if (!modelled.empty()) std::printf("; accelerator (modelled) median %.4f ms", percentile(modelled, 0.5));
     std::printf("\n");
+    if (a.narrow)
+      std::printf("full pipeline (measured): broad + narrow overlapped median %.3f ms, one after the other %.3f ms\n",
+                  percentile(pipelined, 0.5), percentile(sequential, 0.5));
   }
 }
 
@@ -157,6 +233,8 @@ const RegisterCommand reg([](CLI::App& app) {
   cmd->add_option("--threads", args->threads, "Threads (0: all cores)")->capture_default_str();
   cmd->add_flag("--json", args->json, "Print one JSON object");
   cmd->add_flag("--quiet", args->quiet, "Only the summary");
+  cmd->add_flag("--narrow", args->narrow,
+                "Also run the narrow phase, overlapped with the broad phase (and, for comparison, after it)");
   cmd->callback([args] { run(*args); });
 });
 

@@ -1,0 +1,63 @@
+#include "hbp/collision_pipeline.hpp"
+
+#include <time.h>
+
+#include <atomic>
+#include <chrono>
+#include <mutex>
+
+#include "hbp/error.hpp"
+
+namespace hbp {
+
+namespace {
+
+double thread_cpu_ms() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
+}
+
+}  // namespace
+
+CollisionPipeline::CollisionPipeline(const BroadPhaseOptions& broad, const NarrowOptions& narrow)
+    : broad_(BroadPhaseOptions{broad.engine, broad.cell_limit, broad.threads, false, broad.max_pairs}),
+      narrow_(narrow) {}
+
+CollisionPipeline::~CollisionPipeline() = default;
+
+const std::vector<Contact>& CollisionPipeline::update(const BoxArray& boxes, const std::vector<Shape>& shapes) {
+  if (shapes.size() != boxes.size())
+    throw InvalidInput("collision pipeline: " + std::to_string(boxes.size()) + " boxes but " +
+                       std::to_string(shapes.size()) + " shapes");
+  contacts_.clear();
+  std::atomic<std::uint64_t> narrow_us{0};
+  std::mutex grow;
+  const auto t0 = std::chrono::steady_clock::now();
+  broad_.update(
+      boxes,
+      [&](std::uint32_t cell, const Pair*, std::size_t) {
+        contacts_.insert(contacts_.end(), cell_contacts_[cell].begin(), cell_contacts_[cell].end());
+      },
+      [&](std::uint32_t cell, const Pair* pairs, std::size_t count) {
+        const double start = thread_cpu_ms();
+        std::vector<Contact>* out;
+        {
+          // cell_contacts_ grows only when the partition has more cells than
+          // ever before; the vectors themselves are reused frame to frame.
+          std::lock_guard lock(grow);
+          if (cell_contacts_.size() <= cell) cell_contacts_.resize(cell + 1);
+          out = &cell_contacts_[cell];
+        }
+        out->clear();
+        narrow_.process(shapes, pairs, count, *out);
+        narrow_us += static_cast<std::uint64_t>((thread_cpu_ms() - start) * 1e3);
+      });
+  stats_.wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  stats_.candidates = broad_.stats().pairs;
+  stats_.contacts = contacts_.size();
+  stats_.narrow_cpu_ms = static_cast<double>(narrow_us.load()) * 1e-3;
+  return contacts_;
+}
+
+}  // namespace hbp
