@@ -128,16 +128,21 @@ fi
 if [ "$pnr" = 1 ]; then
   echo
   if command -v nextpnr-ice40 > /dev/null; then
-    j="$out/ae_m1_d256_ice40.json"
-    [ -f "$j" ] || run_yosys ae 1 256 ice40 > /dev/null
+    # The core behind a few pins (synth/pnr_wrap.sv), area-efficient m = 1.
+    j="$out/pnr_ae_m1_d256.json"
+    yosys -q -l "$out/pnr_ae_m1_d256.log" -p "read_verilog -sv $(sources ae) $here/pnr_wrap.sv; \
+      hierarchy -top hbp_pnr_wrap -chparam M 1 -chparam DEPTH 256; \
+      synth_ice40 -top hbp_pnr_wrap -json $j; tee -o $out/pnr_ae_m1_d256.stat stat" > /dev/null 2>&1 \
+      || { echo "yosys failed: $out/pnr_ae_m1_d256.log" >&2; fail=1; }
     for dev in up5k hx8k; do
       pkg=$([ "$dev" = up5k ] && echo sg48 || echo ct256)
-      if nextpnr-ice40 --"$dev" --package "$pkg" --json "$j" --freq 100 --timing-allow-fail \
-           --log "$out/pnr_ae_m1_$dev.log" > /dev/null 2>&1; then
-        f=$(grep -o "Max frequency for clock[^:]*: [0-9.]* MHz" "$out/pnr_ae_m1_$dev.log" | tail -1)
-        echo "nextpnr-ice40 $dev, area-efficient m=1 depth 256: $f"
+      if timeout 1800 nextpnr-ice40 --"$dev" --package "$pkg" --json "$j" --freq 50 \
+           --timing-allow-fail --log "$out/pnr_ae_m1_$dev.log" > /dev/null 2>&1; then
+        f=$(grep -o "Max frequency for clock[^:]*: [0-9.]* MHz" "$out/pnr_ae_m1_$dev.log" | tail -1 | sed 's/.*: //')
+        u=$(grep -E "ICESTORM_LC:|ICESTORM_RAM:" "$out/pnr_ae_m1_$dev.log" | head -2 | tr -s ' ' | tr '\n' ' ')
+        echo "nextpnr-ice40 $dev: area-efficient m=1 depth 256 placed and routed, Fmax $f; $u"
       else
-        echo "nextpnr-ice40 $dev, area-efficient m=1 depth 256: did not place/route (see $out/pnr_ae_m1_$dev.log)"
+        echo "nextpnr-ice40 $dev: area-efficient m=1 depth 256 did not place/route (see $out/pnr_ae_m1_$dev.log)"
       fi
     done
   else
