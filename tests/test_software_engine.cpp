@@ -1,0 +1,207 @@
+// The software engine's kernels on every instruction set this CPU has, the
+// per-cell ordering, and the k-d partition's membership rule.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include "engines/box_kernels.hpp"
+#include "hbp/brute_force.hpp"
+#include "hbp/error.hpp"
+#include "hbp/hybrid_broadphase.hpp"
+#include "hbp/kd_partition.hpp"
+#include "hbp/scenario.hpp"
+#include "hbp/software_engine.hpp"
+#include "partition/min_x_order.hpp"
+
+namespace {
+
+using hbp::BoxArray;
+using hbp::CellRegion;
+using hbp::Pair;
+namespace k = hbp::kernels;
+
+std::vector<k::Isa> available_isas() {
+  std::vector<k::Isa> isas{k::Isa::Scalar};
+  __builtin_cpu_init();
+  if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("bmi2")) isas.push_back(k::Isa::Avx2);
+  if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512bw") &&
+      __builtin_cpu_supports("avx512vl"))
+    isas.push_back(k::Isa::Avx512);
+  return isas;
+}
+
+BoxArray random_boxes(std::uint32_t n, float world, float size, std::mt19937& rng, bool sorted) {
+  std::uniform_real_distribution<float> pos(-world, world), ext(0.0f, size);
+  std::vector<hbp::Aabb> v(n);
+  for (auto& b : v) {
+    for (int a = 0; a < 3; ++a) {
+      b.min[a] = pos(rng);
+      b.max[a] = b.min[a] + ext(rng);
+    }
+  }
+  if (sorted) std::sort(v.begin(), v.end(), [](const auto& x, const auto& y) { return x.min[0] < y.min[0]; });
+  BoxArray boxes;
+  for (const auto& b : v) boxes.push_back(b);
+  return boxes;
+}
+
+// Pairs of the oracle whose ownership point lies in the region.
+std::vector<Pair> owned_oracle(const BoxArray& boxes, const CellRegion& r) {
+  std::vector<Pair> out;
+  for (const Pair& p : hbp::brute_force_pairs(boxes)) {
+    const auto a = boxes.get(p.a), b = boxes.get(p.b);
+    if (r.contains(std::max(a.min[0], b.min[0]), std::max(a.min[1], b.min[1]), std::max(a.min[2], b.min[2])))
+      out.push_back(p);
+  }
+  return out;
+}
+
+std::vector<Pair> run_kernel(k::Kernel kernel, const BoxArray& boxes, const CellRegion& r, std::size_t capacity) {
+  const auto n = static_cast<std::uint32_t>(boxes.size());
+  k::KernelInput in{{boxes.min(0), boxes.min(1), boxes.min(2)}, {boxes.max(0), boxes.max(1), boxes.max(2)}, n, r};
+  std::vector<std::uint32_t> first(capacity), second(capacity);
+  std::vector<Pair> pairs;
+  std::uint32_t row = 0;
+  int resumes = 0;
+  while (true) {
+    k::KernelOutput out{first.data(), second.data(), capacity, 0};
+    row = kernel(in, row, out);
+    for (std::size_t i = 0; i < out.count; ++i) pairs.push_back({first[i], second[i]});
+    if (row >= n) break;
+    EXPECT_LT(++resumes, 1000000) << "kernel makes no progress";
+  }
+  hbp::canonicalize(pairs);
+  return pairs;
+}
+
+TEST(SoftwareKernels, EveryIsaMatchesTheOracleWithAndWithoutARegion) {
+  std::mt19937 rng(5);
+  for (k::Isa isa : available_isas()) {
+    for (std::uint32_t n : {0u, 1u, 2u, 15u, 16u, 17u, 33u, 200u, 700u}) {
+      const BoxArray boxes = random_boxes(n, 50, 20, rng, true);
+      const CellRegion regions[] = {CellRegion::everything(), {{-10, -20, -5}, {10, 30, 25}}};
+      for (const CellRegion& r : regions) {
+        const auto want = owned_oracle(boxes, r);
+        EXPECT_EQ(run_kernel(k::sweep_kernel(isa), boxes, r, 4 * n + 64), want) << k::isa_name(isa) << " sweep n=" << n;
+        EXPECT_EQ(run_kernel(k::allpairs_kernel(isa), boxes, r, 4 * n + 64), want)
+            << k::isa_name(isa) << " all-pairs n=" << n;
+      }
+    }
+  }
+}
+
+TEST(SoftwareKernels, DenseCellsResumeWhenTheOutputIsFull) {
+  std::mt19937 rng(9);
+  for (k::Isa isa : available_isas()) {
+    const BoxArray boxes = random_boxes(300, 5, 20, rng, true);  // nearly every pair overlaps
+    const auto want = owned_oracle(boxes, CellRegion::everything());
+    ASSERT_GT(want.size(), 20000u);
+    // Room for a little more than one row at a time.
+    EXPECT_EQ(run_kernel(k::sweep_kernel(isa), boxes, CellRegion::everything(), 400), want) << k::isa_name(isa);
+    EXPECT_EQ(run_kernel(k::allpairs_kernel(isa), boxes, CellRegion::everything(), 400), want) << k::isa_name(isa);
+  }
+}
+
+TEST(SoftwareEngine, UnsortedInputThroughTheCellEngineInterface) {
+  std::mt19937 rng(2);
+  const BoxArray boxes = random_boxes(500, 40, 15, rng, false);
+  for (auto kernel : {hbp::SoftwareEngine::Kernel::Sweep, hbp::SoftwareEngine::Kernel::AllPairs}) {
+    hbp::SoftwareEngine engine(kernel);
+    std::vector<Pair> got;
+    engine.find_pairs(boxes, got);
+    hbp::canonicalize(got);
+    EXPECT_EQ(got, hbp::brute_force_pairs(boxes)) << engine.name();
+  }
+}
+
+TEST(SoftwareEngine, PairLimitStopsADenseCell) {
+  BoxArray boxes;
+  for (int i = 0; i < 2000; ++i) boxes.push_back({{0, 0, 0}, {1, 1, 1}});
+  hbp::SoftwareEngine engine;
+  engine.set_pair_limit(100000);
+  std::vector<Pair> out;
+  EXPECT_THROW(engine.find_owned_pairs(boxes, CellRegion::everything(), out), hbp::CapacityExceeded);
+  EXPECT_LT(out.size(), 200000u);
+}
+
+TEST(MinXOrder, SortsLikeAStableSortOnValue) {
+  std::mt19937 rng(1);
+  std::vector<std::uint32_t> order;
+  std::vector<std::uint64_t> scratch;
+  for (std::uint32_t n : {0u, 1u, 5u, 48u, 49u, 1000u, 5000u}) {
+    for (int spread : {0, 1, 2}) {
+      std::vector<float> x(n);
+      std::uniform_real_distribution<float> wide(-1e6f, 1e6f), narrow(100.0f, 100.5f);
+      for (std::uint32_t i = 0; i < n; ++i) {
+        x[i] = spread == 0 ? wide(rng) : (spread == 1 ? narrow(rng) : static_cast<float>(rng() % 7) - 3.0f);
+        if (i % 17 == 0) x[i] = (i % 2) ? -0.0f : 0.0f;
+      }
+      hbp::min_x_order(x.data(), n, order, scratch);
+      ASSERT_EQ(order.size(), n);
+      std::vector<std::uint32_t> want(n);
+      for (std::uint32_t i = 0; i < n; ++i) want[i] = i;
+      std::stable_sort(want.begin(), want.end(), [&](auto a, auto b) { return x[a] < x[b]; });
+      for (std::uint32_t i = 0; i < n; ++i) ASSERT_EQ(x[order[i]], x[want[i]]) << "n=" << n << " i=" << i;
+      std::vector<std::uint32_t> sorted = order;
+      std::sort(sorted.begin(), sorted.end());
+      for (std::uint32_t i = 0; i < n; ++i) ASSERT_EQ(sorted[i], i);  // a permutation
+    }
+  }
+}
+
+// Every object is in exactly the cells whose half-open region its closed box
+// reaches (min < hi and max >= lo on every axis), frame after frame while the
+// tree is maintained incrementally.
+TEST(KdPartition, MembershipFollowsTheRoutingRuleAcrossFrames) {
+  hbp::ScenarioParams p;
+  p.n = 3000;
+  p.seed = 4;
+  p.linear_speed = 400;  // fast movers: migrations, splits, merges
+  hbp::Scenario scene(p);
+  hbp::KdPartition partition(64, 0.5f);
+  BoxArray boxes;
+  std::uint32_t splits = 0;
+  for (int f = 0; f < 12; ++f) {
+    scene.compute_boxes(boxes);
+    partition.update(boxes);
+    splits += partition.stats().splits;
+    std::vector<std::vector<std::uint32_t>> want(partition.cell_count());
+    for (std::uint32_t c = 0; c < partition.cell_count(); ++c) {
+      const CellRegion& r = partition.region(c);
+      for (std::uint32_t i = 0; i < boxes.size(); ++i) {
+        const auto b = boxes.get(i);
+        bool in = true;
+        for (int a = 0; a < 3; ++a) in &= b.min[a] < r.hi[a] && b.max[a] >= r.lo[a];
+        if (in) want[c].push_back(i);
+      }
+      std::vector<std::uint32_t> got;
+      for (const auto& e : partition.cell(c)) {
+        got.push_back(e.id);
+        const auto b = boxes.get(e.id);
+        ASSERT_EQ(e.min[0], b.min[0]);
+        ASSERT_EQ(e.max[2], b.max[2]);
+      }
+      ASSERT_EQ(got, want[c]) << "frame " << f << " cell " << c;
+    }
+    EXPECT_LE(partition.stats().max_cell, 64u) << "frame " << f;
+    scene.step();
+  }
+  EXPECT_GT(splits, 0u);
+}
+
+TEST(ReadmeExample, CompilesAndFindsThePairs) {
+  const std::uint32_t n = 3;
+  const float x0[] = {0, 1, 5}, y0[] = {0, 0, 5}, z0[] = {0, 0, 5};
+  const float x1[] = {1, 2, 6}, y1[] = {1, 1, 6}, z1[] = {1, 1, 6};
+  std::vector<Pair> seen;
+  auto on_overlap = [&](std::uint32_t a, std::uint32_t b) { seen.push_back({a, b}); };
+  hbp::BoxArray boxes(n);
+  for (std::uint32_t i = 0; i < n; ++i) boxes.set(i, {{x0[i], y0[i], z0[i]}, {x1[i], y1[i], z1[i]}});
+  hbp::HybridBroadPhase broad_phase({.engine = "sw", .threads = 2});
+  for (hbp::Pair p : broad_phase.update(boxes)) on_overlap(p.a, p.b);
+  EXPECT_EQ(seen, (std::vector<Pair>{{0, 1}}));
+}
+
+}  // namespace
