@@ -1,0 +1,86 @@
+// The hybrid system on the paper's scene: median time per frame of
+// HybridBroadPhase::update (scene integration excluded), with partition and
+// engine time as counters; and the two software kernels per cell size.
+//
+//   bench_hybrid --benchmark_filter=Paper --benchmark_repetitions=5
+#include <benchmark/benchmark.h>
+
+#include <map>
+#include <memory>
+
+#include "hbp/hybrid_broadphase.hpp"
+#include "hbp/scenario.hpp"
+#include "hbp/software_engine.hpp"
+
+namespace {
+
+// A few consecutive frames of the paper's scene, generated once per n.
+const std::vector<hbp::BoxArray>& paper_frames(std::uint32_t n) {
+  static std::map<std::uint32_t, std::vector<hbp::BoxArray>> cache;
+  auto& frames = cache[n];
+  if (frames.empty()) {
+    hbp::ScenarioParams p;
+    p.n = n;
+    hbp::Scenario scene(p);
+    for (int f = 0; f < 8; ++f) {
+      frames.emplace_back();
+      scene.compute_boxes(frames.back());
+      scene.step();
+    }
+  }
+  return frames;
+}
+
+void PaperFrame(benchmark::State& state) {
+  const auto n = static_cast<std::uint32_t>(state.range(0));
+  const auto threads = static_cast<unsigned>(state.range(1));
+  const auto& frames = paper_frames(n);
+  hbp::HybridBroadPhase bp({.engine = "sw", .threads = threads, .sorted = false});
+  for (const auto& f : frames) bp.update(f);  // build and warm the tree
+  std::size_t k = 0;
+  double partition = 0, engine = 0;
+  for (auto _ : state) {
+    const auto& pairs = bp.update(frames[k++ % frames.size()]);
+    benchmark::DoNotOptimize(pairs.data());
+    partition += bp.stats().partition_ms;
+    engine += bp.stats().engine_ms;
+  }
+  const auto iters = static_cast<double>(state.iterations());
+  state.counters["partition_ms"] = partition / iters;
+  state.counters["engine_ms"] = engine / iters;
+  state.counters["pairs"] = static_cast<double>(bp.stats().pairs);
+  state.counters["cells"] = bp.stats().cells;
+  state.counters["dup"] = bp.stats().duplication;
+  state.SetItemsProcessed(state.iterations() * n);
+}
+BENCHMARK(PaperFrame)
+    ->ArgsProduct({{1000, 10000, 100000, 1024000}, {1, 2}})
+    ->ArgNames({"n", "threads"})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+// One cell of the paper scene's density: sweep vs all-pairs by cell size.
+void CellKernel(benchmark::State& state) {
+  const auto size = static_cast<std::uint32_t>(state.range(0));
+  const bool sweep = state.range(1) == 1;
+  hbp::ScenarioParams p;
+  p.n = size;
+  hbp::Scenario scene(p);
+  hbp::BoxArray boxes;
+  scene.compute_boxes(boxes);
+  hbp::SoftwareEngine engine(sweep ? hbp::SoftwareEngine::Kernel::Sweep : hbp::SoftwareEngine::Kernel::AllPairs);
+  std::vector<hbp::Pair> out;
+  for (auto _ : state) {
+    out.clear();
+    engine.find_pairs(boxes, out);
+    benchmark::DoNotOptimize(out.data());
+  }
+  state.SetLabel(std::string(sweep ? "sweep" : "all-pairs") + " " + hbp::SoftwareEngine::isa());
+  state.SetItemsProcessed(state.iterations() * size);
+}
+BENCHMARK(CellKernel)
+    ->ArgsProduct({{64, 256, 1024, 4096}, {0, 1}})
+    ->ArgNames({"cell", "sweep"})
+    ->Unit(benchmark::kMicrosecond);
+
+}  // namespace
