@@ -2,20 +2,18 @@
 #include <cstdio>
 #include <exception>
 
-#include "command_registry.hpp"
+#include "app.hpp"
 #include "hbp/error.hpp"
-
-namespace hbp::cli {
-std::vector<CommandSetup>& command_registry() {
-  static std::vector<CommandSetup> registry;
-  return registry;
-}
-}  // namespace hbp::cli
+#ifdef HBP_HAVE_RTL
+#include "hbp/rtl/rtl_engines.hpp"
+#endif
 
 int main(int argc, char** argv) {
-  CLI::App app{"hbp: hybrid fixed-function / processor broad-phase collision detection"};
-  app.require_subcommand(1);
-  for (auto& setup : hbp::cli::command_registry()) setup(app);
+#ifdef HBP_HAVE_RTL
+  hbp::rtl::register_rtl_engines();  // rtl-ae, rtl-mo: the Verilated RTL as cell engines
+#endif
+  const auto app_ptr = hbp::cli::make_app();
+  CLI::App& app = *app_ptr;
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,0 +1,8 @@
+// libFuzzer target: the native (.hbps) scene reader on arbitrary bytes; a
+// readable scene is rewritten as native and read back bit for bit.
+#include "scene_checks.hpp"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  hbp::fuzz::check_scene_bytes(data, size, hbp::SceneFormat::Native);
+  return 0;
+}
