@@ -28,11 +28,14 @@ struct ContactCount {
   std::uint64_t points = 0;
 };
 
-// Collision detection timings of the last step (wall, ms): updateAabbs()
-// (btDbvtBroadphase moves its tree leaves there) and computeOverlappingPairs().
+// Collision detection timings of the last step (ms): updateAabbs()
+// (btDbvtBroadphase moves its tree leaves there) and computeOverlappingPairs(),
+// wall time and CPU time of the whole process (every thread).
 struct BroadphaseTiming {
   double update_aabbs_ms = 0;
   double pairs_ms = 0;
+  double update_aabbs_cpu_ms = 0;
+  double pairs_cpu_ms = 0;
 };
 
 class FallingShapesWorld {
