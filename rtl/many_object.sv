@@ -170,11 +170,20 @@ module hbp_many_object #(
   logic [M*8-1:0]   s2_sel;
   logic [M*192-1:0] s3_a, s3_b;
   hbp_delay #(.W(M * 8), .N(2)) u_sel (.clk(clk), .rst(rst || clear), .d(seq_sel), .q(s2_sel));
+  // Lane j's multiplexer as an AND-OR of one-hot selects (no index
+  // arithmetic: a variable part-select's sel*192 would infer a multiplier).
+  logic [M*192-1:0] mux_b;
+  always_comb begin
+    mux_b = '0;
+    for (int j = 0; j < M; j = j + 1) begin
+      for (int src = 0; src < M; src = src + 1) begin
+        if (s2_sel[8*j +: 8] == 8'(src)) mux_b[j*192 +: 192] = mux_b[j*192 +: 192] | data_b[src*192 +: 192];
+      end
+    end
+  end
   always_ff @(posedge clk) begin
     s3_a <= data_a;
-    for (int j = 0; j < M; j = j + 1) begin
-      s3_b[j*192 +: 192] <= data_b[s2_sel[8*j +: 8]*192 +: 192];
-    end
+    s3_b <= mux_b;
   end
 
   // ---------------------------------------------------------------- compare
