@@ -1,0 +1,363 @@
+// Resource limits and input validation at the library boundary.
+//
+// Pair explosions run in a child process (this binary re-executed with
+// HBP_LIMITS_CHILD set), which reports its own peak resident memory, so an
+// unbounded explosion cannot take the test runner down with it. Outside sanitizer builds the child also caps its address
+// space (RLIMIT_AS), turning a missing limit into std::bad_alloc instead of
+// a machine-wide out-of-memory.
+#include <gtest/gtest.h>
+#include <spawn.h>
+#include <sys/resource.h>
+#include <sys/types.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <limits>
+#include <new>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "hbp/brute_force.hpp"
+#include "hbp/error.hpp"
+#include "hbp/hw/hw_cell_engines.hpp"
+#include "hbp/hybrid_broadphase.hpp"
+
+extern char** environ;
+
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#define HBP_LIMITS_SANITIZED 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
+#define HBP_LIMITS_SANITIZED 1
+#endif
+#endif
+#ifndef HBP_LIMITS_SANITIZED
+#define HBP_LIMITS_SANITIZED 0
+#endif
+
+namespace {
+
+using hbp::Aabb;
+using hbp::BoxArray;
+using hbp::HybridBroadPhase;
+using hbp::Pair;
+
+constexpr std::size_t kMiB = 1024 * 1024;
+
+BoxArray coincident(std::size_t n) {
+  BoxArray b(n);
+  for (std::size_t i = 0; i < n; ++i) b.set(i, {{0, 0, 0}, {1, 1, 1}});
+  return b;
+}
+
+// n unit cubes on a grid of spacing 2: no pairs at all.
+BoxArray spread(std::size_t n) {
+  const auto side = static_cast<std::size_t>(std::ceil(std::cbrt(static_cast<double>(n))));
+  BoxArray b(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const float x = 2.0f * float(i % side), y = 2.0f * float(i / side % side), z = 2.0f * float(i / side / side);
+    b.set(i, {{x, y, z}, {x + 1, y + 1, z + 1}});
+  }
+  return b;
+}
+
+// ---- Child side ---------------------------------------------------------------
+// HBP_LIMITS_CHILD="<job> <engine> <n> <max_pairs>", job: coincident | spread.
+// Prints its peak resident memory (VmHWM of the fresh address space: wait4's
+// ru_maxrss would include the parent's, inherited through exec) on one line,
+// then one of "pairs <count>", "capacity <message>", "bad_alloc" or
+// "error <message>", and exits without running any test.
+
+std::size_t peak_rss_bytes() {
+  std::FILE* f = std::fopen("/proc/self/status", "r");
+  if (f == nullptr) return 0;
+  char line[256];
+  std::size_t kib = 0;
+  while (std::fgets(line, sizeof line, f) != nullptr)
+    if (std::sscanf(line, "VmHWM: %zu kB", &kib) == 1) break;
+  std::fclose(f);
+  return kib * 1024;
+}
+
+int child_main(const char* spec) {
+  std::istringstream in(spec);
+  std::string job, engine;
+  std::size_t n = 0;
+  std::uint64_t max_pairs = 0;
+  in >> job >> engine >> n >> max_pairs;
+  if (!HBP_LIMITS_SANITIZED) {
+    const rlimit cap{2048 * kMiB, 2048 * kMiB};
+    setrlimit(RLIMIT_AS, &cap);
+  }
+  std::string result;
+  try {
+    const BoxArray boxes = job == "coincident" ? coincident(n) : spread(n);
+    HybridBroadPhase bp({.engine = engine, .threads = 2, .max_pairs = max_pairs});
+    result = "pairs " + std::to_string(bp.update(boxes).size());
+  } catch (const hbp::CapacityExceeded& e) {
+    result = std::string("capacity ") + e.what();
+  } catch (const std::bad_alloc&) {
+    result = "bad_alloc";
+  } catch (const std::exception& e) {
+    result = std::string("error ") + e.what();
+  }
+  std::printf("%zu\n%s\n", peak_rss_bytes(), result.c_str());
+  std::fflush(stdout);
+  std::_Exit(0);
+}
+
+const bool kChildHook = [] {
+  if (const char* spec = std::getenv("HBP_LIMITS_CHILD")) child_main(spec);
+  return true;
+}();
+
+// ---- Parent side --------------------------------------------------------------
+
+struct ChildResult {
+  std::string output;        // the child's line
+  std::size_t peak_rss = 0;  // bytes (the child's VmHWM)
+  int status = 0;
+};
+
+ChildResult run_child(const std::string& spec) {
+  std::vector<std::string> env_store;
+  for (char** e = environ; *e != nullptr; ++e)
+    if (std::strncmp(*e, "HBP_LIMITS_CHILD=", 17) != 0) env_store.emplace_back(*e);
+  env_store.push_back("HBP_LIMITS_CHILD=" + spec);
+  std::vector<char*> envp;
+  for (std::string& s : env_store) envp.push_back(s.data());
+  envp.push_back(nullptr);
+  char name[] = "test_limits_child";
+  char* argv[] = {name, nullptr};
+
+  int fds[2];
+  if (pipe(fds) != 0) throw std::runtime_error("pipe failed");
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_adddup2(&actions, fds[1], STDOUT_FILENO);
+  posix_spawn_file_actions_addclose(&actions, fds[0]);
+  pid_t pid = 0;
+  const int rc = posix_spawn(&pid, "/proc/self/exe", &actions, nullptr, argv, envp.data());
+  posix_spawn_file_actions_destroy(&actions);
+  close(fds[1]);
+  if (rc != 0) {
+    close(fds[0]);
+    throw std::runtime_error("posix_spawn failed");
+  }
+  ChildResult r;
+  char buf[4096];
+  for (ssize_t got; (got = read(fds[0], buf, sizeof buf)) > 0;) r.output.append(buf, static_cast<std::size_t>(got));
+  close(fds[0]);
+  waitpid(pid, &r.status, 0);
+  while (!r.output.empty() && r.output.back() == '\n') r.output.pop_back();
+  const std::size_t eol = r.output.find('\n');
+  if (eol != std::string::npos) {
+    r.peak_rss = std::strtoull(r.output.c_str(), nullptr, 10);
+    r.output.erase(0, eol + 1);
+  }
+  return r;
+}
+
+std::string describe(const ChildResult& r) {
+  return "child said \"" + r.output + "\", peak RSS " + std::to_string(r.peak_rss / kMiB) + " MiB, status " +
+         std::to_string(r.status);
+}
+
+// ---- Pair explosion -----------------------------------------------------------
+
+// 20,000 coincident boxes: 199,990,000 pairs (1.6 GB as 8-byte pairs). With
+// max_pairs = 10^6 the frame must stop with CapacityExceeded while the
+// process stays small.
+void expect_explosion_stopped(const std::string& engine, std::size_t n) {
+  const std::size_t bound = HBP_LIMITS_SANITIZED ? 1536 * kMiB : 512 * kMiB;
+  const ChildResult r = run_child("coincident " + engine + " " + std::to_string(n) + " 1000000");
+  std::printf("explosion %zu coincident, engine %s, max_pairs 1e6: %s\n", n, engine.c_str(), describe(r).c_str());
+  EXPECT_TRUE(WIFEXITED(r.status)) << engine << ": " << describe(r);
+  EXPECT_EQ(r.output.rfind("capacity ", 0), 0u) << engine << ": " << describe(r);
+  EXPECT_NE(r.output.find("max_pairs"), std::string::npos) << engine << ": " << describe(r);
+  EXPECT_LT(r.peak_rss, bound) << engine << ": the explosion was not stopped near max_pairs: " << describe(r);
+}
+
+TEST(Limits, PairExplosionStopsWithinMaxPairs) {
+  for (const char* engine : {"sw", "sw-allpairs", "ae"}) expect_explosion_stopped(engine, 20000);
+}
+
+// The many-object engine holds 16,384 boxes: one engine call (a whole cell,
+// or a tile of an over-full one) may produce 1.3e8 pairs before the pipeline
+// counts them, unless the engine itself honours CellEngine::pair_limit().
+TEST(Limits, PairExplosionStopsWithinMaxPairsManyObject) {
+  expect_explosion_stopped("mo", 20000);  // tiled: two blocks of 8192 per call
+  expect_explosion_stopped("mo", 16000);  // one cell within the buffer
+}
+
+std::vector<std::string> limit_engines() {
+  static const bool registered = [] {
+    hbp::register_cell_engine("limits-ae-small", [] {
+      hbp::hw::ModelConfig cfg;
+      cfg.m = 4;
+      cfg.depth = 64;
+      return hbp::hw::make_area_efficient_engine(cfg);
+    });
+    return true;
+  }();
+  (void)registered;
+  return {"sw", "sw-allpairs", "ae", "mo", "limits-ae-small"};
+}
+
+// A frame with exactly max_pairs pairs completes (the limit is on the
+// frame's de-duplicated pairs, not on work done in tiles), one pair fewer
+// stops, and the same instance then runs the next frame normally.
+TEST(Limits, MaxPairsIsExactAndTheInstanceSurvives) {
+  const std::size_t n = 3000;
+  const std::uint64_t total = n * (n - 1) / 2;  // 4,498,500
+  const BoxArray boom = coincident(n);
+  const BoxArray calm = spread(4096);
+  for (const std::string& engine : limit_engines()) {
+    HybridBroadPhase exact({.engine = engine, .threads = 2, .max_pairs = total});
+    const auto& got = exact.update(boom);
+    ASSERT_EQ(got.size(), total) << engine;
+    EXPECT_EQ(got.front(), (Pair{0, 1})) << engine;
+    EXPECT_EQ(got.back(), (Pair{n - 2, n - 1})) << engine;
+    EXPECT_EQ(exact.stats().pairs, total);
+
+    HybridBroadPhase below({.engine = engine, .threads = 2, .max_pairs = total - 1});
+    EXPECT_THROW(below.update(boom), hbp::CapacityExceeded) << engine;
+    EXPECT_TRUE(below.update(calm).empty()) << engine;
+    EXPECT_THROW(below.update(boom), hbp::CapacityExceeded) << engine;
+    BoxArray few = calm;
+    few.set(1, {{0, 0, 0}, {1, 1, 1}});  // one pair with box 0
+    EXPECT_EQ(below.update(few), (std::vector<Pair>{{0, 1}})) << engine;
+  }
+}
+
+TEST(Limits, MaxPairsThroughTheNarrowPhaseSink) {
+  const BoxArray boom = coincident(2500);
+  HybridBroadPhase bp({.engine = "sw", .cell_limit = 64, .threads = 2, .max_pairs = 100000});
+  std::size_t delivered = 0;
+  EXPECT_THROW(bp.update(boom, [&](std::uint32_t, const Pair*, std::size_t count) { delivered += count; }),
+               hbp::CapacityExceeded);
+  EXPECT_LE(delivered, 100000u);
+  const BoxArray calm = spread(1000);
+  delivered = 0;
+  EXPECT_TRUE(bp.update(calm, [&](std::uint32_t, const Pair*, std::size_t count) { delivered += count; }).empty());
+  EXPECT_EQ(delivered, 0u);
+}
+
+// A large but legitimate explosion without a limit is exact.
+TEST(Limits, UnlimitedExplosionIsExact) {
+  const std::size_t n = 4000;
+  const BoxArray boom = coincident(n);
+  HybridBroadPhase bp({.engine = "sw", .threads = 2});
+  const auto& got = bp.update(boom);
+  ASSERT_EQ(got.size(), n * (n - 1) / 2);
+  EXPECT_EQ(got, hbp::brute_force_pairs(boom));
+}
+
+// Peak resident memory per object (no pairs) and per pair, from child
+// processes; the figures of docs/robustness.md.
+TEST(Limits, MemoryPerObjectAndPerPair) {
+  const ChildResult small = run_child("spread sw 1000 0");
+  const ChildResult large = run_child("spread sw 512000 0");
+  const ChildResult calm = run_child("spread sw 6000 0");
+  const ChildResult boom = run_child("coincident sw 6000 0");
+  ASSERT_EQ(small.output, "pairs 0") << describe(small);
+  ASSERT_EQ(large.output, "pairs 0") << describe(large);
+  ASSERT_EQ(boom.output, "pairs 17997000") << describe(boom);
+  const double per_object =
+      (static_cast<double>(large.peak_rss) - static_cast<double>(small.peak_rss)) / (512000.0 - 1000.0);
+  const double per_pair = (static_cast<double>(boom.peak_rss) - static_cast<double>(calm.peak_rss)) / 17997000.0;
+  std::printf("peak RSS: 1000 objects %zu MiB, 512000 objects %zu MiB -> %.0f bytes/object\n", small.peak_rss / kMiB,
+              large.peak_rss / kMiB, per_object);
+  std::printf("peak RSS: 6000 spread %zu MiB, 6000 coincident (17,997,000 pairs) %zu MiB -> %.1f bytes/pair\n",
+              calm.peak_rss / kMiB, boom.peak_rss / kMiB, per_pair);
+  EXPECT_GT(per_object, 24.0);  // at least the input boxes themselves
+  EXPECT_GT(per_pair, 8.0);     // at least the output pairs themselves
+  if (!HBP_LIMITS_SANITIZED) {
+    EXPECT_LT(per_object, 1024.0);
+    EXPECT_LT(per_pair, 64.0);
+  }
+}
+
+// ---- Input validation ---------------------------------------------------------
+
+struct Defect {
+  const char* what;      // expected in the message
+  char axis;             // expected in the message
+  Aabb box;
+};
+
+std::vector<Defect> defects() {
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float inf = std::numeric_limits<float>::infinity();
+  return {
+      {"NaN", 'x', {{nan, 0, 0}, {1, 1, 1}}},
+      {"NaN", 'z', {{0, 0, 0}, {1, 1, nan}}},
+      {"NaN", 'y', {{0, -nan, 0}, {1, 1, 1}}},
+      {"infinite", 'y', {{0, 0, 0}, {1, inf, 1}}},
+      {"infinite", 'z', {{0, 0, -inf}, {1, 1, 1}}},
+      {"infinite", 'x', {{-inf, 0, 0}, {inf, 1, 1}}},
+      {"min > max", 'y', {{0, 2, 0}, {1, 1, 1}}},
+      {"min > max", 'x', {{0.0f, 0, 0}, {-std::numeric_limits<float>::denorm_min(), 1, 1}}},
+  };
+}
+
+TEST(Validation, RejectsNaNInfAndInvertedBoxesNamingTheFirstObject) {
+  BoxArray good = spread(1000);
+  for (const char* engine : {"sw", "sw-allpairs", "ae", "mo"}) {
+    HybridBroadPhase bp({.engine = engine, .threads = 2});
+    for (const Defect& d : defects()) {
+      BoxArray bad = good;
+      bad.set(777, d.box);
+      bad.set(900, defects()[0].box);  // a later bad object is not the one named
+      try {
+        bp.update(bad);
+        ADD_FAILURE() << engine << ": accepted a box with " << d.what;
+      } catch (const hbp::InvalidInput& e) {
+        const std::string msg = e.what();
+        EXPECT_NE(msg.find("object 777:"), std::string::npos) << msg;
+        EXPECT_NE(msg.find(d.what), std::string::npos) << msg;
+        EXPECT_NE(msg.find(std::string("axis ") + d.axis), std::string::npos) << msg;
+      }
+      // The rejected frame leaves the instance usable.
+      EXPECT_TRUE(bp.update(good).empty()) << engine;
+    }
+    BoxArray first = good;
+    first.set(0, defects()[3].box);
+    EXPECT_THROW(bp.update(first), hbp::InvalidInput);
+    BoxArray last = good;
+    last.set(999, defects()[6].box);
+    try {
+      bp.update(last);
+      ADD_FAILURE() << "last box accepted";
+    } catch (const hbp::InvalidInput& e) {
+      EXPECT_NE(std::string(e.what()).find("object 999:"), std::string::npos) << e.what();
+    }
+  }
+}
+
+TEST(Validation, AcceptsExtremeButValidBoxes) {
+  const float big = std::numeric_limits<float>::max();
+  const float tiny = std::numeric_limits<float>::denorm_min();
+  BoxArray boxes;
+  boxes.push_back({{-big, -big, -big}, {big, big, big}});
+  boxes.push_back({{big, big, big}, {big, big, big}});
+  boxes.push_back({{-0.0f, -0.0f, -0.0f}, {0.0f, 0.0f, 0.0f}});
+  boxes.push_back({{tiny, tiny, tiny}, {tiny, tiny, tiny}});
+  boxes.push_back({{-tiny, 0, 0}, {-0.0f, 0, 0}});
+  for (const char* engine : {"sw", "sw-allpairs", "ae", "mo"}) {
+    HybridBroadPhase bp({.engine = engine, .cell_limit = 2});
+    const auto& got = bp.update(boxes);
+    EXPECT_EQ(got, hbp::brute_force_pairs(boxes)) << engine;
+    // Box 0 spans everything; 2 and 4 share x = 0 and the origin on y, z;
+    // 2 and 3 do not meet (3 is above +0 on every axis).
+    const std::vector<Pair> want = {{0, 1}, {0, 2}, {0, 3}, {0, 4}, {2, 4}};
+    EXPECT_EQ(got, want) << engine;
+  }
+}
+
+}  // namespace
