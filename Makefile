@@ -1,11 +1,15 @@
 # Two commands on a fresh Debian machine:
 #   make demo   installs dependencies, builds, runs the main job
 #   make test   installs dependencies, builds, runs the test suite
+# Hardening (docs/robustness.md):
+#   make test-sanitize   the suite again under ASan + UBSan (build-asan)
+#   make test-tsan       the threaded pipeline tests under TSan (build-tsan)
+#   make fuzz            each libFuzzer target for FUZZ_SECONDS (build-fuzz, clang)
 BUILD ?= build
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release -DHBP_WERROR=ON
 
-.PHONY: all deps configure build demo test clean
+.PHONY: all deps configure build demo test clean test-sanitize test-tsan fuzz
 
 all: build
 
@@ -28,3 +32,53 @@ test: build
 
 clean:
 	rm -rf $(BUILD)
+
+# ---- Hardening ----------------------------------------------------------------
+# Separate build directories; RTL and benchmarks are left out (not what the
+# sanitizers are for, and the Verilated model dominates build time).
+ASAN_BUILD ?= build-asan
+TSAN_BUILD ?= build-tsan
+FUZZ_BUILD ?= build-fuzz
+FUZZ_SECONDS ?= 60
+FUZZ_TARGETS = scene_native scene_broadmark cli broadphase
+HARDEN_FLAGS = -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1" \
+  -DHBP_WERROR=OFF -DHBP_BUILD_RTL=OFF -DHBP_BUILD_BENCH=OFF
+# The installed-package consumer test builds an uninstrumented project
+# against the instrumented library: not meaningful here.
+SANITIZE_EXCLUDE = ^bullet_consumer_package$$
+
+test-sanitize: deps
+	cmake -S . -B $(ASAN_BUILD) -G Ninja $(HARDEN_FLAGS) -DHBP_SANITIZE=ON
+	cmake --build $(ASAN_BUILD) -j $(JOBS)
+	cd $(ASAN_BUILD) && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:strict_string_checks=1 \
+	  UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+	  ctest --output-on-failure -j $(JOBS) --timeout 1800 -E '$(SANITIZE_EXCLUDE)'
+
+# TSan on the tests that run the hybrid system on several threads.
+TSAN_TESTS = test_hybrid_broadphase test_adversarial
+test-tsan: deps
+	cmake -S . -B $(TSAN_BUILD) -G Ninja $(HARDEN_FLAGS) \
+	  -DCMAKE_CXX_FLAGS="-fsanitize=thread" -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=thread"
+	cmake --build $(TSAN_BUILD) -j $(JOBS) --target $(TSAN_TESTS)
+	for t in $(TSAN_TESTS); do \
+	  TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1" \
+	    $(TSAN_BUILD)/tests/$$t || exit 1; \
+	done
+
+# libFuzzer needs clang: the library and the targets are instrumented for
+# coverage, ASan and UBSan. Each target runs FUZZ_SECONDS from the committed
+# seeds (fuzz/corpus/<target>, read-only) plus its own growing corpus in
+# $(FUZZ_BUILD)/corpus/<target>; crashes land in $(FUZZ_BUILD)/artifacts.
+fuzz: deps
+	cmake -S . -B $(FUZZ_BUILD) -G Ninja -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
+	  -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHBP_BUILD_RTL=OFF -DHBP_BUILD_BENCH=OFF -DHBP_FUZZ=ON \
+	  -DCMAKE_CXX_FLAGS="-fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=undefined"
+	cmake --build $(FUZZ_BUILD) -j $(JOBS) --target fuzzers
+	@set -e; for t in $(FUZZ_TARGETS); do \
+	  mkdir -p $(FUZZ_BUILD)/corpus/$$t $(FUZZ_BUILD)/artifacts/$$t; \
+	  echo "fuzz_$$t: $(FUZZ_SECONDS) s"; \
+	  $(FUZZ_BUILD)/fuzz/fuzz_$$t -max_total_time=$(FUZZ_SECONDS) -print_final_stats=1 \
+	    -artifact_prefix=$(FUZZ_BUILD)/artifacts/$$t/ $(FUZZ_BUILD)/corpus/$$t fuzz/corpus/$$t \
+	    > $(FUZZ_BUILD)/fuzz_$$t.log 2>&1 || { tail -60 $(FUZZ_BUILD)/fuzz_$$t.log; exit 1; }; \
+	  grep -E "stat::(number_of_executed_units|average_exec_per_sec|new_units_added)" $(FUZZ_BUILD)/fuzz_$$t.log; \
+	done
