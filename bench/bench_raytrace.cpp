@@ -16,6 +16,7 @@
 
 #include <atomic>
 #include <cmath>
+#include <ctime>
 #include <limits>
 #include <map>
 #include <memory>
@@ -357,6 +358,7 @@ RayScene& ray_scene(std::uint32_t n) {
 template <class Trace>
 void trace_rays(benchmark::State& state, const std::vector<Ray>& rays, Trace&& trace) {
   std::atomic<std::uint64_t> hits{0};
+  const std::clock_t cpu_start = std::clock();  // process CPU time, all threads
   for (auto _ : state) {
     hits = 0;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, rays.size(), 1024), [&](const auto& r) {
@@ -365,6 +367,10 @@ void trace_rays(benchmark::State& state, const std::vector<Ray>& rays, Trace&& t
       hits += local;
     });
   }
+  const double cpu_s = static_cast<double>(std::clock() - cpu_start) / CLOCKS_PER_SEC;
+  const double traced = static_cast<double>(rays.size()) * static_cast<double>(state.iterations());
+  // Throughput per CPU-second: what the machine's other load cannot inflate.
+  state.counters["Mrays_per_cpu_s"] = cpu_s > 0 ? traced / 1e6 / cpu_s : 0;
   state.counters["rays"] = static_cast<double>(rays.size());
   state.counters["hit_fraction"] = static_cast<double>(hits.load()) / static_cast<double>(rays.size());
   state.counters["Mrays/s"] =
@@ -402,7 +408,9 @@ void BM_Rays_Shadow_Embree(benchmark::State& state) {
 #endif
 
 void sizes(benchmark::internal::Benchmark* b) {
-  b->Arg(100000)->Arg(1024000)->Unit(benchmark::kMillisecond)->UseRealTime();
+  // Wall time, and CPU time of the whole process (all threads) for a machine
+  // shared with other work.
+  b->Arg(100000)->Arg(1024000)->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime();
 }
 void maintenance(benchmark::internal::Benchmark* b) { sizes(b); b->Iterations(8); }
 void rays(benchmark::internal::Benchmark* b) { sizes(b); b->Iterations(3); }
@@ -416,6 +424,7 @@ BENCHMARK(BM_Maintain_PartitionPlusEmbree)
     ->ArgsProduct({{100000, 1024000}, {RTC_BUILD_QUALITY_LOW, RTC_BUILD_QUALITY_REFIT}})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()
+    ->MeasureProcessCPUTime()
     ->Iterations(8);
 #endif
 // Ray benchmarks of one n run together (the scene is built once per n).

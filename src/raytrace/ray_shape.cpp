@@ -31,6 +31,12 @@ void prepare_shapes(std::span<const Shape> shapes, std::vector<ShapeGeometry>& o
 
 namespace {
 
+// Rims, edges and the apex are part of the closed surfaces: a ray through
+// one must not slip between the two surfaces meeting there by rounding, so
+// the bounds of each surface patch are widened by a relative 1e-12 (far
+// below float32 AABB precision, which the traversal's culling allows for).
+constexpr double kClosed = 1 + 1e-12;
+
 // Real roots of a t^2 + 2 b t + c = 0, ascending (numerically stable form).
 int solve_quadratic(double a, double b, double c, double r[2]) {
   if (a == 0) {
@@ -38,8 +44,13 @@ int solve_quadratic(double a, double b, double c, double r[2]) {
     r[0] = -c / (2 * b);
     return 1;
   }
-  const double disc = b * b - a * c;
-  if (disc < 0) return 0;
+  double disc = b * b - a * c;
+  if (disc < 0) {
+    // A tangent ray (double root, e.g. through the cone's apex) can round to a
+    // slightly negative discriminant.
+    if (disc < -1e-14 * b * b) return 0;
+    disc = 0;
+  }
   const double q = -(b + std::copysign(std::sqrt(disc), b));
   if (q == 0) {  // b == 0 and disc == 0, so c == 0: a double root at 0
     r[0] = 0;
@@ -113,14 +124,14 @@ bool cylinder(const double o[3], const double d[3], const double h[3], double tm
   const int n = solve_quadratic(dx * dx + dy * dy, ox * dx + oy * dy, ox * ox + oy * oy - 1, r);
   for (int i = 0; i < n; ++i) {
     const double z = o[2] + r[i] * d[2];
-    if (z >= -h[2] && z <= h[2]) best.offer(r[i], 0, tmin);
+    if (std::fabs(z) <= h[2] * kClosed) best.offer(r[i], 0, tmin);
   }
   if (d[2] != 0) {
     for (int s = 0; s < 2; ++s) {
       const double zc = s == 0 ? h[2] : -h[2];
       const double t = (zc - o[2]) / d[2];
       const double x = ox + t * dx, y = oy + t * dy;
-      if (x * x + y * y <= 1) best.offer(t, static_cast<std::uint8_t>(1 + s), tmin);
+      if (x * x + y * y <= kClosed) best.offer(t, static_cast<std::uint8_t>(1 + s), tmin);
     }
   }
   return best.found;
@@ -135,12 +146,12 @@ bool cone(const double o[3], const double d[3], const double h[3], double tmin, 
   const int n = solve_quadratic(dx * dx + dy * dy - wd * wd, ox * dx + oy * dy - w0 * wd, ox * ox + oy * oy - w0 * w0, r);
   for (int i = 0; i < n; ++i) {
     const double w = w0 + r[i] * wd;
-    if (w >= 0 && w <= 1) best.offer(r[i], 0, tmin);
+    if (w >= 1 - kClosed && w <= kClosed) best.offer(r[i], 0, tmin);
   }
   if (d[2] != 0) {
     const double t = (-h[2] - o[2]) / d[2];
     const double x = ox + t * dx, y = oy + t * dy;
-    if (x * x + y * y <= 1) best.offer(t, 2, tmin);
+    if (x * x + y * y <= kClosed) best.offer(t, 2, tmin);
   }
   return best.found;
 }
@@ -192,7 +203,15 @@ void surface_normal(const ShapeGeometry& g, const double p[3], std::uint8_t part
       } else {
         m[0] = l[0] / sq(h[0]);
         m[1] = l[1] / sq(h[1]);
-        if (g.kind == ShapeKind::Cone && h[2] > 0) m[2] = (h[2] - l[2]) / (4 * h[2] * h[2]);
+        if (g.kind == ShapeKind::Cone && h[2] > 0) {
+          const double w = (h[2] - l[2]) / (2 * h[2]);
+          if (w < 1e-9) {  // the apex: no tangent plane, use the axis
+            m[0] = m[1] = 0;
+            m[2] = 1;
+          } else {
+            m[2] = w / (2 * h[2]);
+          }
+        }
       }
       break;
   }
@@ -204,8 +223,8 @@ void surface_normal(const ShapeGeometry& g, const double p[3], std::uint8_t part
   len = std::sqrt(len);
   if (len > 0) {
     for (int i = 0; i < 3; ++i) n[i] /= len;
-  } else {
-    n[0] = 0, n[1] = 0, n[2] = 1;
+  } else {  // the cone's apex: its axis
+    for (int i = 0; i < 3; ++i) n[i] = g.rot[i][2];
   }
 }
 
