@@ -32,6 +32,10 @@
 #include "hbp/pair.hpp"
 
 namespace hbp::bullet {
+
+static_assert(sizeof(btScalar) == sizeof(float),
+              "hbp::bullet::HybridBroadphase needs single-precision Bullet (the boxes are float32)");
+
 namespace {
 
 constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
