@@ -64,6 +64,21 @@ class KdPartition {
   }
   std::uint32_t cell_size(std::uint32_t c) const { return nodes_[leaf_nodes_[c]].size; }
   const CellRegion& region(std::uint32_t c) const { return regions_[c]; }
+
+  // The tree itself, for structures that share it (the ray tracer's two-level
+  // hierarchy). Node 0 is the root; follow children from there (nodes not
+  // reachable from the root are unused).
+  struct NodeView {
+    std::int32_t axis;    // -1: leaf
+    float split;          // left: coordinate < split, right: >= split
+    std::uint32_t child;  // left child (right is child + 1), internal nodes
+    std::uint32_t cell;   // cell index, leaves
+  };
+  std::uint32_t node_count() const { return static_cast<std::uint32_t>(nodes_.size()); }
+  NodeView node(std::uint32_t i) const {
+    const Node& n = nodes_[i];
+    return {n.axis, n.split, n.child, n.leaf};
+  }
   const PartitionStats& stats() const { return stats_; }
 
  private:
