@@ -212,3 +212,30 @@ TEST(HybridBroadPhase, SinkSeesEveryPairOnceInCellOrder) {
 }
 
 }  // namespace
+
+#include "hbp/two_level_hierarchy.hpp"
+
+namespace {
+
+// The broad phase on the ray tracer's shared hierarchy: one structure per
+// frame, same pairs as the oracle.
+TEST(HybridBroadPhase, RunsOnTheSharedTwoLevelHierarchy) {
+  hbp::ScenarioParams p;
+  p.n = 5000;
+  p.seed = 12;
+  hbp::Scenario scene(p);
+  hbp::TwoLevelHierarchy hierarchy(hbp::HierarchyOptions{.cell_limit = 200});
+  HybridBroadPhase bp({.engine = "sw", .threads = 2});
+  BoxArray boxes;
+  for (int f = 0; f < 4; ++f) {
+    scene.compute_boxes(boxes);
+    hierarchy.update(boxes);
+    const auto& got = bp.update(hierarchy.partition());
+    EXPECT_EQ(got, hbp::brute_force_pairs(boxes)) << "frame " << f;
+    EXPECT_EQ(bp.stats().cells, hierarchy.partition().cell_count());
+    EXPECT_GT(bp.stats().cells, 10u);
+    scene.step();
+  }
+}
+
+}  // namespace

@@ -17,6 +17,8 @@
 
 namespace hbp {
 
+class KdPartition;
+
 struct BroadPhaseOptions {
   std::string engine = "sw";     // see make_cell_engine()
   std::uint32_t cell_limit = 0;  // 0: the engine's default; else >= 2
@@ -59,6 +61,11 @@ class HybridBroadPhase {
   // CapacityExceeded when the frame has more than options().max_pairs pairs
   // (checked as cells complete, so memory stays bounded).
   const std::vector<Pair>& update(const BoxArray& boxes, const PairSink& sink = {},
+                                  const PairSink& parallel_consumer = {});
+  // Runs the engines on cells partitioned elsewhere (the ray tracer's shared
+  // two-level hierarchy, see two_level_hierarchy.hpp), so a frame maintains
+  // one structure, not two. partition_ms is then 0.
+  const std::vector<Pair>& update(const KdPartition& cells, const PairSink& sink = {},
                                   const PairSink& parallel_consumer = {});
   const std::vector<Pair>& pairs() const;
   const FrameStats& stats() const;

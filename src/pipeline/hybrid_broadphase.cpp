@@ -60,7 +60,8 @@ struct HybridBroadPhase::Impl {
   std::unique_ptr<CellEngine> prototype;
   std::uint32_t cell_limit;
   tbb::task_arena arena;
-  KdPartition partition;
+  KdPartition own_partition;
+  const KdPartition* partition = &own_partition;  // this frame's cells
   tbb::enumerable_thread_specific<Worker> workers;
   std::vector<std::vector<Pair>> cell_pairs;
   std::vector<std::uint64_t> cell_cycles;
@@ -81,7 +82,7 @@ struct HybridBroadPhase::Impl {
         prototype(make_cell_engine(o.engine)),
         cell_limit(choose_limit(o, *prototype)),
         arena(o.threads ? static_cast<int>(o.threads) : tbb::task_arena::automatic),
-        partition(cell_limit, prototype->x_split_weight()),
+        own_partition(cell_limit, prototype->x_split_weight()),
         workers([this] {
           Worker w{prototype->clone(), BoxArray{}, {}, {}, {}, {}};
           if (options.max_pairs) w.engine->set_pair_limit(options.max_pairs);
@@ -115,9 +116,9 @@ struct HybridBroadPhase::Impl {
 
   void process_cell(std::uint32_t c) {
     Worker& w = workers.local();
-    const CellEntry* cell = partition.cell(c).data();
-    const std::uint32_t n = partition.cell_size(c);
-    const CellRegion& region = partition.region(c);
+    const CellEntry* cell = partition->cell(c).data();
+    const std::uint32_t n = partition->cell_size(c);
+    const CellRegion& region = partition->region(c);
     w.min_x.resize(n);
     for (std::uint32_t i = 0; i < n; ++i) w.min_x[i] = cell[i].min[0];
     min_x_order(w.min_x.data(), n, w.order, w.sort_scratch);
@@ -169,15 +170,20 @@ struct HybridBroadPhase::Impl {
     candidates[c] = found;
   }
 
-  void run(const BoxArray& boxes, const PairSink& sink, const PairSink& consumer) {
+  void run(const BoxArray* boxes, const KdPartition* shared, const PairSink& sink, const PairSink& consumer) {
     running_pairs = 0;
     const auto t0 = Clock::now();
-    validate_boxes(boxes);
-    partition.update(boxes);
+    if (shared) {
+      partition = shared;  // cells maintained elsewhere (the ray tracer's hierarchy)
+    } else {
+      partition = &own_partition;
+      validate_boxes(*boxes);
+      own_partition.update(*boxes);
+    }
     const double partition_ms = ms_since(t0);
 
     const auto t1 = Clock::now();
-    const std::uint32_t cells = partition.cell_count();
+    const std::uint32_t cells = partition->cell_count();
     if (cell_pairs.size() < cells) cell_pairs.resize(cells);
     cell_cycles.assign(cells, 0);
     candidates.assign(cells, 0);
@@ -234,7 +240,7 @@ struct HybridBroadPhase::Impl {
     if (options.sorted) sort_pairs(pairs);
     const double merge_ms = ms_since(t2);
 
-    const PartitionStats& ps = partition.stats();
+    const PartitionStats& ps = partition->stats();
     stats.pairs = total;
     stats.candidate_pairs = cand;
     stats.cells = ps.cells;
@@ -263,7 +269,13 @@ HybridBroadPhase& HybridBroadPhase::operator=(HybridBroadPhase&&) noexcept = def
 
 const std::vector<Pair>& HybridBroadPhase::update(const BoxArray& boxes, const PairSink& sink,
                                                   const PairSink& parallel_consumer) {
-  impl_->arena.execute([&] { impl_->run(boxes, sink, parallel_consumer); });
+  impl_->arena.execute([&] { impl_->run(&boxes, nullptr, sink, parallel_consumer); });
+  return impl_->pairs;
+}
+
+const std::vector<Pair>& HybridBroadPhase::update(const KdPartition& cells, const PairSink& sink,
+                                                  const PairSink& parallel_consumer) {
+  impl_->arena.execute([&] { impl_->run(nullptr, &cells, sink, parallel_consumer); });
   return impl_->pairs;
 }
 const std::vector<Pair>& HybridBroadPhase::pairs() const { return impl_->pairs; }
