@@ -131,7 +131,10 @@ std::string header_text(const BenchHeader& h) {
   o << "Threads: our software hybrid and the models' partition run with " << c.choice.threads
     << " thread(s); Bullet and CGAL are single-threaded.  \n";
   o << "Budget: a system is skipped in a row when its projected time there exceeds "
-    << format_duration(c.budget_s) << " (projected from its earlier rows).  \n";
+    << format_duration(c.budget_s);
+  for (const auto& [k, secs] : c.budget_for) o << ", " << k << " " << format_duration(secs);
+  o << " (projected from its earlier rows; a system is also stopped in a row once it has spent twice its "
+       "budget there).  \n";
   o << "Machine:\n\n";
   for (const auto& [k, v] : h.machine) o << "- " << k << ": " << v << "\n";
   o << "\n";
@@ -303,6 +306,7 @@ std::vector<std::string> write_report_files(const std::string& dir, const BenchR
                        {"warmup", h.config.warmup},     {"threads", h.config.choice.threads},
                        {"budget_s", h.config.budget_s}, {"reference", r.reference},
                        {"clock", h.config.choice.clock == BenchClock::Cpu ? "cpu" : "wall"}};
+    for (const auto& [k, secs] : h.config.budget_for) j["parameters"]["budget_for_s"][k] = secs;
     for (const auto& [k, v] : h.machine) j["machine"][k] = v;
     j["total_s"] = r.total_s;
     j["not_built"] = r.missing;

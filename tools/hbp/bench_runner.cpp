@@ -42,15 +42,16 @@ std::string format_duration(double s) {
 BenchRunner::BenchRunner(const BenchConfig& config, Progress progress, Log log)
     : config_(config), progress_(std::move(progress)), log_(std::move(log)) {
   systems_ = make_bench_systems(config_.choice, result_.missing);
+  auto check_key = [](const std::string& k) {
+    const auto known = bench_system_keys();
+    if (std::find(known.begin(), known.end(), k) != known.end()) return;
+    std::string list;
+    for (const auto& s : known) list += (list.empty() ? "" : ", ") + s;
+    throw InvalidInput("unknown bench system '" + k + "' (known: " + list + ")");
+  };
+  for (const auto& [k, secs] : config_.budget_for) check_key(k);
   if (!config_.only.empty()) {
-    for (const auto& k : config_.only) {
-      const auto known = bench_system_keys();
-      if (std::find(known.begin(), known.end(), k) == known.end()) {
-        std::string list;
-        for (const auto& s : known) list += (list.empty() ? "" : ", ") + s;
-        throw InvalidInput("unknown bench system '" + k + "' (known: " + list + ")");
-      }
-    }
+    for (const auto& k : config_.only) check_key(k);
     std::erase_if(systems_, [&](const auto& s) {
       return std::find(config_.only.begin(), config_.only.end(), s->key()) == config_.only.end();
     });
@@ -105,7 +106,7 @@ void BenchRunner::run_row(FrameSource& source) {
       continue;
     }
     const double projected = project_seconds(i, n);
-    if (projected > config_.budget_s) {
+    if (projected > config_.budget_of(s.key())) {
       c.status = CellStatus::Skipped;
       c.note = "skipped, projected " + format_duration(projected);
       continue;
@@ -141,9 +142,10 @@ void BenchRunner::run_row(FrameSource& source) {
   // Stops a system whose time in this row runs far past the budget (the
   // projection had no earlier row, or was wrong).
   auto over_budget = [&](std::size_t i) {
-    if (spent[i] <= 2 * config_.budget_s) return false;
+    const double budget = config_.budget_of(systems_[i]->key());
+    if (spent[i] <= 2 * budget) return false;
     active[i] = false;
-    row.cells[i].note = "stopped at " + format_duration(spent[i]) + " (budget " + format_duration(config_.budget_s) +
+    row.cells[i].note = "stopped at " + format_duration(spent[i]) + " (budget " + format_duration(budget) +
                         ") after " + std::to_string(reported[i].size()) + " frames";
     log_("n=" + std::to_string(n) + " " + systems_[i]->key() + ": " + row.cells[i].note);
     return true;

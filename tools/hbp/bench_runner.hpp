@@ -7,6 +7,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "bench_systems.hpp"
@@ -29,6 +30,14 @@ struct BenchConfig {
   std::uint32_t variants = 3;  // worlds per row (paper scenario: seed = variant)
   std::uint32_t warmup = 3;    // untimed frames after setup, per variant
   double budget_s = 120;       // per system per row: skip when projected beyond
+  // Per-system budgets overriding budget_s (key -> seconds), e.g. a small one
+  // for bt32BitAxisSweep3, whose quadratic setup would eat a large budget.
+  std::vector<std::pair<std::string, double>> budget_for;
+  double budget_of(const std::string& key) const {
+    for (const auto& [k, s] : budget_for)
+      if (k == key) return s;
+    return budget_s;
+  }
   std::vector<std::string> only;  // system keys to run (empty: all)
   SystemChoice choice;
 };

@@ -41,6 +41,7 @@ struct BenchArgs {
   unsigned threads = 1;
   std::string clock = "wall";
   double budget_s = 120;
+  std::vector<std::string> budget_for;
   std::vector<std::string> systems;
   bool quick = false, no_plots = false;
   std::string out;
@@ -94,6 +95,14 @@ void run_bench(const BenchArgs& a, bool paper) {
   config.variants = a.variants;
   config.warmup = a.warmup;
   config.budget_s = a.budget_s;
+  for (const auto& item : a.budget_for) {
+    const auto eq = item.find('=');
+    char* end = nullptr;
+    const double seconds = eq == std::string::npos ? -1 : std::strtod(item.c_str() + eq + 1, &end);
+    if (eq == std::string::npos || seconds < 0 || end == item.c_str() + eq + 1 || *end != '\0')
+      throw InvalidInput("--budget-for: expected SYSTEM=SECONDS, got '" + item + "'");
+    config.budget_for.emplace_back(item.substr(0, eq), seconds);
+  }
   config.only = a.systems;
   config.choice.threads = a.threads;
   if (a.clock == "cpu") {
@@ -215,6 +224,9 @@ void add_common(CLI::App* cmd, BenchArgs& a) {
       ->capture_default_str();
   cmd->add_option("--budget", a.budget_s, "Seconds per system per row; skip systems projected beyond it")
       ->capture_default_str();
+  cmd->add_option("--budget-for", a.budget_for,
+                  "Per-system budgets, SYSTEM=SECONDS (comma list), e.g. bullet-axis-sweep=30,brute=30")
+      ->delimiter(',');
   cmd->add_option("--systems", a.systems, "Only these systems (comma list): bullet-dbvt, bullet-dbvt-deferred, "
                                            "bullet-axis-sweep, cgal, brute, sw, ae-none, ae-1024, mo-none, "
                                            "mo-1024 ... mo-16384")
