@@ -424,6 +424,7 @@ TEST(RtlBoxes, NaNCoordinateNeverOverlapsLikeTheCppTest) {
 // ------------------------------------------------ rtl-ae / rtl-mo engines
 #include "hbp/cell_engine.hpp"
 #include "hbp/error.hpp"
+#include "hbp/hybrid_broadphase.hpp"
 #include "hbp/rtl/rtl_engines.hpp"
 
 namespace hbp::rtl {
@@ -464,6 +465,31 @@ TEST(RtlEngines, RegisteredAndEqualToTheOracle) {
   std::unique_ptr<CellEngine> ae = make_cell_engine("rtl-ae");
   std::vector<Pair> out;
   EXPECT_THROW(ae->find_pairs(random_boxes(1025, 1, 10.f, 1.f, 2.f), out), CapacityExceeded);
+}
+
+TEST(RtlEngines, HybridSystemWithTheHardwareInTheLoop) {
+  // The whole hybrid system (k-d partition -> RTL -> de-duplication) on a
+  // frame several cells large: the oracle's pairs, and the same modelled
+  // cycles as with the C++ model engines on the same cells.
+  register_rtl_engines();
+  const BoxArray boxes = random_boxes(3000, 21, 400.f, 5.f, 40.f);
+  const std::vector<Pair> oracle = brute_force_pairs(boxes);
+  for (const auto& [rtl, model] : {std::pair{"rtl-ae", "ae"}, std::pair{"rtl-mo", "mo"}}) {
+    SCOPED_TRACE(rtl);
+    BroadPhaseOptions opt;
+    opt.engine = rtl;
+    opt.cell_limit = 512;
+    opt.threads = 2;
+    HybridBroadPhase hw(opt);
+    EXPECT_EQ(hw.update(boxes), oracle);
+    const FrameStats rtl_stats = hw.stats();
+    EXPECT_GT(rtl_stats.cells, 4u);
+    opt.engine = model;
+    HybridBroadPhase ref(opt);
+    EXPECT_EQ(ref.update(boxes), oracle);
+    EXPECT_EQ(rtl_stats.modelled_cycles, ref.stats().modelled_cycles);
+    EXPECT_GT(rtl_stats.modelled_cycles, 0u);
+  }
 }
 
 }  // namespace
