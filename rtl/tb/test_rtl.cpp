@@ -365,6 +365,33 @@ TEST(RtlPaper, SequenceFormulasMatchTheTables) {
   EXPECT_EQ(mo_sequence_cycles(5, 4), 4u + 0u);  // rows: 4 steps, then a row of one object
 }
 
+TEST(RtlInterface, LoadPastCapacityIsDroppedAndFlagged) {
+  auto ctx = std::make_unique<VerilatedContext>();
+  models::ae_m1::V top(ctx.get(), "top");
+  auto tick = [&] {
+    top.clk = 1;
+    top.eval();
+    top.clk = 0;
+    top.eval();
+  };
+  top.rst = 1;
+  tick();
+  top.rst = 0;
+  top.load_valid = 1;
+  for (unsigned k = 0; k < models::ae_m1::depth + 3; ++k) tick();
+  top.load_valid = 0;
+  tick();
+  EXPECT_EQ(top.n_loaded, models::ae_m1::depth);
+  EXPECT_TRUE(top.load_error);
+  EXPECT_EQ(top.cyc_load, models::ae_m1::depth);
+  top.clear = 1;
+  tick();
+  top.clear = 0;
+  EXPECT_EQ(top.n_loaded, 0u);
+  EXPECT_FALSE(top.load_error);
+  top.final();
+}
+
 // ---------------------------------------------------- float comparator
 float from_bits(std::uint32_t u) { return std::bit_cast<float>(u); }
 
