@@ -32,7 +32,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   argv.push_back(nullptr);
 
   const auto app = hbp::cli::make_app();
-  hbp::cli::remove_callbacks(*app);
+  const hbp::cli::RemovedCallbacks kept = hbp::cli::remove_callbacks(*app);  // option storage
   try {
     app->parse(static_cast<int>(args.size()), argv.data());
   } catch (const CLI::ParseError& e) {

@@ -1,5 +1,7 @@
 #include "app.hpp"
 
+#include <utility>
+
 #include "command_registry.hpp"
 
 namespace hbp::cli {
@@ -17,10 +19,31 @@ std::unique_ptr<CLI::App> make_app() {
   return app;
 }
 
-void remove_callbacks(CLI::App& app) {
-  app.callback({});
-  app.preparse_callback({});
-  for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) remove_callbacks(*sub);
+namespace {
+
+// CLI::App has no getters for its callbacks; pointers to its protected
+// members, formed in a derived class, reach them.
+struct CallbackMembers : CLI::App {
+  static constexpr auto final_callback = &CallbackMembers::final_callback_;
+  static constexpr auto complete_callback = &CallbackMembers::parse_complete_callback_;
+  static constexpr auto preparse_callback = &CallbackMembers::pre_parse_callback_;
+};
+
+void take_callbacks(CLI::App& app, RemovedCallbacks& out) {
+  for (auto member : {CallbackMembers::final_callback, CallbackMembers::complete_callback}) {
+    if (app.*member) out.callbacks.push_back(std::exchange(app.*member, nullptr));
+  }
+  if (app.*CallbackMembers::preparse_callback)
+    out.preparse_callbacks.push_back(std::exchange(app.*CallbackMembers::preparse_callback, nullptr));
+  for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) take_callbacks(*sub, out);
+}
+
+}  // namespace
+
+RemovedCallbacks remove_callbacks(CLI::App& app) {
+  RemovedCallbacks removed;
+  take_callbacks(app, removed);
+  return removed;
 }
 
 }  // namespace hbp::cli
