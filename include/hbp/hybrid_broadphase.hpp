@@ -25,6 +25,9 @@ struct BroadPhaseOptions {
   unsigned threads = 0;          // 0: all cores
   bool sorted = true;            // pairs sorted by (a, b); else cell order
   std::uint64_t max_pairs = 0;   // 0: unlimited; else CapacityExceeded beyond
+  // Hardware engines: keep splitting cells under the limit while that lowers
+  // the summed modelled cycles (the paper splits only down to the limit).
+  bool cost_splits = false;
 };
 
 struct FrameStats {

@@ -6,7 +6,8 @@
 // leaves merged, and the tree is rebuilt when its quality degrades.
 //
 // Split rule: median of box centres on the axis of largest centre spread
-// (the x spread optionally weighted, see the constructor); if
+// (the x spread optionally weighted, see the constructor), down to the cell
+// limit or, with a cell cost, as far as splitting pays; if
 // that split does not shrink both children, the other axes are tried; if none
 // does (identical or nested boxes), the leaf stays over-full and the engines
 // process it in tiles.
@@ -14,6 +15,7 @@
 // Routing uses half-open cell regions: a box goes left when min < split and
 // right when max >= split.
 #include <cstdint>
+#include <functional>
 #include <span>
 #include <vector>
 
@@ -47,7 +49,12 @@ class KdPartition {
  public:
   // x_split_weight scales the x spread when choosing the split axis (< 1
   // favours splitting y and z: cells longer in x, for a sweep along x).
-  explicit KdPartition(std::uint32_t cell_limit, float x_split_weight = 1.0f);
+  // cell_cost, when given, is the engine's cost of one cell of n objects
+  // (the hardware models' cycles): a leaf under the limit is still split while
+  // that lowers the summed cost (duplicates included), and sibling leaves are
+  // merged when that does not raise it.
+  using CellCost = std::function<double(std::uint32_t n)>;
+  explicit KdPartition(std::uint32_t cell_limit, float x_split_weight = 1.0f, CellCost cell_cost = {});
 
   // Partitions a frame. Boxes must be valid (no NaN, min <= max). Object i of
   // this frame is assumed to be object i of the previous one (coherence).
@@ -104,6 +111,7 @@ class KdPartition {
 
   std::uint32_t cell_limit_;
   float x_split_weight_;
+  CellCost cell_cost_;
   const BoxArray* boxes_ = nullptr;  // the frame being partitioned
   std::vector<Node> nodes_;
   std::vector<CellRegion> node_regions_;   // per node, valid for live nodes

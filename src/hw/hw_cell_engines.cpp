@@ -10,6 +10,7 @@
 #include "hbp/hw/buffer_input_checks.hpp"
 #include "hbp/hw/hardware_order_pairs.hpp"
 #include "hbp/hw/many_object_model.hpp"
+#include "hbp/software_engine.hpp"
 
 namespace hbp::hw {
 namespace {
@@ -43,6 +44,17 @@ class HardwareModelEngine final : public CellEngine {
     return {cycles_for(static_cast<std::uint32_t>(cell.size()))};
   }
 
+  // The hybrid system's path. The pairs' set is what the hardware writes;
+  // the fast path finds it with the SIMD sweep (same set, software order) and
+  // charges the analytic cycles. The -sim engines keep the hardware's order.
+  CellRun find_owned_pairs(const BoxArray& cell, const CellRegion& region, std::vector<Pair>& out) override {
+    if (simulate_) return CellEngine::find_owned_pairs(cell, region, out);
+    check_capacity(design_, cfg_, cell.size());
+    pairs_engine_.set_pair_limit(pair_limit_);
+    pairs_engine_.find_owned_pairs(cell, region, out);
+    return {cycles_for(static_cast<std::uint32_t>(cell.size()))};
+  }
+
   std::uint64_t cycles_for(std::uint32_t n) const override {
     return analytic_cycles(design_, n, cfg_).total();
   }
@@ -67,6 +79,7 @@ class HardwareModelEngine final : public CellEngine {
   bool simulate_;
   std::unique_ptr<AreaEfficientModel> area_efficient_;
   std::unique_ptr<ManyObjectModel> many_object_;
+  SoftwareEngine pairs_engine_;
 };
 
 }  // namespace

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cstdlib>
 #include <cmath>
+#include <utility>
 #include <limits>
 #include <string>
 
@@ -21,8 +22,8 @@ constexpr std::uint32_t kRouteChunks = 64;
 
 }  // namespace
 
-KdPartition::KdPartition(std::uint32_t cell_limit, float x_split_weight)
-    : cell_limit_(cell_limit), x_split_weight_(x_split_weight) {
+KdPartition::KdPartition(std::uint32_t cell_limit, float x_split_weight, CellCost cell_cost)
+    : cell_limit_(cell_limit), x_split_weight_(x_split_weight), cell_cost_(std::move(cell_cost)) {
   if (cell_limit < 2) throw InvalidInput("cell limit must be >= 2 (got " + std::to_string(cell_limit) + ")");
 }
 
@@ -38,7 +39,8 @@ void KdPartition::build_node(std::uint32_t node, std::vector<std::uint32_t>& ids
   const auto count = static_cast<std::uint32_t>(ids.size());
   nodes_[node].axis = -1;
   nodes_[node].size = count;
-  if (count <= cell_limit_ || depth >= kMaxDepth) return;
+  const bool over_limit = count > cell_limit_;
+  if ((!over_limit && !cell_cost_) || count < 4 || depth >= kMaxDepth) return;
   const BoxArray& boxes = *boxes_;
 
   // Axes ordered by the spread of box centres, widest first.
@@ -76,7 +78,14 @@ void KdPartition::build_node(std::uint32_t node, std::vector<std::uint32_t>& ids
       if (mn[id] < split) left.push_back(id);
       if (mx[id] >= split) right.push_back(id);
     }
-    if (left.size() < count && right.size() < count) {
+    bool accept = left.size() < count && right.size() < count;
+    if (accept && !over_limit) {
+      // Under the limit: split only if the engine's summed cost drops.
+      const double children = cell_cost_(static_cast<std::uint32_t>(left.size())) +
+                              cell_cost_(static_cast<std::uint32_t>(right.size()));
+      accept = children < 0.95 * cell_cost_(count);
+    }
+    if (accept) {
       const auto child = static_cast<std::uint32_t>(nodes_.size());
       nodes_[node].axis = a;
       nodes_[node].split = split;
@@ -282,7 +291,10 @@ void KdPartition::merge_sparse() {
     const Node& l = nodes_[nd.child];
     const Node& r = nodes_[nd.child + 1];
     if (l.axis < 0 && r.axis < 0) {
-      if (l.size + r.size <= cell_limit_ / 4) {
+      const bool merge = cell_cost_ ? (l.size + r.size <= cell_limit_ &&
+                                       cell_cost_(l.size + r.size) <= cell_cost_(l.size) + cell_cost_(r.size))
+                                    : l.size + r.size <= cell_limit_ / 4;
+      if (merge) {
         nd.size = l.size + r.size;
         nd.axis = -1;
         ++stats_.merges;

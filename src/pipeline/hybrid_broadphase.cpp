@@ -77,12 +77,19 @@ struct HybridBroadPhase::Impl {
     return limit;
   }
 
+  static KdPartition::CellCost cell_cost(const BroadPhaseOptions& o, const CellEngine& e) {
+    if (!o.cost_splits || e.clock_hz() <= 0) return {};
+    // The cells of a frame run one after another: their cycles add up.
+    std::shared_ptr<const CellEngine> engine = e.clone();
+    return [engine](std::uint32_t n) { return static_cast<double>(engine->cycles_for(n)); };
+  }
+
   explicit Impl(const BroadPhaseOptions& o)
       : options(o),
         prototype(make_cell_engine(o.engine)),
         cell_limit(choose_limit(o, *prototype)),
         arena(o.threads ? static_cast<int>(o.threads) : tbb::task_arena::automatic),
-        own_partition(cell_limit, prototype->x_split_weight()),
+        own_partition(cell_limit, prototype->x_split_weight(), cell_cost(o, *prototype)),
         workers([this] {
           Worker w{prototype->clone(), BoxArray{}, {}, {}, {}, {}};
           if (options.max_pairs) w.engine->set_pair_limit(options.max_pairs);

@@ -37,6 +37,7 @@ struct RunArgs {
   bool json = false;
   bool quiet = false;
   bool narrow = false;
+  bool cost_splits = false;
 };
 
 double percentile(std::vector<double> v, double q) {
@@ -128,7 +129,11 @@ void run(const RunArgs& a) {
         BroadPhaseOptions{.engine = a.engine, .cell_limit = a.cell_limit, .threads = a.threads, .sorted = false});
   }
   std::vector<double> pipelined, sequential;
-  HybridBroadPhase bp({.engine = a.engine, .cell_limit = a.cell_limit, .threads = a.threads, .sorted = false});
+  HybridBroadPhase bp({.engine = a.engine,
+                      .cell_limit = a.cell_limit,
+                      .threads = a.threads,
+                      .sorted = false,
+                      .cost_splits = a.cost_splits});
   const unsigned threads = a.threads ? a.threads : std::max(1u, std::thread::hardware_concurrency());
   nlohmann::json frames = nlohmann::json::array();
   std::vector<double> wall, modelled;
@@ -198,6 +203,7 @@ void run(const RunArgs& a) {
                              {"engine", a.engine},
                              {"cell_limit", bp.cell_limit()},
                              {"threads", threads},
+                             {"cost_splits", a.cost_splits},
                              {"simd", SoftwareEngine::isa()}};
     nlohmann::json summary = {{"median_wall_ms", med},
                               {"p95_wall_ms", p95},
@@ -232,6 +238,8 @@ const RegisterCommand reg([](CLI::App& app) {
   cmd->add_option("--cell-limit", args->cell_limit, "Objects per cell (0: engine default)")->capture_default_str();
   cmd->add_option("--threads", args->threads, "Threads (0: all cores)")->capture_default_str();
   cmd->add_flag("--json", args->json, "Print one JSON object");
+  cmd->add_flag("--cost-splits", args->cost_splits,
+                "Hardware engines: split cells below the limit while that lowers the modelled cycles");
   cmd->add_flag("--quiet", args->quiet, "Only the summary");
   cmd->add_flag("--narrow", args->narrow,
                 "Also run the narrow phase, overlapped with the broad phase (and, for comparison, after it)");
