@@ -7,6 +7,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
+#include <cstdio>
 #include <bit>
 #include <cmath>
 #include <cstdint>
@@ -516,6 +518,25 @@ TEST(RtlEngines, HybridSystemWithTheHardwareInTheLoop) {
     EXPECT_EQ(ref.update(boxes), oracle);
     EXPECT_EQ(rtl_stats.modelled_cycles, ref.stats().modelled_cycles);
     EXPECT_GT(rtl_stats.modelled_cycles, 0u);
+  }
+}
+
+TEST(RtlEngines, FullCellSimulationSpeed) {
+  // One 1024-box cell through each m = 16 engine; prints simulated cycles/s.
+  register_rtl_engines();
+  const BoxArray cell = random_boxes(1024, 33, 300.f, 5.f, 40.f);
+  for (const char* name : {"rtl-ae", "rtl-mo"}) {
+    std::unique_ptr<CellEngine> e = make_cell_engine(name);
+    std::vector<Pair> pairs;
+    const auto t0 = std::chrono::steady_clock::now();
+    const CellRun run = e->find_pairs(cell, pairs);
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    EXPECT_EQ(run.cycles, e->cycles_for(1024));
+    sort_pairs(pairs);
+    EXPECT_EQ(pairs, brute_force_pairs(cell));
+    std::printf("%s: n=1024, %llu cycles (+1024 load) in %.3f s: %.2f M simulated cycles/s\n", name,
+                static_cast<unsigned long long>(run.cycles), s,
+                static_cast<double>(run.cycles + 1024) / s / 1e6);
   }
 }
 
