@@ -239,3 +239,38 @@ TEST(HybridBroadPhase, RunsOnTheSharedTwoLevelHierarchy) {
 }
 
 }  // namespace
+
+#include <cstdio>
+
+#include "hbp/scene_file.hpp"
+
+namespace {
+
+// A recorded Broadmark scene runs through the hybrid system unchanged.
+TEST(HybridBroadPhase, BroadmarkSceneFilesMatchOracle) {
+  hbp::ScenarioParams p;
+  p.n = 3000;
+  p.seed = 21;
+  hbp::Scenario scene(p);
+  const std::string path = ::testing::TempDir() + "hybrid_broadmark_test.aabbs";
+  BoxArray boxes;
+  {
+    hbp::SceneWriter writer(path, hbp::SceneFormat::Broadmark, p.n, scene.world_bounds(), "test", "paper");
+    for (int f = 0; f < 4; ++f) {
+      scene.compute_boxes(boxes);
+      writer.write_frame(boxes);
+      scene.step();
+    }
+    writer.close();
+  }
+  hbp::SceneReader reader(path);
+  ASSERT_EQ(reader.info().frame_count, 4u);
+  HybridBroadPhase bp({.engine = "sw", .cell_limit = 100, .threads = 2});
+  for (std::uint32_t f = 0; f < reader.info().frame_count; ++f) {
+    reader.read_frame(f, boxes);
+    EXPECT_EQ(bp.update(boxes), hbp::brute_force_pairs(boxes)) << "frame " << f;
+  }
+  std::remove(path.c_str());
+}
+
+}  // namespace
