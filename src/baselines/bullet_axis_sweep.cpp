@@ -54,46 +54,17 @@ class BulletAxisSweep final : public Baseline {
     broadphase_ = std::make_unique<bt32BitAxisSweep3>(btVector3(world.min[0], world.min[1], world.min[2]),
                                                       btVector3(world.max[0], world.max[1], world.max[2]),
                                                       std::max<std::uint32_t>(n, 1), nullptr, true);
-    proxies_.resize(n);
-    for (std::uint32_t i = 0; i < n; ++i) {
-      proxies_[i] = broadphase_->createProxy(bullet_min(boxes, i), bullet_max(boxes, i), BOX_SHAPE_PROXYTYPE,
-                                             bullet_user_pointer(i), btBroadphaseProxy::DefaultFilter,
-                                             btBroadphaseProxy::AllFilter, nullptr);
-    }
-    broadphase_->calculateOverlappingPairs(nullptr);
-    boxes_ = &boxes;
-    dirty_ = true;
+    proxies_.create(*broadphase_, boxes);
   }
 
-  void update(const BoxArray& boxes) override {
-    const std::size_t n = proxies_.size();
-    for (std::size_t i = 0; i < n; ++i)
-      broadphase_->setAabb(proxies_[i], bullet_min(boxes, i), bullet_max(boxes, i), nullptr);
-    broadphase_->calculateOverlappingPairs(nullptr);
-    boxes_ = &boxes;
-    dirty_ = true;
-  }
-
-  std::size_t raw_pairs() const override {
-    return broadphase_ ? static_cast<std::size_t>(broadphase_->getOverlappingPairCache()->getNumOverlappingPairs())
-                       : 0;
-  }
-
-  const std::vector<Pair>& exact_pairs() override {
-    if (dirty_ && broadphase_ && boxes_) {
-      exact_bullet_pairs(*broadphase_->getOverlappingPairCache(), *boxes_, exact_);
-      dirty_ = false;
-    }
-    return exact_;
-  }
+  void update(const BoxArray& boxes) override { proxies_.update(*broadphase_, boxes); }
+  std::size_t raw_pairs() const override { return proxies_.raw_pairs(broadphase_.get()); }
+  const std::vector<Pair>& exact_pairs() override { return proxies_.exact_pairs(broadphase_.get()); }
 
  private:
   BaselineOptions options_;
   std::unique_ptr<bt32BitAxisSweep3> broadphase_;
-  std::vector<btBroadphaseProxy*> proxies_;
-  const BoxArray* boxes_ = nullptr;
-  std::vector<Pair> exact_;
-  bool dirty_ = false;
+  BulletProxies proxies_;
 };
 
 }  // namespace

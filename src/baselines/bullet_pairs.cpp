@@ -36,4 +36,46 @@ std::size_t exact_bullet_pairs(btOverlappingPairCache& cache, const BoxArray& bo
   return static_cast<std::size_t>(count);
 }
 
+void BulletProxies::create(btBroadphaseInterface& broadphase, const BoxArray& boxes) {
+  const auto n = static_cast<std::uint32_t>(boxes.size());
+  proxies_.resize(n);
+  // Any convex shape type: the broad phase only uses it to tell static or
+  // soft bodies apart.
+  for (std::uint32_t i = 0; i < n; ++i) {
+    proxies_[i] = broadphase.createProxy(bullet_min(boxes, i), bullet_max(boxes, i), BOX_SHAPE_PROXYTYPE,
+                                         bullet_user_pointer(i), btBroadphaseProxy::DefaultFilter,
+                                         btBroadphaseProxy::AllFilter, nullptr);
+  }
+  broadphase.calculateOverlappingPairs(nullptr);
+  boxes_ = &boxes;
+  dirty_ = true;
+}
+
+void BulletProxies::update(btBroadphaseInterface& broadphase, const BoxArray& boxes) {
+  const std::size_t n = proxies_.size();
+  for (std::size_t i = 0; i < n; ++i) broadphase.setAabb(proxies_[i], bullet_min(boxes, i), bullet_max(boxes, i), nullptr);
+  broadphase.calculateOverlappingPairs(nullptr);
+  boxes_ = &boxes;
+  dirty_ = true;
+}
+
+std::size_t BulletProxies::raw_pairs(const btBroadphaseInterface* broadphase) const {
+  return broadphase ? static_cast<std::size_t>(broadphase->getOverlappingPairCache()->getNumOverlappingPairs()) : 0;
+}
+
+const std::vector<Pair>& BulletProxies::exact_pairs(btBroadphaseInterface* broadphase) {
+  if (dirty_ && broadphase && boxes_) {
+    exact_bullet_pairs(*broadphase->getOverlappingPairCache(), *boxes_, exact_);
+    dirty_ = false;
+  }
+  return exact_;
+}
+
+void BulletProxies::clear() {
+  proxies_.clear();
+  exact_.clear();
+  boxes_ = nullptr;
+  dirty_ = false;
+}
+
 }  // namespace hbp::baselines
