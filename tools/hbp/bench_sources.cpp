@@ -1,5 +1,7 @@
 #include "bench_sources.hpp"
 
+#include "bench_systems.hpp"
+
 #include "hbp/error.hpp"
 
 namespace hbp::cli {
@@ -10,6 +12,7 @@ void PaperFrames::begin_variant(std::uint32_t variant, BoxArray& first) {
   p.n = n_;
   p.seed = variant;
   scenario_ = std::make_unique<Scenario>(p);
+  current_bench_shapes() = &scenario_->shapes();
   scenario_->compute_boxes(first);
 }
 
@@ -25,6 +28,7 @@ SceneFrames::SceneFrames(const std::string& path) : reader_(path) {
 }
 
 void SceneFrames::begin_variant(std::uint32_t, BoxArray& first) {
+  current_bench_shapes() = nullptr;
   frame_ = 0;
   reader_.read_frame(0, first);
 }

@@ -11,6 +11,7 @@
 
 #include "hbp/box_array.hpp"
 #include "hbp/pair.hpp"
+#include "hbp/shape.hpp"
 
 namespace hbp::cli {
 
@@ -50,7 +51,14 @@ enum class BenchClock {
 struct SystemChoice {
   unsigned threads = 1;  // our software hybrid (the baselines are single-threaded)
   BenchClock clock = BenchClock::Wall;
+  // The frames come with shapes (generated scenes, not box files): adds the
+  // full pipeline (broad + narrow phase) as a measured column.
+  bool shapes = false;
 };
+
+// The shapes of the frame being benchmarked (set by the paper-scene source;
+// null for recorded box files).
+const std::vector<Shape>*& current_bench_shapes();
 
 // Every system, in table order. Systems whose engine is not built into this
 // binary (e.g. the hardware models) are left out and named in `missing`.

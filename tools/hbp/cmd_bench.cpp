@@ -105,6 +105,7 @@ void run_bench(const BenchArgs& a, bool paper) {
   }
   config.only = a.systems;
   config.choice.threads = a.threads;
+  config.choice.shapes = paper;
   if (a.clock == "cpu") {
     if (a.threads != 1)
       throw InvalidInput("--clock cpu measures the calling thread only: it needs --threads 1 (got --threads " +
