@@ -1,0 +1,125 @@
+#pragma once
+// The broad phase an engine lives on: persistent handles, static and moving
+// objects, pair events, layer filtering and queries on the same structure.
+//
+//   hbp::BroadPhase bp({.engine = "sw", .threads = 2});
+//   std::vector<hbp::Handle> h = bp.add(boxes);                  // moving, layer 0
+//   bp.add(walls, {.is_static = true, .layer = 1});
+//   bp.move(h, new_boxes);                                       // any time between updates
+//   const hbp::BroadPhaseUpdate& u = bp.update();
+//   for (hbp::Pair p : u.created) begin_contact(p.a, p.b);      // handles, a < b
+//   for (hbp::Pair p : u.removed) end_contact(p.a, p.b);
+//
+// Semantics:
+// - Boxes are closed float32 intervals (touching faces overlap), exactly as
+//   HybridBroadPhase and the oracle.
+// - A pair (a, b) is reported when the boxes overlap, at least one of the two
+//   is moving (static-static pairs are never reported), the layers collide
+//   (set_collides) and the pair filter, when set, accepts it. Filtering
+//   happens before a pair is stored.
+// - Edits (add, move, remove, set_collides, set_pair_filter) take effect at the
+//   next update(). Each edit call validates its whole batch first and throws
+//   InvalidInput naming the offending row or handle; a call that throws
+//   changes nothing.
+// - update() returns the frame's pairs and the pairs created and removed since
+//   the previous update (a pair whose object was removed counts as removed;
+//   a pair whose object moved away, changed layer filter or was rejected by a
+//   new filter too). All three lists are sorted by (a, b), the same for any
+//   thread count.
+// - Static objects cost nothing per frame while they do not change: they are
+//   neither re-routed nor re-tested against each other.
+// - Queries see the objects as of the last edit (not only the last update)
+//   and are exact: query_box returns every object whose box overlaps the
+//   closed query box, sorted by handle; query_ray every object whose box the
+//   segment origin + t * direction, 0 <= t <= max_t, touches, sorted by entry
+//   t (0 when the origin is inside), ties by handle.
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "hbp/aabb.hpp"
+#include "hbp/hybrid_broadphase.hpp"
+#include "hbp/pair.hpp"
+
+namespace hbp {
+
+// A persistent object handle: slot index in the low 24 bits, generation in
+// the high 8. A removed handle's slot is reused later with a new generation,
+// so a stale handle is detected (InvalidInput) instead of silently touching
+// the slot's new object. At most kMaxObjects live objects.
+using Handle = std::uint32_t;
+inline constexpr Handle kInvalidHandle = 0xFFFFFFFFu;
+inline constexpr std::uint32_t kHandleSlotBits = 24;
+inline constexpr std::uint32_t kMaxObjects = (1u << kHandleSlotBits) - 1;
+inline constexpr std::uint32_t kLayerCount = 32;
+
+struct AddOptions {
+  bool is_static = false;   // static objects are never tested against each other
+  std::uint8_t layer = 0;   // 0 .. kLayerCount - 1
+};
+
+struct BroadPhaseUpdate {
+  std::vector<Pair> pairs;    // every reported pair now (handles, a < b, sorted)
+  std::vector<Pair> created;  // in pairs now, not at the previous update
+  std::vector<Pair> removed;  // at the previous update, not now
+};
+
+struct BroadPhaseUpdateStats {
+  std::uint32_t moving = 0, statics = 0;  // live objects
+  std::uint32_t moved = 0;                // objects whose box changed since the last update
+  std::uint32_t static_changes = 0;       // static objects added, moved or removed since then
+  double wall_ms = 0;                     // measured wall time of update()
+};
+
+class BroadPhase {
+ public:
+  // Pair predicate, called for pairs that pass the box and layer tests, from
+  // any worker thread (must be thread-safe); true keeps the pair.
+  using PairFilter = std::function<bool(Handle a, Handle b)>;
+
+  // options.engine / cell_limit / threads / max_pairs as for HybridBroadPhase
+  // (max_pairs bounds the reported pairs of a frame); `sorted` is ignored
+  // (results are always sorted).
+  explicit BroadPhase(const BroadPhaseOptions& options = {});
+  ~BroadPhase();
+  BroadPhase(BroadPhase&&) noexcept;
+  BroadPhase& operator=(BroadPhase&&) noexcept;
+
+  // Adds boxes.size() objects; handles in the same order.
+  std::vector<Handle> add(std::span<const Aabb> boxes, const AddOptions& options = {});
+  // Replaces the boxes of `handles` (same length); static objects may move too.
+  void move(std::span<const Handle> handles, std::span<const Aabb> boxes);
+  void remove(std::span<const Handle> handles);
+  // Changes the layer of `handles`.
+  void set_layer(std::span<const Handle> handles, std::uint8_t layer);
+
+  // Symmetric; every pair of layers collides by default.
+  void set_collides(std::uint32_t layer_a, std::uint32_t layer_b, bool collides);
+  bool collides(std::uint32_t layer_a, std::uint32_t layer_b) const;
+  // An empty function removes the filter.
+  void set_pair_filter(PairFilter filter);
+
+  const BroadPhaseUpdate& update();
+  const BroadPhaseUpdate& last_update() const;
+  const BroadPhaseUpdateStats& stats() const;
+
+  std::vector<Handle> query_box(const Aabb& box) const;
+  std::vector<Handle> query_ray(const float origin[3], const float direction[3], float max_t) const;
+
+  std::size_t size() const;  // live objects
+  bool contains(Handle h) const;
+  // InvalidInput for an unknown or stale handle.
+  Aabb box(Handle h) const;
+  bool is_static(Handle h) const;
+  std::uint8_t layer(Handle h) const;
+
+  const BroadPhaseOptions& options() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace hbp
