@@ -235,8 +235,26 @@ EpaResult epa(const Convex& a, const Convex& b, const Simplex& simplex, const Ep
     const double len = norm(d);
     r.normal = len > 0 ? d * (1.0 / len) : V3{0, 0, 1};
   }
+  // Without a polytope, the support function along the centre line, lowered
+  // by descent, is the answer: h_D(u) < 0 proves the shapes apart (GJK's
+  // verdict was wrong), else h_D(u) is a translation that separates them.
+  // Never a silent depth-0 contact.
+  auto without_polytope = [&]() {
+    V3 u = r.normal;
+    SupportVertex w = support_difference(a, b, u);
+    double f = dot(u, w.w);
+    V3 pa = w.a, pb = w.b;
+    refine_upper_bound(a, b, scale, f, u, pa, pb);
+    r.ok = false;
+    r.separated = f < 0;
+    r.depth = f > 0 ? f : 0;
+    r.normal = u;
+    r.point_a = pa;
+    r.point_b = pb;
+    return r;
+  };
   Simplex s = simplex;
-  if (s.n < 1 || !enclose_origin(a, b, s, scale)) return r;
+  if (s.n < 1 || !enclose_origin(a, b, s, scale)) return without_polytope();
 
   Polytope p(scale);
   int vi[4];
@@ -250,7 +268,7 @@ EpaResult epa(const Convex& a, const Convex& b, const Simplex& simplex, const Ep
     const V3 wi = p.vertex(i).w;
     if (dot(cross(p.vertex(j).w - wi, p.vertex(k).w - wi), p.vertex(vi[kTet[t][3]]).w - wi) > 0) std::swap(j, k);
     tf[t] = p.new_face(i, j, k);
-    if (tf[t] < 0) return r;
+    if (tf[t] < 0) return without_polytope();
   }
   for (int f = 0; f < 4; ++f) {
     for (int e = 0; e < 3; ++e) {
@@ -290,7 +308,11 @@ EpaResult epa(const Convex& a, const Convex& b, const Simplex& simplex, const Ep
     }
     const double gap = hd - B.d;
     if (gap <= options.rel_tolerance * std::fabs(B.d) + options.abs_tolerance * scale) {
+      // Report the support value along the face normal (the upper end of the
+      // bracket): moving b by it separates the shapes, never falls short.
       r.converged = true;
+      r.lower_bound = B.d;
+      r.depth = hd > 0 ? hd : 0;
       break;
     }
     if (p.vertex_count() >= kMaxVertices) break;
@@ -305,7 +327,10 @@ EpaResult epa(const Convex& a, const Convex& b, const Simplex& simplex, const Ep
     p.release_removed();
     p.release(best);
   }
-  r.lower_bound = r.depth;
+  if (!r.converged) r.lower_bound = r.depth;
+  // A support value below zero is a separating plane: GJK's simplex did not
+  // really enclose the origin.
+  r.separated = upper < 0;
   if (!r.converged && upper < INFINITY) {
     refine_upper_bound(a, b, scale, upper, upper_normal, upper_a, upper_b);
     r.depth = upper > 0 ? upper : 0;

@@ -37,15 +37,19 @@ bool closed_form(const Convex& a, const Convex& b, Hit* hit, bool* applies) {
 }
 
 bool gjk_epa(const Convex& a, const Convex& b, Hit* hit) {
+  // The verdict never needs the distance of a separated pair: GJK stops at
+  // the first separating plane in both modes, so contacts and intersection
+  // only give the same verdicts.
   GjkOptions go;
-  go.boolean_only = hit == nullptr;
+  go.boolean_only = true;
   const GjkResult g = gjk(a, b, go);
   if (!g.intersecting) return false;
   if (!hit) return true;
   const EpaResult e = epa(a, b, g.simplex);
+  if (e.separated) return false;  // a support value below zero: proved apart
   hit->normal = e.normal;
   hit->depth = e.depth;
-  hit->point = e.ok ? 0.5 * (e.point_a + e.point_b) : 0.5 * (a.centre + b.centre);
+  hit->point = 0.5 * (e.point_a + e.point_b);
   return true;
 }
 
