@@ -164,7 +164,10 @@ GjkResult gjk(const Convex& a, const Convex& b, const GjkOptions& options) {
   // Bullet (1e-4 m + 2e-6 x scale, docs/narrow-phase.md).
   const double sliver_touch2 = (1e-10 * scale) * (1e-10 * scale);
 
-  V3 v = a.centre - b.centre;  // a point of D (both centres are interior)
+  // v: a point of D (both centres are interior), or minus the cached
+  // direction: only its direction matters for the first support query.
+  V3 v = a.centre - b.centre;
+  if (norm2(options.initial_direction) > 0) v = -options.initial_direction;
   if (norm2(v) == 0) v = {scale, 0, 0};
   double prev_vv = INFINITY;
   for (int it = 0; it < options.max_iterations; ++it) {
@@ -176,6 +179,7 @@ GjkResult gjk(const Convex& a, const Convex& b, const GjkOptions& options) {
       // Separating plane found: D lies entirely on the far side of it.
       r.intersecting = false;
       r.distance = vw / std::sqrt(vv);
+      r.v = v;
       return r;
     }
     if (s.n > 0) {
@@ -221,6 +225,7 @@ GjkResult gjk(const Convex& a, const Convex& b, const GjkOptions& options) {
   }
   r.intersecting = false;
   r.distance = norm(v);
+  r.v = v;
   V3 pa, pb;
   for (int i = 0; i < s.n; ++i) {
     pa = pa + s.lambda[i] * s.v[i].a;

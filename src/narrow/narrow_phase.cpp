@@ -8,6 +8,12 @@ namespace hbp {
 
 std::size_t NarrowPhase::process(const std::vector<Shape>& shapes, const Pair* pairs, std::size_t count,
                                  std::vector<Contact>& out) const {
+  return process(shapes, pairs, count, out, nullptr, nullptr);
+}
+
+std::size_t NarrowPhase::process(const std::vector<Shape>& shapes, const Pair* pairs, std::size_t count,
+                                 std::vector<Contact>& out, const NarrowCache* cache,
+                                 std::vector<NarrowCacheEntry>* learned) const {
   const std::size_t before = out.size();
   const std::size_t n = shapes.size();
   for (std::size_t k = 0; k < count; ++k) {
@@ -19,7 +25,14 @@ std::size_t NarrowPhase::process(const std::vector<Shape>& shapes, const Pair* p
     const narrow::Convex a = narrow::make_convex(shapes[p.a]);
     const narrow::Convex b = narrow::make_convex(shapes[p.b]);
     narrow::Hit hit;
-    if (!narrow::intersect(a, b, options_.contacts ? &hit : nullptr, options_.method)) continue;
+    narrow::V3 warm, dir;
+    const float* cached = cache ? cache->find(p) : nullptr;
+    if (cached) warm = {cached[0], cached[1], cached[2]};
+    const bool collide = narrow::intersect(a, b, options_.contacts ? &hit : nullptr, options_.method,
+                                           cached ? &warm : nullptr, learned ? &dir : nullptr);
+    if (learned && narrow::norm2(dir) > 0)
+      learned->push_back({p, {static_cast<float>(dir.x), static_cast<float>(dir.y), static_cast<float>(dir.z)}});
+    if (!collide) continue;
     Contact c;
     c.a = p.a;
     c.b = p.b;

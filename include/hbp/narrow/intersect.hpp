@@ -38,6 +38,12 @@ double signed_distance(const Shape& a, const Shape& b);
 namespace narrow {
 // The same on prepared shapes (what NarrowPhase calls).
 bool intersect(const Convex& a, const Convex& b, Hit* hit, NarrowMethod method);
+// With frame-to-frame coherence: `warm` (may be null) is the direction the
+// last frame learned for this pair (unit, a -> b); *learned receives this
+// frame's (the separating axis or the contact normal), or zero if nothing
+// worth keeping was learned. The verdict never depends on `warm`: a cached
+// axis is used only where one support query proves separation.
+bool intersect(const Convex& a, const Convex& b, Hit* hit, NarrowMethod method, const V3* warm, V3* learned);
 }  // namespace narrow
 
 }  // namespace hbp
