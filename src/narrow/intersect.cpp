@@ -58,7 +58,9 @@ bool gjk_epa(const Convex& a, const Convex& b, Hit* hit, const V3* warm, V3* lea
     if (learned) *learned = warm ? *warm : V3{};
     return true;
   }
-  const EpaResult e = epa(a, b, g.simplex);
+  EpaOptions eo;
+  eo.rel_tolerance = kContactDepthTolerance;
+  const EpaResult e = epa(a, b, g.simplex, eo);
   if (e.separated) return false;  // a support value below zero: proved apart
   hit->normal = e.normal;
   hit->depth = e.depth;
