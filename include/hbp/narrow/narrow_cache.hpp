@@ -37,10 +37,14 @@ class NarrowCache {
   // any order (pairs absent from them are forgotten). `objects` bounds the
   // ids. Linear in pairs + objects.
   void commit(const std::vector<NarrowCacheEntry>* lists, std::size_t count, std::size_t objects);
+  // The same from scattered lists (e.g. one per cell of the pipeline).
+  void commit(const std::vector<const std::vector<NarrowCacheEntry>*>& lists, std::size_t objects);
   void clear();
   std::size_t size() const { return entries_.size(); }
 
  private:
+  template <class List>
+  void commit_lists(const List& list_at, std::size_t count, std::size_t objects);
   std::vector<std::uint32_t> row_;  // objects + 1 offsets into entries_
   std::vector<NarrowCacheEntry> entries_;
 };
