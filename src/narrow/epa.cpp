@@ -1,6 +1,7 @@
 #include "hbp/narrow/epa.hpp"
 
 #include <cmath>
+#include <type_traits>
 #include <utility>
 
 namespace hbp::narrow {
@@ -19,6 +20,20 @@ struct Face {
   int adj_edge[3];
   unsigned pass;
   bool alive;
+};
+
+// Fixed-size storage left uninitialised: V3's default member initialisers
+// would otherwise zero about 50 kB of polytope on every EPA call, most of
+// it never used. Elements are written before they are read.
+template <class T, int N>
+struct Uninitialised {
+  static_assert(std::is_trivially_destructible_v<T> && std::is_trivially_copyable_v<T>);
+  union {
+    T v[N];
+  };
+  Uninitialised() {}
+  T& operator[](int i) { return v[i]; }
+  const T& operator[](int i) const { return v[i]; }
 };
 
 struct Horizon {
@@ -130,9 +145,9 @@ class Polytope {
 
  private:
   double area_eps_, plane_eps_;
-  SupportVertex verts_[kMaxVertices];
+  Uninitialised<SupportVertex, kMaxVertices> verts_;
   int nv_ = 0;
-  Face faces_[kMaxFaces];
+  Uninitialised<Face, kMaxFaces> faces_;
   int free_[kMaxFaces];
   int removed_[kMaxFaces];
   int nfree_ = 0, nused_ = 0, nremoved_ = 0;
