@@ -1,5 +1,6 @@
 #include "hbp/narrow/narrow_phase.hpp"
 
+#include <cstdint>
 #include <string>
 
 #include "hbp/error.hpp"
@@ -16,14 +17,29 @@ std::size_t NarrowPhase::process(const std::vector<Shape>& shapes, const Pair* p
                                  std::vector<NarrowCacheEntry>* learned) const {
   const std::size_t before = out.size();
   const std::size_t n = shapes.size();
+  narrow::Convex a;
+  std::uint32_t prepared_id = UINT32_MAX;
   for (std::size_t k = 0; k < count; ++k) {
     const Pair p = pairs[k];
     if (p.a >= n || p.b >= n) {
       throw InvalidInput("narrow phase: pair " + std::to_string(p.a) + "-" + std::to_string(p.b) +
                          " names an object beyond the " + std::to_string(n) + " shapes");
     }
-    const narrow::Convex a = narrow::make_convex(shapes[p.a]);
-    const narrow::Convex b = narrow::make_convex(shapes[p.b]);
+    // Bounding spheres apart: nothing to prepare (most broad-phase false
+    // positives end here).
+    const Shape& sa = shapes[p.a];
+    const Shape& sb = shapes[p.b];
+    const double reach = narrow::bounding_radius(sa) + narrow::bounding_radius(sb);
+    const double dx = sb.position.x - sa.position.x, dy = sb.position.y - sa.position.y,
+                 dz = sb.position.z - sa.position.z;
+    if (dx * dx + dy * dy + dz * dz > reach * reach) continue;
+    // Pairs come sorted or grouped by their first object: its prepared
+    // shape is reused across the group.
+    if (p.a != prepared_id) {
+      a = narrow::make_convex(sa);
+      prepared_id = p.a;
+    }
+    const narrow::Convex b = narrow::make_convex(sb);
     narrow::Hit hit;
     narrow::V3 warm, dir;
     const float* cached = cache ? cache->find(p) : nullptr;
