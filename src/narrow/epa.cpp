@@ -307,12 +307,13 @@ EpaResult epa(const Convex& a, const Convex& b, const Simplex& simplex, const Ep
   double upper = INFINITY;
   V3 upper_normal, upper_a, upper_b;
   unsigned pass = 0;
+  double last_d = 0;  // the closest face's distance: a lower bound of the depth
   for (int it = 0;; ++it) {
     r.iterations = it;
     const int best = p.closest_face();
     if (best < 0) break;
     Face& B = p.face(best);
-    fill_result(p, B, r);
+    last_d = B.d;
     const SupportVertex w = support_difference(a, b, B.n);
     const double hd = dot(B.n, w.w);
     if (hd < upper) {
@@ -325,6 +326,7 @@ EpaResult epa(const Convex& a, const Convex& b, const Simplex& simplex, const Ep
     if (gap <= options.rel_tolerance * std::fabs(B.d) + options.abs_tolerance * scale) {
       // Report the support value along the face normal (the upper end of the
       // bracket): moving b by it separates the shapes, never falls short.
+      fill_result(p, B, r);
       r.converged = true;
       r.lower_bound = B.d;
       r.depth = hd > 0 ? hd : 0;
@@ -342,7 +344,9 @@ EpaResult epa(const Convex& a, const Convex& b, const Simplex& simplex, const Ep
     p.release_removed();
     p.release(best);
   }
-  if (!r.converged) r.lower_bound = r.depth;
+  if (!r.converged && upper == INFINITY) return without_polytope();
+  r.ok = true;
+  if (!r.converged) r.lower_bound = last_d > 0 ? last_d : 0;
   // A support value below zero is a separating plane: GJK's simplex did not
   // really enclose the origin.
   r.separated = upper < 0;
