@@ -20,6 +20,7 @@
 
 #include "hbp/error.hpp"
 #include "hbp/hybrid_broadphase.hpp"
+#include "hbp/narrow/libccd_solver.hpp"
 #include "hbp/narrow/narrow_cache.hpp"
 #include "hbp/narrow/narrow_phase.hpp"
 #include "hbp/narrow/random_pairs.hpp"
@@ -72,6 +73,8 @@ struct Checks {
   // Bullet's dispatcher differs from us, Bullet's own GJK/EPA
   // (btGjkEpaSolver2) on the same pair agrees with us.
   std::uint64_t dispatcher_only = 0;
+  // Both Bullet paths differ from us; libccd's MPR and GJK agree with us.
+  std::uint64_t ccd_agrees = 0;
 };
 
 // Verdicts of the frame: ours (contacts, in pair order) against the
@@ -111,6 +114,12 @@ void check_frame(const std::vector<Shape>& shapes, const std::vector<Pair>& pair
         // earlier frames, the box-box detector's clipped points).
         ++c.dispatcher_only;
 #endif
+      } else if (narrow::libccd_available() &&
+                 intersect(a, b, nullptr, NarrowMethod::LibccdMpr) == static_cast<bool>(ours[k]) &&
+                 intersect(a, b, nullptr, NarrowMethod::LibccdGjkEpa) == static_cast<bool>(ours[k])) {
+        // Bullet is the odd one out of three implementations (libccd's MPR
+        // and GJK agree with us).
+        ++c.ccd_agrees;
       } else {
         if (c.disagree_out < 5)
           std::fprintf(stderr, "  frame %u: pair %u-%u (%s-%s): ours %d, Bullet %d, signed distance %.4g m\n", frame,
@@ -224,10 +233,12 @@ void run_bench_narrow(const NarrowBenchArgs& a) {
               static_cast<unsigned long long>(contacts_total), static_cast<unsigned long long>(checks.false_contacts));
   if (with_bullet)
     std::printf("; differ from Bullet's dispatcher: %llu within the band, %llu shallow contacts (< %g m) Bullet "
-                "misses, %llu where Bullet's own GJK/EPA on the pair agrees with us, %llu other",
+                "misses, %llu where Bullet's own GJK/EPA on the pair agrees with us, %llu where libccd's MPR and "
+                "GJK agree with us, %llu other",
                 static_cast<unsigned long long>(checks.disagree_band),
                 static_cast<unsigned long long>(checks.bullet_missed_shallow), kShallow,
                 static_cast<unsigned long long>(checks.dispatcher_only),
+                static_cast<unsigned long long>(checks.ccd_agrees),
                 static_cast<unsigned long long>(checks.disagree_out));
   std::printf("\n");
 
