@@ -10,6 +10,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <exception>
@@ -125,6 +126,7 @@ class PyBroadPhase {
     py::gil_scoped_release release;
     std::lock_guard lock(mutex_);
     check_live(h.handles);
+    check_unique(h.handles);
     bp_.move(h.handles, b.boxes);
   }
 
@@ -133,6 +135,7 @@ class PyBroadPhase {
     py::gil_scoped_release release;
     std::lock_guard lock(mutex_);
     check_live(h.handles);
+    check_unique(h.handles);
     bp_.remove(h.handles);
   }
 
@@ -295,6 +298,22 @@ class PyBroadPhase {
                                       : std::string(what) + " row " + std::to_string(i);
         throw ArgumentError(where + ": handle " + std::to_string(handles[i]) +
                             " is unknown or stale (removed)");
+      }
+    }
+  }
+
+  // A handle twice in one move or remove batch is ambiguous (which box?) or a
+  // stale second removal: named by both rows.
+  static void check_unique(std::span<const Handle> handles) {
+    if (handles.size() < 2) return;
+    std::vector<std::pair<Handle, std::size_t>> sorted(handles.size());
+    for (std::size_t i = 0; i < handles.size(); ++i) sorted[i] = {handles[i], i};
+    std::sort(sorted.begin(), sorted.end());
+    for (std::size_t i = 1; i < sorted.size(); ++i) {
+      if (sorted[i].first == sorted[i - 1].first) {
+        throw ArgumentError("handles row " + std::to_string(sorted[i].second) + ": handle " +
+                            std::to_string(sorted[i].first) + " also appears in row " +
+                            std::to_string(sorted[i - 1].second) + " of the same batch");
       }
     }
   }
