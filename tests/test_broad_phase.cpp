@@ -116,10 +116,13 @@ struct Session {
     }
   }
 
-  // Moves a random subset (distinct handles): nudges and teleports.
-  void move(std::size_t n) {
-    if (live.empty()) return;
-    std::vector<Handle> h = live;
+  // Moves a random subset (distinct handles): nudges and teleports; static
+  // objects only when asked (the fat-box caches live while statics stay).
+  void move(std::size_t n, bool statics_too) {
+    std::vector<Handle> h;
+    for (Handle x : live)
+      if (statics_too || !ref.objects[x].is_static) h.push_back(x);
+    if (h.empty()) return;
     std::shuffle(h.begin(), h.end(), rng);
     h.resize(std::min(n, h.size()));
     std::vector<Aabb> boxes;
@@ -190,7 +193,7 @@ void run_sequence(unsigned seed, int frames, std::size_t scale, float world) {
   s.add(scale, true, 1);
   for (int f = 0; f < frames; ++f) {
     const int op = f % 8;
-    s.move(scale / 3);
+    s.move(scale / 3, op == 7);
     if (op == 1) s.add(scale / 10 + 1, s.rng() % 2 == 0, static_cast<std::uint8_t>(s.rng() % 4));
     if (op == 2) s.remove(scale / 10 + 1);
     if (op == 3) s.set_layer(scale / 8, static_cast<std::uint8_t>(s.rng() % 4));
