@@ -65,6 +65,17 @@ py::array_t<std::uint32_t> find_pairs(py::handle boxes_obj, const std::string& e
   return pairs_array(pairs);
 }
 
+// Exclusive access to one BroadPhase: releases the GIL first, then takes the
+// mutex (and gives them back in reverse order).
+class Exclusive {
+ public:
+  explicit Exclusive(std::mutex& m) : lock_(m) {}
+
+ private:
+  py::gil_scoped_release release_;  // declared first: released before locking
+  std::lock_guard<std::mutex> lock_;
+};
+
 // Result of BroadPhase.update(): copies, so they stay valid after the next update.
 struct UpdateResult {
   py::array_t<std::uint32_t> pairs, created, removed;
@@ -104,8 +115,7 @@ class PyBroadPhase {
     const AddOptions options{.is_static = is_static, .layer = layer_arg(layer)};
     std::vector<Handle> handles;
     {
-      py::gil_scoped_release release;
-      std::lock_guard lock(mutex_);
+      Exclusive lock(mutex_);
       if (size_without_lock() + view.boxes.size() > kMaxObjects) {
         throw ArgumentError("boxes: adding " + std::to_string(view.boxes.size()) + " objects to " +
                             std::to_string(bp_.size()) + " exceeds the limit of " + std::to_string(kMaxObjects) +
@@ -123,8 +133,7 @@ class PyBroadPhase {
       throw ArgumentError("move: " + std::to_string(h.handles.size()) + " handles but " +
                           std::to_string(b.boxes.size()) + " boxes (must be equal)");
     }
-    py::gil_scoped_release release;
-    std::lock_guard lock(mutex_);
+    Exclusive lock(mutex_);
     check_live(h.handles);
     check_unique(h.handles);
     bp_.move(h.handles, b.boxes);
@@ -132,8 +141,7 @@ class PyBroadPhase {
 
   void remove(py::handle handles_obj) {
     const HandlesView h = handles_view(handles_obj);
-    py::gil_scoped_release release;
-    std::lock_guard lock(mutex_);
+    Exclusive lock(mutex_);
     check_live(h.handles);
     check_unique(h.handles);
     bp_.remove(h.handles);
@@ -142,23 +150,20 @@ class PyBroadPhase {
   void set_layer(py::handle handles_obj, const py::object& layer) {
     const HandlesView h = handles_view(handles_obj);
     const std::uint8_t l = layer_arg(layer);
-    py::gil_scoped_release release;
-    std::lock_guard lock(mutex_);
+    Exclusive lock(mutex_);
     check_live(h.handles);
     bp_.set_layer(h.handles, l);
   }
 
   void set_collides(const py::object& a, const py::object& b, bool collides) {
     const std::uint8_t la = layer_arg(a, "layer_a"), lb = layer_arg(b, "layer_b");
-    py::gil_scoped_release release;
-    std::lock_guard lock(mutex_);
+    Exclusive lock(mutex_);
     bp_.set_collides(la, lb, collides);
   }
 
   bool collides(const py::object& a, const py::object& b) {
     const std::uint8_t la = layer_arg(a, "layer_a"), lb = layer_arg(b, "layer_b");
-    py::gil_scoped_release release;
-    std::lock_guard lock(mutex_);
+    Exclusive lock(mutex_);
     return bp_.collides(la, lb);
   }
 
@@ -178,8 +183,7 @@ class PyBroadPhase {
                                         }),
           filter_error_mutex_, filter_error_};
     }
-    py::gil_scoped_release release;
-    std::lock_guard lock(mutex_);
+    Exclusive lock(mutex_);
     bp_.set_pair_filter(std::move(filter));
   }
 
@@ -187,8 +191,7 @@ class PyBroadPhase {
     std::vector<Pair> pairs, created, removed;
     std::exception_ptr filter_error;
     {
-      py::gil_scoped_release release;
-      std::lock_guard lock(mutex_);
+      Exclusive lock(mutex_);
       const BroadPhaseUpdate& u = bp_.update();
       {
         std::lock_guard error_lock(*filter_error_mutex_);
@@ -206,8 +209,7 @@ class PyBroadPhase {
     const BoxesView view = boxes_view(box_obj, "box", /*single=*/true);
     std::vector<Handle> hits;
     {
-      py::gil_scoped_release release;
-      std::lock_guard lock(mutex_);
+      Exclusive lock(mutex_);
       hits = bp_.query_box(view.boxes[0]);
     }
     return handles_array(std::move(hits));
@@ -222,15 +224,14 @@ class PyBroadPhase {
     }
     std::vector<Handle> hits;
     {
-      py::gil_scoped_release release;
-      std::lock_guard lock(mutex_);
+      Exclusive lock(mutex_);
       hits = bp_.query_ray(origin, direction, static_cast<float>(max_t));
     }
     return handles_array(std::move(hits));
   }
 
   std::size_t size() {
-    std::lock_guard lock(mutex_);
+    Exclusive lock(mutex_);
     return bp_.size();
   }
   bool contains(const py::object& h) {
@@ -243,14 +244,14 @@ class PyBroadPhase {
     const long long v = PyLong_AsLongLongAndOverflow(index, &overflow);
     Py_DECREF(index);
     if (overflow || v < 0 || v > 0xFFFFFFFFll) return false;
-    std::lock_guard lock(mutex_);
+    Exclusive lock(mutex_);
     return bp_.contains(static_cast<Handle>(v));
   }
   py::array_t<float> box(const py::object& h) {
     const Handle handle = handle_arg(h);
     Aabb b;
     {
-      std::lock_guard lock(mutex_);
+      Exclusive lock(mutex_);
       check_live(std::span<const Handle>(&handle, 1), "handle");
       b = bp_.box(handle);
     }
@@ -260,20 +261,20 @@ class PyBroadPhase {
   }
   bool is_static(const py::object& h) {
     const Handle handle = handle_arg(h);
-    std::lock_guard lock(mutex_);
+    Exclusive lock(mutex_);
     check_live(std::span<const Handle>(&handle, 1), "handle");
     return bp_.is_static(handle);
   }
   int layer(const py::object& h) {
     const Handle handle = handle_arg(h);
-    std::lock_guard lock(mutex_);
+    Exclusive lock(mutex_);
     check_live(std::span<const Handle>(&handle, 1), "handle");
     return bp_.layer(handle);
   }
   py::dict stats() {
     BroadPhaseUpdateStats s;
     {
-      std::lock_guard lock(mutex_);
+      Exclusive lock(mutex_);
       s = bp_.stats();
     }
     py::dict d;
