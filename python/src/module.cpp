@@ -10,10 +10,10 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
-#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <exception>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -134,16 +134,14 @@ class PyBroadPhase {
                           std::to_string(b.boxes.size()) + " boxes (must be equal)");
     }
     Exclusive lock(mutex_);
-    check_live(h.handles);
-    check_unique(h.handles);
+    check_live(h.handles);  // duplicates in the batch: the C++ side names both rows
     bp_.move(h.handles, b.boxes);
   }
 
   void remove(py::handle handles_obj) {
     const HandlesView h = handles_view(handles_obj);
     Exclusive lock(mutex_);
-    check_live(h.handles);
-    check_unique(h.handles);
+    check_live(h.handles);  // duplicates in the batch: the C++ side names both rows
     bp_.remove(h.handles);
   }
 
@@ -219,13 +217,15 @@ class PyBroadPhase {
     float origin[3], direction[3];
     vec3(origin_obj, "origin", origin);
     vec3(direction_obj, "direction", direction);
-    if (!(max_t >= 0) || std::isinf(max_t)) {
-      throw ArgumentError("max_t: must be finite and >= 0, got " + py::repr(py::float_(max_t)).cast<std::string>());
+    if (!(max_t >= 0)) {  // NaN too; infinity: the whole ray
+      throw ArgumentError("max_t: must be >= 0 (infinity allowed), got " + py::repr(py::float_(max_t)).cast<std::string>());
     }
     std::vector<Handle> hits;
     {
       Exclusive lock(mutex_);
-      hits = bp_.query_ray(origin, direction, static_cast<float>(max_t));
+      const float t = max_t > std::numeric_limits<float>::max() ? std::numeric_limits<float>::infinity()
+                                                                : static_cast<float>(max_t);
+      hits = bp_.query_ray(origin, direction, t);
     }
     return handles_array(std::move(hits));
   }
@@ -299,22 +299,6 @@ class PyBroadPhase {
                                       : std::string(what) + " row " + std::to_string(i);
         throw ArgumentError(where + ": handle " + std::to_string(handles[i]) +
                             " is unknown or stale (removed)");
-      }
-    }
-  }
-
-  // A handle twice in one move or remove batch is ambiguous (which box?) or a
-  // stale second removal: named by both rows.
-  static void check_unique(std::span<const Handle> handles) {
-    if (handles.size() < 2) return;
-    std::vector<std::pair<Handle, std::size_t>> sorted(handles.size());
-    for (std::size_t i = 0; i < handles.size(); ++i) sorted[i] = {handles[i], i};
-    std::sort(sorted.begin(), sorted.end());
-    for (std::size_t i = 1; i < sorted.size(); ++i) {
-      if (sorted[i].first == sorted[i - 1].first) {
-        throw ArgumentError("handles row " + std::to_string(sorted[i].second) + ": handle " +
-                            std::to_string(sorted[i].first) + " also appears in row " +
-                            std::to_string(sorted[i - 1].second) + " of the same batch");
       }
     }
   }

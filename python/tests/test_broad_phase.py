@@ -242,6 +242,7 @@ def test_ray_from_inside_enters_at_zero_and_max_t_limits():
     assert bp.query_ray(o, d, 2.0).tolist() == [h[0], h[2]]  # touches x = 3 at t = 2
     assert bp.query_ray(o, d, 1.5).tolist() == [h[0]]
     assert bp.query_ray(o, -d, 10.0).tolist() == [h[0]]
+    assert bp.query_ray(o, d, float("inf")).tolist() == [h[0], h[2], h[1]]  # the whole ray
 
 
 def test_threads_sharing_one_broad_phase_with_a_python_filter():

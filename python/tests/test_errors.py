@@ -106,7 +106,7 @@ def test_move_rejects_bad_handles(world):
     cases = [
         (np.array([h[0], h[1], stale, h[3]], np.uint32), f"handles row 2: handle {stale} is unknown or stale"),
         (np.array([h[0], h[1], h[2], 12345], np.uint32), "handles row 3: handle 12345 is unknown or stale"),
-        (np.array([h[0], h[1], h[0], h[3]], np.uint32), f"row 2: handle {h[0]} also appears in row 0"),
+        (np.array([h[0], h[1], h[0], h[3]], np.uint32), f"row 2: handle {h[0]} .*row 0"),
         (h.astype(np.float32), "dtype must be an integer type"),
         (h.astype(bool), "dtype must be an integer type"),
         (h.reshape(2, 2), r"shape must be \(n,\)"),
@@ -124,7 +124,7 @@ def test_remove_rejects_bad_handles(world):
     bp, h, stale, pairs = world
     for handles, message in [
         (np.array([h[0], stale], np.uint32), f"handles row 1: handle {stale} is unknown or stale"),
-        (np.array([h[1], h[2], h[1]], np.uint32), f"row 2: handle {h[1]} also appears in row 0"),
+        (np.array([h[1], h[2], h[1]], np.uint32), f"row 2: handle {h[1]} .*row 0"),
         ([h[0], 1.5], "dtype must be an integer type"),
         (np.uint32(h[0]), r"shape must be \(n,\)"),
     ]:
@@ -182,9 +182,8 @@ def test_query_errors(world):
         ((o[:2], d, 1.0), r"origin: shape must be \(3,\)"),
         ((o, np.array([0, np.nan, 0], np.float32), 1.0), "direction: coordinate y is nan"),
         ((o, np.array([0, 0, np.inf], np.float32), 1.0), "direction: coordinate z is inf"),
-        ((o, d, -1.0), "max_t: must be finite and >= 0"),
-        ((o, d, float("nan")), "max_t: must be finite and >= 0"),
-        ((o, d, float("inf")), "max_t: must be finite and >= 0"),
+        ((o, d, -1.0), "max_t: must be >= 0"),
+        ((o, d, float("nan")), "max_t: must be >= 0"),
     ]:
         with pytest.raises(ValueError, match=message):
             bp.query_ray(*args)
