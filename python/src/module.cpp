@@ -213,6 +213,24 @@ class PyBroadPhase {
     return handles_array(std::move(hits));
   }
 
+  // Many box queries in one call: row i's hits are handles[offsets[i]:offsets[i + 1]].
+  py::tuple query_boxes(py::handle boxes_obj) {
+    const BoxesView view = boxes_view(boxes_obj, "boxes");
+    py::array_t<std::int64_t> offsets(static_cast<py::ssize_t>(view.boxes.size() + 1));
+    std::int64_t* off = offsets.mutable_data();
+    std::vector<Handle> all;
+    {
+      Exclusive lock(mutex_);
+      off[0] = 0;
+      for (std::size_t i = 0; i < view.boxes.size(); ++i) {
+        const std::vector<Handle> hits = bp_.query_box(view.boxes[i]);
+        all.insert(all.end(), hits.begin(), hits.end());
+        off[i + 1] = static_cast<std::int64_t>(all.size());
+      }
+    }
+    return py::make_tuple(std::move(offsets), handles_array(std::move(all)));
+  }
+
   py::array_t<std::uint32_t> query_ray(py::handle origin_obj, py::handle direction_obj, double max_t) {
     float origin[3], direction[3];
     vec3(origin_obj, "origin", origin);
@@ -381,6 +399,9 @@ PYBIND11_MODULE(hybrid_broadphase, m) {
       .def("update", &PyBroadPhase::update)
       .def("query_box", &PyBroadPhase::query_box, py::arg("box"),
            "Handles whose box overlaps the closed (6,) float32 box, sorted.")
+      .def("query_boxes", &PyBroadPhase::query_boxes, py::arg("boxes"),
+           "query_box for each row of (m, 6) float32 boxes: (offsets (m + 1,) int64, handles); row i's hits "
+           "are handles[offsets[i]:offsets[i + 1]], sorted.")
       .def("query_ray", &PyBroadPhase::query_ray, py::arg("origin"), py::arg("direction"), py::arg("max_t"),
            "Handles whose box the segment origin + t * direction, 0 <= t <= max_t, touches, by entry t.")
       .def("__len__", &PyBroadPhase::size)

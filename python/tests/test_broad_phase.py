@@ -208,6 +208,14 @@ def test_query_box_equals_brute_force():
     b = np.array(model.boxes[sorted(model.boxes)[0]])
     touching = np.concatenate([b[3:], b[3:] + 1]).astype(np.float32)
     assert sorted(model.boxes)[0] in bp.query_box(touching).tolist()
+    # Batched: the same answers, row by row.
+    qs = random_boxes(rng, 30, size=10.0)
+    offsets, hits = bp.query_boxes(qs)
+    assert offsets.shape == (31,) and offsets[0] == 0 and offsets[-1] == len(hits)
+    for i, q in enumerate(qs):
+        np.testing.assert_array_equal(hits[offsets[i]:offsets[i + 1]], model.query_box(q))
+    offsets, hits = bp.query_boxes(np.zeros((0, 6), np.float32))
+    assert offsets.tolist() == [0] and len(hits) == 0
 
 
 def test_query_ray_equals_brute_force_sorted_by_entry():

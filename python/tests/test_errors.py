@@ -177,6 +177,8 @@ def test_query_errors(world):
     ]:
         with pytest.raises(ValueError, match=message):
             bp.query_box(box)
+    with pytest.raises(ValueError, match="boxes row 2: NaN coordinate"):
+        bp.query_boxes(NAN_ROW2)
     for args, message in [
         ((o.astype(np.float64), d, 1.0), "origin: dtype must be float32"),
         ((o[:2], d, 1.0), r"origin: shape must be \(3,\)"),
