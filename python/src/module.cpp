@@ -374,6 +374,9 @@ PYBIND11_MODULE(hybrid_broadphase, m) {
       .def_readonly("pairs", &UpdateResult::pairs, "every reported pair now")
       .def_readonly("created", &UpdateResult::created, "in pairs now, not at the previous update")
       .def_readonly("removed", &UpdateResult::removed, "at the previous update, not now")
+      .def("__iter__", [](const UpdateResult& r) {  // pairs, created, removed = bp.update()
+        return py::iter(py::make_tuple(r.pairs, r.created, r.removed));
+      })
       .def("__repr__", [](const UpdateResult& r) {
         return "UpdateResult(pairs=" + std::to_string(r.pairs.shape(0)) + ", created=" +
                std::to_string(r.created.shape(0)) + ", removed=" + std::to_string(r.removed.shape(0)) + ")";

@@ -115,8 +115,8 @@ def test_removing_an_object_removes_its_pairs():
     assert r.pairs.tolist() == [[h[0], h[2]]]
     assert r.created.tolist() == []
     assert r.removed.tolist() == [[h[0], h[1]], [h[1], h[2]]]
-    r = bp.update()  # nothing changed: no events
-    assert r.pairs.tolist() == [[h[0], h[2]]] and len(r.created) == 0 and len(r.removed) == 0
+    pairs, created, removed = bp.update()  # nothing changed: no events
+    assert pairs.tolist() == [[h[0], h[2]]] and len(created) == 0 and len(removed) == 0
 
 
 def test_static_static_pairs_are_never_reported():
