@@ -67,12 +67,23 @@ py::array_t<std::uint32_t> find_pairs(py::handle boxes_obj, const std::string& e
 
 // Exclusive access to one BroadPhase: releases the GIL first, then takes the
 // mutex (and gives them back in reverse order).
+// A pair filter runs inside update(), which holds the mutex: a filter calling
+// back into its BroadPhase would wait for itself. Refused instead.
+thread_local bool t_in_pair_filter = false;
+
 class Exclusive {
  public:
   explicit Exclusive(std::mutex& m) : lock_(m) {}
 
  private:
-  py::gil_scoped_release release_;  // declared first: released before locking
+  static bool refuse_reentry() {
+    if (t_in_pair_filter) {
+      throw std::runtime_error("a pair filter cannot call its BroadPhase (update() is running)");
+    }
+    return true;
+  }
+  bool not_reentrant_ = refuse_reentry();  // first: before anything is released or locked
+  py::gil_scoped_release release_;         // then the GIL, before locking
   std::lock_guard<std::mutex> lock_;
 };
 
@@ -96,8 +107,12 @@ struct PythonPairFilter {
       if (*error) return false;
     }
     try {
-      return (*fn)(a, b).cast<bool>();
+      t_in_pair_filter = true;
+      const bool keep = (*fn)(a, b).cast<bool>();
+      t_in_pair_filter = false;
+      return keep;
     } catch (...) {
+      t_in_pair_filter = false;
       std::lock_guard lock(*error_mutex);
       if (!*error) *error = std::current_exception();
       return false;

@@ -167,6 +167,11 @@ def test_pair_filter_exception_is_raised_by_update():
         bp.update()
     bp.set_pair_filter(lambda a, b: True)
     assert len(bp.update().pairs) == 1
+    bp.set_pair_filter(lambda a, b: bp.layer(a) == 0)  # would wait for itself: refused
+    with pytest.raises(RuntimeError, match="pair filter cannot call its BroadPhase"):
+        bp.update()
+    bp.set_pair_filter(None)
+    assert len(bp.update().pairs) == 1
     with pytest.raises(ValueError, match="callable"):
         bp.set_pair_filter(3)
 
