@@ -31,8 +31,8 @@ struct BoxesView {
   std::span<const Aabb> boxes;
 };
 
-// `what` names the argument in messages ("boxes", "box"). rows_expected < 0:
-// any row count. single: shape (6,) instead of (n, 6).
+// `what` names the argument in messages ("boxes", "box"). single: one box of
+// shape (6,) instead of (n, 6).
 BoxesView boxes_view(py::handle obj, const char* what, bool single = false);
 
 struct HandlesView {

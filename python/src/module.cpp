@@ -5,10 +5,8 @@
 // object's mutex after releasing it (never the other way round, so a pair
 // filter that needs the GIL on a worker thread cannot deadlock against
 // another Python thread waiting for the mutex).
-#include <pybind11/functional.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
-#include <pybind11/stl.h>
 
 #include <cmath>
 #include <cstring>
