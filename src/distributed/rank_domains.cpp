@@ -35,7 +35,7 @@ void RankDomains::build(MPI_Comm comm, const float* cx, const float* cy, const f
   std::vector<int> slot;
   std::vector<std::uint64_t> counts, total;
   std::vector<float> lo_box, hi_box, lo_all, hi_all;
-  std::vector<std::uint64_t> target;
+  std::vector<std::uint64_t> target, node_total;
   std::vector<std::uint32_t> key_lo, key_hi;
   while (!active.empty()) {
     const std::size_t m = active.size();
@@ -63,6 +63,7 @@ void RankDomains::build(MPI_Comm comm, const float* cx, const float* cy, const f
     MPI_Allreduce(lo_box.data(), lo_all.data(), static_cast<int>(3 * m), MPI_FLOAT, MPI_MIN, comm);
     MPI_Allreduce(hi_box.data(), hi_all.data(), static_cast<int>(3 * m), MPI_FLOAT, MPI_MAX, comm);
     target.resize(m);
+    node_total = total;
     key_lo.resize(m);
     key_hi.resize(m);
     for (std::size_t s = 0; s < m; ++s) {
@@ -83,11 +84,14 @@ void RankDomains::build(MPI_Comm comm, const float* cx, const float* cy, const f
         key_lo[s] = key_hi[s] = key_of(std::clamp(0.0f, lo, hi));
       } else {
         key_lo[s] = key_of(lo_all[3 * s + static_cast<std::size_t>(axis)]);
-        key_hi[s] = key_of(hi_all[3 * s + static_cast<std::size_t>(axis)]) + 1;  // count(c < key_hi) = total
+        key_hi[s] = key_of(hi_all[3 * s + static_cast<std::size_t>(axis)]) + 1;  // #{c < float(key_hi)} = total
       }
     }
     // Bisection on the keys of all active nodes at once: the smallest key K
-    // with #{centre < float(K)} >= target. One allreduce per step, <= 32 steps.
+    // with #{centre < float(K)} > target; the split is then float(K - 1), the
+    // smallest centre of the right side, so planes lie on object centres
+    // (and the tests meet boxes touching them). One allreduce per step, <= 32
+    // steps.
     for (;;) {
       bool open = false;
       for (std::size_t s = 0; s < m; ++s) open |= key_lo[s] < key_hi[s];
@@ -104,7 +108,7 @@ void RankDomains::build(MPI_Comm comm, const float* cx, const float* cy, const f
       for (std::size_t s = 0; s < m; ++s) {
         if (key_lo[s] >= key_hi[s]) continue;
         const std::uint32_t mid = key_lo[s] + (key_hi[s] - key_lo[s]) / 2;
-        if (total[s] >= target[s])
+        if (total[s] > target[s])
           key_hi[s] = mid;
         else
           key_lo[s] = mid + 1;
@@ -115,7 +119,8 @@ void RankDomains::build(MPI_Comm comm, const float* cx, const float* cy, const f
     for (std::size_t s = 0; s < m; ++s) {
       const int id = active[s];
       const int axis = nodes_[static_cast<std::size_t>(id)].axis;
-      const float split = float_of(key_lo[s]);
+      // target == total: no key passes it and all objects go left.
+      const float split = float_of(target[s] >= node_total[s] ? key_lo[s] : key_lo[s] - 1);
       Node left, right;
       const Node parent = nodes_[static_cast<std::size_t>(id)];
       left.rank_lo = parent.rank_lo;

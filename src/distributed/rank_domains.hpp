@@ -22,8 +22,9 @@ class RankDomains {
   // SoA) so that the domain of rank r receives about count * 1/P of them; a
   // node of k ranks gives floor(k/2) of them to its left child and the same
   // share of its objects (non-power-of-two P split proportionally). Axis:
-  // the largest spread of the node's centres. Split: the smallest float c
-  // with #{centre < c} >= target, found by bisection on the float's bits.
+  // the largest spread of the node's centres. Split: the smallest centre of
+  // the right side (#{centre < split} = target when no centres tie), found
+  // by bisection on the float's bits, one allreduce per step.
   void build(MPI_Comm comm, const float* cx, const float* cy, const float* cz, std::size_t n);
 
   // The rank whose half-open domain holds the point.
