@@ -77,6 +77,8 @@ class DistributedBroadPhase {
   // Boxes of owned_ids(), same order.
   const BoxArray& owned_boxes() const;
   const RankFrameStats& stats() const;
+  // The local hybrid broad phase's figures of the last frame (owned + ghosts).
+  const FrameStats& local_stats() const;
   // This rank's half-open domain (outermost domains extend to infinity).
   CellRegion domain() const;
   // The rank whose domain holds point (x, y, z) (half-open rule).

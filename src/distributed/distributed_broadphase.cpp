@@ -440,6 +440,7 @@ const std::vector<Pair>& DistributedBroadPhase::pairs() const { return impl_->re
 const std::vector<std::uint32_t>& DistributedBroadPhase::owned_ids() const { return impl_->owned.ids; }
 const BoxArray& DistributedBroadPhase::owned_boxes() const { return impl_->owned_soa; }
 const RankFrameStats& DistributedBroadPhase::stats() const { return impl_->stats; }
+const FrameStats& DistributedBroadPhase::local_stats() const { return impl_->local.stats(); }
 CellRegion DistributedBroadPhase::domain() const {
   return impl_->domains.built() ? impl_->domains.region(impl_->rank) : CellRegion::everything();
 }
