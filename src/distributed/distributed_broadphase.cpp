@@ -142,6 +142,10 @@ struct DistributedBroadPhase::Impl {
   std::vector<int> in_off, in_cnt, out_off, out_cnt;
   std::vector<float> cx, cy, cz;
   std::vector<int> reach;
+  Objects stay, arrived, scratch;
+  std::vector<Objects> now;
+  std::vector<std::uint32_t> order;
+  std::vector<unsigned char> inside;  // per local object: bits of min >= lo (0-2), min < hi (3-5)
 
   Impl(MPI_Comm c, const DistributedOptions& o) : comm(c), options(o), local(with_sorted(o.local)) {
     MPI_Comm_rank(comm, &rank);
@@ -189,13 +193,15 @@ struct DistributedBroadPhase::Impl {
   // `owned` becomes this rank's objects in id order.
   std::string migrate(const std::vector<std::uint32_t>& ids, const BoxArray& boxes) {
     for (auto& o : out) o.clear();
-    Objects mine;
+    stay.clear();
+    bool stay_sorted = true;
     for (std::size_t i = 0; i < ids.size(); ++i) {
       const int d = domains.owner(cx[i], cy[i], cz[i]);
       const Aabb b = boxes.get(i);
       if (d == rank) {
-        mine.ids.push_back(ids[i]);
-        mine.boxes.push_back(b);
+        stay_sorted &= stay.ids.empty() || stay.ids.back() < ids[i];
+        stay.ids.push_back(ids[i]);
+        stay.boxes.push_back(b);
       } else {
         put(out[static_cast<std::size_t>(d)], &ids[i], 4);
         put(out[static_cast<std::size_t>(d)], &b, kBoxBytes);
@@ -204,31 +210,50 @@ struct DistributedBroadPhase::Impl {
       }
     }
     exchange(comm, size, out, in, in_off, in_cnt, flat, out_off, out_cnt);
+    arrived.clear();
     for (const unsigned char* at = in.data(); at < in.data() + in.size();) {
-      mine.ids.push_back(get<std::uint32_t>(at));
-      mine.boxes.push_back(get<Aabb>(at));
+      arrived.ids.push_back(get<std::uint32_t>(at));
+      arrived.boxes.push_back(get<Aabb>(at));
     }
-    std::vector<std::uint32_t> order(mine.ids.size());
-    std::iota(order.begin(), order.end(), 0u);
-    std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return mine.ids[a] < mine.ids[b]; });
-    owned.clear();
-    owned.ids.reserve(order.size());
-    owned.boxes.reserve(order.size());
+    // Usually the supply is last frame's owned_ids() (ascending) and few
+    // objects arrive: sort only the arrivals and merge.
+    if (!stay_sorted) sort_by_id(stay);
+    sort_by_id(arrived);
+    owned.ids.resize(stay.ids.size() + arrived.ids.size());
+    owned.boxes.resize(owned.ids.size());
     std::string error;
-    for (std::uint32_t k : order) {
-      if (!owned.ids.empty() && owned.ids.back() == mine.ids[k] && error.empty())
-        error = "object id " + std::to_string(mine.ids[k]) + " supplied twice";
-      owned.ids.push_back(mine.ids[k]);
-      owned.boxes.push_back(mine.boxes[k]);
+    std::size_t i = 0, j = 0;
+    for (std::size_t q = 0; q < owned.ids.size(); ++q) {
+      const bool from_stay = j == arrived.ids.size() || (i < stay.ids.size() && stay.ids[i] <= arrived.ids[j]);
+      const Objects& src = from_stay ? stay : arrived;
+      std::size_t& at = from_stay ? i : j;
+      owned.ids[q] = src.ids[at];
+      owned.boxes[q] = src.boxes[at++];
+      if (q > 0 && owned.ids[q - 1] == owned.ids[q] && error.empty())
+        error = "object id " + std::to_string(owned.ids[q]) + " supplied twice";
     }
     return error;
+  }
+
+  void sort_by_id(Objects& o) {
+    order.resize(o.ids.size());
+    std::iota(order.begin(), order.end(), 0u);
+    std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return o.ids[a] < o.ids[b]; });
+    scratch.ids.resize(order.size());
+    scratch.boxes.resize(order.size());
+    for (std::size_t q = 0; q < order.size(); ++q) {
+      scratch.ids[q] = o.ids[order[q]];
+      scratch.boxes[q] = o.boxes[order[q]];
+    }
+    std::swap(o, scratch);
   }
 
   // Ghost refresh: for each neighbour, the difference between the owned
   // objects whose closed box reaches its closed domain now and what it holds.
   void refresh_ghosts() {
     for (auto& o : out) o.clear();
-    std::vector<Objects> now(static_cast<std::size_t>(size));
+    now.resize(static_cast<std::size_t>(size));
+    for (Objects& o : now) o.clear();
     for (std::size_t i = 0; i < owned.ids.size(); ++i) {
       reach.clear();
       domains.ranks_reaching(owned.boxes[i], reach);
@@ -283,7 +308,7 @@ struct DistributedBroadPhase::Impl {
       stats.bytes_sent += buf.size();
     }
     exchange(comm, size, out, in, in_off, in_cnt, flat, out_off, out_cnt);
-    for (int d = 0; d < size; ++d) sent[static_cast<std::size_t>(d)] = std::move(now[static_cast<std::size_t>(d)]);
+    std::swap(sent, now);  // now: last frame's lists, reused next frame
     // Apply each source's difference to the list we hold from it.
     Objects next;
     for (int s = 0; s < size; ++s) {
@@ -371,13 +396,25 @@ struct DistributedBroadPhase::Impl {
     stats.local_ms = ms_since(t);
     t = Clock::now();
     stats.local_pairs = found.size();
+    // p = max(min_a, min_b) lies in [lo, hi) iff on every axis min_a >= lo
+    // or min_b >= lo, and both min_a < hi and min_b < hi: one byte per object
+    // instead of six floats per pair end.
     const CellRegion mine = domains.region(rank);
+    inside.resize(local_ids.size());
+    for (std::size_t i = 0; i < local_ids.size(); ++i) {
+      unsigned bits = 0;
+      for (int k = 0; k < 3; ++k) {
+        const float m = local_boxes.min(k)[i];
+        bits |= (m >= mine.lo[k] ? 1u : 0u) << k;
+        bits |= (m < mine.hi[k] ? 1u : 0u) << (3 + k);
+      }
+      inside[i] = static_cast<unsigned char>(bits);
+    }
     result.clear();
     for (const Pair& p : found) {
-      float q[3];
-      for (int k = 0; k < 3; ++k) q[k] = std::max(local_boxes.min(k)[p.a], local_boxes.min(k)[p.b]);
+      const unsigned a = inside[p.a], b = inside[p.b];
       // Local indices are in id order, so the mapped pairs stay canonical and sorted.
-      if (mine.contains(q[0], q[1], q[2])) result.push_back({local_ids[p.a], local_ids[p.b]});
+      if (((a | b) & 7u) == 7u && (a & b & 56u) == 56u) result.push_back({local_ids[p.a], local_ids[p.b]});
     }
     stats.pairs = result.size();
     stats.filter_ms = ms_since(t);
