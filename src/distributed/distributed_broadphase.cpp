@@ -161,6 +161,20 @@ struct DistributedBroadPhase::Impl {
     return o;
   }
 
+  // Exchange buffers sized for a burst (the first frame migrates most
+  // objects) are given back once frames are small again, so memory follows
+  // the current frame, not the peak.
+  template <class V>
+  static void trim(V& v) {
+    if (v.capacity() > 4 * v.size() + 65536 / sizeof(typename V::value_type)) V(v.begin(), v.end()).swap(v);
+  }
+  void trim() {
+    for (auto& o : out) trim(o);
+    trim(in);
+    trim(flat);
+    trim(stay.ids), trim(stay.boxes), trim(arrived.ids), trim(arrived.boxes), trim(scratch.ids), trim(scratch.boxes);
+  }
+
   void reset() {
     owned.clear();
     for (auto& s : sent) s.clear();
@@ -456,6 +470,7 @@ struct DistributedBroadPhase::Impl {
       throw;
     }
     find_pairs();
+    trim();
     owned_soa.resize(owned.ids.size());
     for (std::size_t i = 0; i < owned.ids.size(); ++i) owned_soa.set(i, owned.boxes[i]);
     stats.wall_ms = ms_since(start);
