@@ -67,7 +67,10 @@ class DistributedBroadPhase {
   // all ranks every object of the frame is supplied exactly once (objects not
   // supplied have left the world, new ids have appeared). Collective: bad
   // boxes or duplicate ids on any rank make every rank throw InvalidInput
-  // (the rank holding the defect names the object).
+  // (the rank holding the defect names the object). A bad box changes
+  // nothing; a duplicate id (found after migration) makes every rank drop its
+  // objects and ghosts, so the next update starts afresh from what is
+  // supplied (the domains are kept).
   const std::vector<Pair>& update(const std::vector<std::uint32_t>& ids, const BoxArray& boxes);
 
   // This rank's pairs of the last frame: global ids, canonical, sorted.
