@@ -31,7 +31,9 @@
 namespace hbp {
 
 struct DistributedOptions {
-  BroadPhaseOptions local;  // the per-rank hybrid broad phase (sorted is forced on)
+  // The per-rank hybrid broad phase (sorted is forced on). Its max_pairs
+  // bounds each rank's local pairs; past it every rank throws CapacityExceeded.
+  BroadPhaseOptions local;
   // The domains are rebuilt when max_r |owned_r - mean| / mean exceeds this
   // (plus the imbalance the last bisection itself could not remove, e.g.
   // identical centres that no plane separates).

@@ -57,18 +57,21 @@ bool same_box(const Aabb& a, const Aabb& b) { return std::memcmp(&a, &b, sizeof 
 float centre(float lo, float hi) { return 0.5f * lo + 0.5f * hi; }
 
 // Collective error: the lowest rank with an error broadcasts its message and
-// every rank throws it, so no rank is left waiting in a collective.
-void collective_check(MPI_Comm comm, int rank, const std::string& local_error) {
+// kind, and every rank throws it, so no rank is left waiting in a collective.
+enum class ErrorKind : int { Input = 0, Capacity = 1 };
+void collective_check(MPI_Comm comm, int rank, const std::string& local_error, ErrorKind kind = ErrorKind::Input) {
   const int mine = local_error.empty() ? INT_MAX : rank;
   int first = INT_MAX;
   MPI_Allreduce(&mine, &first, 1, MPI_INT, MPI_MIN, comm);
   if (first == INT_MAX) return;
   std::string msg = rank == first ? local_error : std::string();
-  int len = static_cast<int>(msg.size());
-  MPI_Bcast(&len, 1, MPI_INT, first, comm);
-  msg.resize(static_cast<std::size_t>(len));
-  MPI_Bcast(msg.data(), len, MPI_CHAR, first, comm);
-  throw InvalidInput("distributed broad phase: rank " + std::to_string(first) + ": " + msg);
+  int head[2] = {static_cast<int>(msg.size()), static_cast<int>(kind)};
+  MPI_Bcast(head, 2, MPI_INT, first, comm);
+  msg.resize(static_cast<std::size_t>(head[0]));
+  MPI_Bcast(msg.data(), head[0], MPI_CHAR, first, comm);
+  msg = "distributed broad phase: rank " + std::to_string(first) + ": " + msg;
+  if (static_cast<ErrorKind>(head[1]) == ErrorKind::Capacity) throw CapacityExceeded(msg);
+  throw InvalidInput(msg);
 }
 
 // Sends bytes[d] to every rank d; returns what each source sent in `in`
@@ -406,7 +409,16 @@ struct DistributedBroadPhase::Impl {
   // Local broad phase; keep the pairs whose ownership point is in our domain.
   void find_pairs() {
     auto t = Clock::now();
-    const std::vector<Pair>& found = local.update(local_boxes);
+    // The local limits (max_pairs) may trip on one rank only: make it collective.
+    result.clear();
+    std::string error;
+    try {
+      local.update(local_boxes);
+    } catch (const CapacityExceeded& e) {
+      error = e.what();
+    }
+    collective_check(comm, rank, error, ErrorKind::Capacity);
+    const std::vector<Pair>& found = local.pairs();
     stats.local_ms = ms_since(t);
     t = Clock::now();
     stats.local_pairs = found.size();

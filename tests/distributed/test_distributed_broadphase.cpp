@@ -271,6 +271,24 @@ TEST(DistributedBroadPhase, InvalidBoxOnOneRankThrowsEverywhere) {
   }
 }
 
+// A pair limit tripped on some ranks only: every rank throws CapacityExceeded.
+TEST(DistributedBroadPhase, PairLimitThrowsOnEveryRank) {
+  hbp::DistributedOptions o = test_options();
+  o.local.max_pairs = 5;
+  hbp::DistributedBroadPhase bp(MPI_COMM_WORLD, o);
+  std::vector<std::uint32_t> ids;
+  BoxArray boxes;
+  if (world_rank() == 0) {  // 40 nested boxes around the origin: 780 pairs, on whichever rank owns them
+    for (std::uint32_t i = 0; i < 40; ++i) {
+      const float e = 1.0f + static_cast<float>(i);
+      ids.push_back(i);
+      boxes.push_back(Aabb{{-e, -e, -e}, {e, e, e}});
+    }
+  }
+  EXPECT_THROW(bp.update(ids, boxes), hbp::CapacityExceeded);
+  EXPECT_TRUE(bp.pairs().empty());
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
