@@ -427,14 +427,19 @@ struct DistributedBroadPhase::Impl {
     // instead of six floats per pair end.
     const CellRegion mine = domains.region(rank);
     inside.resize(local_ids.size());
+    // Written out per axis: GCC 12.2 at -O1 -fsanitize=undefined (make
+    // test-sanitize) miscompiled the loop form `bits |= (m >= lo[k] ? 1u :
+    // 0u) << k` (every bit set), which the MPI tests caught as pairs reported
+    // twice.
+    const float* mx = local_boxes.min(0);
+    const float* my = local_boxes.min(1);
+    const float* mz = local_boxes.min(2);
     for (std::size_t i = 0; i < local_ids.size(); ++i) {
-      unsigned bits = 0;
-      for (int k = 0; k < 3; ++k) {
-        const float m = local_boxes.min(k)[i];
-        bits |= (m >= mine.lo[k] ? 1u : 0u) << k;
-        bits |= (m < mine.hi[k] ? 1u : 0u) << (3 + k);
-      }
-      inside[i] = static_cast<unsigned char>(bits);
+      const unsigned ge = unsigned{mx[i] >= mine.lo[0]} | unsigned{my[i] >= mine.lo[1]} * 2u |
+                          unsigned{mz[i] >= mine.lo[2]} * 4u;
+      const unsigned lt = unsigned{mx[i] < mine.hi[0]} | unsigned{my[i] < mine.hi[1]} * 2u |
+                          unsigned{mz[i] < mine.hi[2]} * 4u;
+      inside[i] = static_cast<unsigned char>(ge | lt * 8u);
     }
     result.clear();
     for (const Pair& p : found) {
