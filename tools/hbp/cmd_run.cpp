@@ -14,6 +14,7 @@
 #include <thread>
 #include <vector>
 
+#include "cmd_distributed.hpp"
 #include "command_registry.hpp"
 #include "hbp/collision_pipeline.hpp"
 #include "hbp/error.hpp"
@@ -38,6 +39,7 @@ struct RunArgs {
   bool quiet = false;
   bool narrow = false;
   bool cost_splits = false;
+  bool distributed = false;
 };
 
 double percentile(std::vector<double> v, double q) {
@@ -114,6 +116,10 @@ NarrowFrame run_narrow(CollisionPipeline& cp, HybridBroadPhase& reference, const
 }
 
 void run(const RunArgs& a) {
+  if (a.distributed) {
+    if (a.narrow || a.cost_splits) throw InvalidInput("--distributed does not take --narrow or --cost-splits");
+    return run_distributed({a.scene, a.in, a.n, a.frames, a.seed, a.engine, a.cell_limit, a.threads, a.json, a.quiet});
+  }
   FrameSource source(a);
   if (a.narrow && !source.shapes())
     throw InvalidInput("--narrow needs shapes: use --scene (scene files hold boxes only)");
@@ -241,6 +247,8 @@ const RegisterCommand reg([](CLI::App& app) {
   cmd->add_flag("--cost-splits", args->cost_splits,
                 "Hardware engines: split cells below the limit while that lowers the modelled cycles");
   cmd->add_flag("--quiet", args->quiet, "Only the summary");
+  cmd->add_flag("--distributed", args->distributed,
+                "Over MPI ranks (start under mpirun; docs/distributed.md); JSON adds per-rank counts and times");
   cmd->add_flag("--narrow", args->narrow,
                 "Also run the narrow phase, overlapped with the broad phase (and, for comparison, after it)");
   cmd->callback([args] { run(*args); });
