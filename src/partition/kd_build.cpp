@@ -210,8 +210,8 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
     for (std::uint32_t i = r.begin(); i != r.end(); ++i) keys[i] = (std::uint64_t{float_key(src[0][i])} << 32) | i;
   });
   radix_sort_by_key(keys, keys_scratch);
-  RawBuffer<CellEntry>& a = buffers.a;
-  RawBuffer<CellEntry>& b = buffers.b;
+  RawBuffer<CellEntry>& a = *buffers.a;
+  RawBuffer<CellEntry>& b = *buffers.b;
   a.resize(n);
   tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, n, 1u << 14), [&](const auto& r) {
     for (std::uint32_t k = r.begin(); k != r.end(); ++k) {

@@ -101,7 +101,10 @@ class SubtreeBuilder {
 // Buffers of the from-scratch build, kept across frames for the same reason.
 struct BuildBuffers {
   RawBuffer<std::uint64_t> keys, keys_scratch;
-  RawBuffer<CellEntry> a, b;           // the top levels' ping-pong
+  // The top levels' ping-pong: two buffers the caller uses for other things
+  // between builds (fresh pages are the build's largest cost).
+  RawBuffer<CellEntry>* a = nullptr;
+  RawBuffer<CellEntry>* b = nullptr;
   std::vector<SubtreeBuilder> tasks;   // one per subtree task: its output
   tbb::enumerable_thread_specific<BuildScratch> scratch;
 };

@@ -166,6 +166,10 @@ void KdPartition::rebuild(const BoxArray& boxes) {
   s.prev.resize(n);
   s.objects = n;
   const kd::SplitRule rule{cell_limit_, x_split_weight_, &cell_cost_};
+  // The next frame's entry buffer and the per-object entries serve as the
+  // build's scratch: the pages the next frame needs are touched once.
+  s.build.a = &s.next_entries;
+  s.build.b = &s.latest;
   kd::build_tree(boxes, rule, s.build, nodes_, s.entries, s.home.data(), s.prev.data());
   entries_ = s.entries.data();
   number_leaves();
