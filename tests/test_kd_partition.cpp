@@ -298,3 +298,22 @@ TEST(KdPartition, OneAndTwoThreadsGiveTheSameCellsAndPairOrder) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST(KdPartition, EmptyAndTinyFramesComeAndGo) {
+  KdPartition p(2);
+  const std::vector<std::vector<Aabb>> frames = {
+      {}, {{{0, 0, 0}, {1, 1, 1}}}, {}, {{{0, 0, 0}, {1, 1, 1}}, {{0.5f, 0, 0}, {2, 1, 1}}, {{5, 5, 5}, {6, 6, 6}}},
+      {{{0, 0, 0}, {1, 1, 1}}}};
+  for (std::size_t f = 0; f < frames.size(); ++f) {
+    BoxArray b;
+    for (const Aabb& a : frames[f]) b.push_back(a);
+    p.update(b);
+    expect_valid_cells(p, b, "frame " + std::to_string(f));
+    HybridBroadPhase bp({.engine = "sw", .cell_limit = 2});
+    EXPECT_EQ(bp.update(b), hbp::brute_force_pairs(b)) << "frame " << f;
+  }
+}
+
+}  // namespace

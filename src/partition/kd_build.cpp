@@ -164,7 +164,7 @@ void SubtreeBuilder::build(const CellEntry* items, std::uint32_t n, std::uint32_
   RawBuffer<CellEntry>& arena = scratch.arena;
   arena.resize(4 * std::size_t{n});  // the deepest stack of segments, about; shrinks a past peak
   arena.truncate(n);
-  std::memcpy(arena.data(), items, std::size_t{n} * sizeof(CellEntry));
+  if (n) std::memcpy(arena.data(), items, std::size_t{n} * sizeof(CellEntry));
   if (reset_tags)
     for (std::uint32_t i = 0; i < n; ++i) arena[i].unused = kNoFork;
   node(0, 0, n, depth);
@@ -276,7 +276,7 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
       const Item& it = frontier[i];
       CellEntry* dst = b.data() + out_at[i];
       if (!split_ok[i]) {
-        std::memcpy(dst, a.data() + it.begin, std::size_t{it.n} * sizeof(CellEntry));
+        if (it.n) std::memcpy(dst, a.data() + it.begin, std::size_t{it.n} * sizeof(CellEntry));
         return;
       }
       partition_entries(a.data() + it.begin, it.n, splits[i], it.node, dst, dst + splits[i].left + 1);

@@ -51,6 +51,7 @@ class RawBuffer {
   void truncate(std::size_t n) { size_ = std::min(size_, n); }
   // Appends count elements (copied from src, which must not point into this buffer).
   void append(const T* src, std::size_t count) {
+    if (count == 0) return;
     const std::size_t at = size_;
     if (at + count > capacity_) reallocate(2 * (at + count), at);
     std::memcpy(data_.get() + at, src, count * sizeof(T));
