@@ -1,5 +1,6 @@
 #include "hbp/hybrid_broadphase.hpp"
 
+#include <sys/mman.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_pipeline.h>
@@ -9,6 +10,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cstdint>
 #include <cstring>
 #include <stdexcept>
 
@@ -40,6 +42,15 @@ constexpr std::size_t kStoredPairsPerBox = 4;
 // cell after cell).
 constexpr std::size_t kKeepPairs = 1 << 15;
 constexpr std::size_t kKeepCellPairs = 1 << 10;  // per cell: there are thousands
+
+void advise_huge_pages(void* data, std::size_t bytes) {
+  constexpr std::uintptr_t kHuge = std::uintptr_t{2} << 20;
+  if (bytes < 4 * kHuge) return;
+  const auto begin = (reinterpret_cast<std::uintptr_t>(data) + kHuge - 1) & ~(kHuge - 1);
+  const auto end = (reinterpret_cast<std::uintptr_t>(data) + bytes) & ~(kHuge - 1);
+  // Advice only: where the kernel declines, pages stay 4 KiB.
+  if (end > begin) madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);
+}
 
 template <class T>
 void release_if_oversized(std::vector<T>& v, std::size_t used, std::size_t keep) {
@@ -363,8 +374,21 @@ struct HybridBroadPhase::Impl {
     if (options.max_pairs && total > options.max_pairs)
       throw CapacityExceeded("frame has " + std::to_string(total) + " overlapping pairs, above max_pairs = " +
                              std::to_string(options.max_pairs));
-    release_if_oversized(pairs, total, kKeepPairs);
+    reserve_output(total);
     pairs.resize(total);
+  }
+
+  // Room for this frame's pairs. Growing reallocates without copying (the
+  // old pairs are overwritten anyway) and leaves headroom, so a pair count
+  // creeping up frame after frame does not reallocate every frame; large
+  // lists ask for transparent huge pages (a pair-dense frame's list is
+  // hundreds of megabytes: 512 times fewer page faults on the first frame).
+  void reserve_output(std::size_t total) {
+    release_if_oversized(pairs, total, kKeepPairs);
+    if (total <= pairs.capacity()) return;
+    std::vector<Pair>().swap(pairs);
+    pairs.reserve(total + total / 8);
+    advise_huge_pages(pairs.data(), pairs.capacity() * sizeof(Pair));
   }
 
   // ---- The frame -----------------------------------------------------------
