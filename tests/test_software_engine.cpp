@@ -82,16 +82,23 @@ std::vector<Pair> run_kernel(k::Kernel kernel, k::CountKernel counter, const Box
   const auto n = static_cast<std::uint32_t>(boxes.size());
   k::KernelInput in{{boxes.min(0), boxes.min(1), boxes.min(2)}, {boxes.max(0), boxes.max(1), boxes.max(2)},
                     ids.data(), n, r};
-  std::vector<Pair> out_buffer(capacity);
+  std::vector<std::uint32_t> first(capacity), second(capacity);
   std::vector<Pair> pairs;
   std::uint32_t row = 0;
   int resumes = 0;
   while (true) {
-    k::KernelOutput out{reinterpret_cast<std::uint32_t*>(out_buffer.data()), capacity, 0};
+    k::KernelOutput out{first.data(), second.data(), capacity, 0};
     const std::uint32_t from = row;
     row = kernel(in, row, out);
     EXPECT_EQ(counter(in, from) - counter(in, row), out.count) << "count kernel disagrees on rows " << from << "-" << row;
-    pairs.insert(pairs.end(), out_buffer.begin(), out_buffer.begin() + static_cast<std::ptrdiff_t>(out.count));
+    // Every ISA's canonical_pairs must agree with the scalar one; an exact-size
+    // destination catches a vector tail written past the end (ASan).
+    std::vector<Pair> canonical(out.count), reference(out.count);
+    k::canonical_pairs(k::selected_isa())(first.data(), second.data(), out.count,
+                                          reinterpret_cast<std::uint32_t*>(canonical.data()));
+    k::canonical_pairs_scalar(first.data(), second.data(), out.count, reinterpret_cast<std::uint32_t*>(reference.data()));
+    EXPECT_EQ(canonical, reference);
+    pairs.insert(pairs.end(), canonical.begin(), canonical.end());
     if (row >= n) break;
     EXPECT_LT(++resumes, 1000000) << "kernel makes no progress";
   }

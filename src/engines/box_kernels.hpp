@@ -22,16 +22,19 @@ struct KernelInput {
 };
 
 struct KernelOutput {
-  // Pair k is (pairs[2k], pairs[2k + 1]) = (min, max) of the two boxes' ids:
-  // canonical, the same layout as hbp::Pair.
-  std::uint32_t* pairs;
-  std::size_t capacity;   // pairs
-  std::size_t count;      // pairs written so far
+  // Hit k is between the boxes with ids first[k] (the row) and second[k]:
+  // not yet ordered. Emission stays light (the kernel scans many more
+  // vectors than it finds pairs); canonical_pairs() orders and interleaves
+  // the hits once, as they leave the stage.
+  std::uint32_t* first;
+  std::uint32_t* second;
+  std::size_t capacity;   // entries in each array
+  std::size_t count;      // hits written so far
 };
 
 // Both kernels process rows from `row` on and return the row they stopped at:
 // n when done, earlier when the output might overflow. Row i starts only when
-// n - i + kOutputSlack pairs are free (a row emits at most n - i - 1 pairs;
+// n - i + kOutputSlack entries are free (a row emits at most n - i - 1 pairs;
 // vector kernels store whole vectors past the last pair); the caller drains
 // or grows the buffer and resumes.
 inline constexpr std::size_t kOutputSlack = 16;
@@ -41,6 +44,10 @@ using Kernel = std::uint32_t (*)(const KernelInput& in, std::uint32_t row, Kerne
 // The same tests, counting the pairs of rows [row, n) without storing them
 // (the hybrid system sizes its output before writing it).
 using CountKernel = std::uint64_t (*)(const KernelInput& in, std::uint32_t row);
+// Writes hit k as the canonical pair (min, max) of (first[k], second[k]) to
+// pairs[2k], pairs[2k + 1] (the layout of hbp::Pair).
+using CanonicalPairs = void (*)(const std::uint32_t* first, const std::uint32_t* second, std::size_t count,
+                                std::uint32_t* pairs);
 
 std::uint32_t sweep_scalar(const KernelInput&, std::uint32_t, KernelOutput&);
 std::uint32_t sweep_avx2(const KernelInput&, std::uint32_t, KernelOutput&);
@@ -54,6 +61,8 @@ std::uint64_t sweep_count_avx512(const KernelInput&, std::uint32_t);
 std::uint64_t allpairs_count_scalar(const KernelInput&, std::uint32_t);
 std::uint64_t allpairs_count_avx2(const KernelInput&, std::uint32_t);
 std::uint64_t allpairs_count_avx512(const KernelInput&, std::uint32_t);
+void canonical_pairs_scalar(const std::uint32_t*, const std::uint32_t*, std::size_t, std::uint32_t*);
+void canonical_pairs_avx512(const std::uint32_t*, const std::uint32_t*, std::size_t, std::uint32_t*);
 
 enum class Isa { Scalar, Avx2, Avx512 };
 // Best ISA this CPU supports, unless HBP_SIMD=scalar|avx2|avx512 says otherwise
@@ -64,5 +73,6 @@ Kernel sweep_kernel(Isa isa);
 Kernel allpairs_kernel(Isa isa);
 CountKernel sweep_count_kernel(Isa isa);
 CountKernel allpairs_count_kernel(Isa isa);
+CanonicalPairs canonical_pairs(Isa isa);
 
 }  // namespace hbp::kernels

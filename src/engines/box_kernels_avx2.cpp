@@ -25,15 +25,15 @@ inline __m256 owned(const RegionVec& r, __m256 px, __m256 py, __m256 pz) {
   return _mm256_and_ps(m, _mm256_and_ps(_mm256_cmp_ps(pz, r.lo[2], _CMP_GE_OQ), _mm256_cmp_ps(pz, r.hi[2], _CMP_LT_OQ)));
 }
 
-// Where a row's hits go: stored as canonical id pairs, or only counted.
+// Where a row's hits go: stored (row id, candidate id), or only counted.
 struct Store {
-  std::uint32_t* pairs;
+  std::uint32_t* first;
+  std::uint32_t* second;
   std::size_t count;
   void emit(std::uint32_t id_i, const std::uint32_t* ids_j, unsigned mask) {
     while (mask) {
-      const std::uint32_t id_j = ids_j[__builtin_ctz(mask)];
-      pairs[2 * count] = id_i < id_j ? id_i : id_j;
-      pairs[2 * count + 1] = id_i < id_j ? id_j : id_i;
+      first[count] = id_i;
+      second[count] = ids_j[__builtin_ctz(mask)];
       ++count;
       mask &= mask - 1;
     }
@@ -97,7 +97,7 @@ inline void allpairs_row(const KernelInput& in, const RegionVec& rv, std::uint32
 
 std::uint32_t sweep_avx2(const KernelInput& in, std::uint32_t row, KernelOutput& out) {
   const RegionVec rv = load_region(in.region);
-  Store s{out.pairs, out.count};
+  Store s{out.first, out.second, out.count};
   std::uint32_t i = row;
   for (; i < in.n; ++i) {
     if (out.capacity - s.count < std::size_t{in.n - i} + kOutputSlack) break;
@@ -109,7 +109,7 @@ std::uint32_t sweep_avx2(const KernelInput& in, std::uint32_t row, KernelOutput&
 
 std::uint32_t allpairs_avx2(const KernelInput& in, std::uint32_t row, KernelOutput& out) {
   const RegionVec rv = load_region(in.region);
-  Store s{out.pairs, out.count};
+  Store s{out.first, out.second, out.count};
   std::uint32_t i = row;
   for (; i < in.n; ++i) {
     if (out.capacity - s.count < std::size_t{in.n - i} + kOutputSlack) break;

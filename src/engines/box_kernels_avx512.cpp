@@ -31,22 +31,17 @@ inline __mmask16 owned(const RegionVec& r, __m512 px, __m512 py, __m512 pz) {
   return _mm512_mask_cmp_ps_mask(m, pz, r.hi[2], _CMP_LT_OQ);
 }
 
-// Where a row's hits go: stored as canonical id pairs, or only counted.
+// Where a row's hits go: stored (row id, candidate id), or only counted.
 struct Store {
-  std::uint32_t* pairs;
+  std::uint32_t* first;
+  std::uint32_t* second;
   std::size_t count;
-  // Branch-free: compress the hit lanes' ids into the front of a vector, take
-  // (min, max) with row i's id, interleave, and store all 16 pairs (the
-  // output keeps kOutputSlack spare pairs); a branch on "any hit" mispredicts
-  // too often to pay.
+  // Branch-free: compress the hit lanes' ids into the front of a vector and
+  // store all 16 lanes (the output keeps kOutputSlack spare entries); a
+  // branch on "any hit" mispredicts too often to pay.
   void emit(__m512i id_i, const std::uint32_t* ids_j, __mmask16 mask) {
-    const __m512i lo_idx = _mm512_set_epi32(23, 7, 22, 6, 21, 5, 20, 4, 19, 3, 18, 2, 17, 1, 16, 0);
-    const __m512i hi_idx = _mm512_set_epi32(31, 15, 30, 14, 29, 13, 28, 12, 27, 11, 26, 10, 25, 9, 24, 8);
-    const __m512i js = _mm512_maskz_compress_epi32(mask, _mm512_loadu_si512(ids_j));
-    const __m512i a = _mm512_min_epu32(id_i, js), b = _mm512_max_epu32(id_i, js);
-    std::uint32_t* at = pairs + 2 * count;
-    _mm512_storeu_si512(at, _mm512_permutex2var_epi32(a, lo_idx, b));
-    _mm512_storeu_si512(at + 16, _mm512_permutex2var_epi32(a, hi_idx, b));
+    _mm512_storeu_si512(second + count, _mm512_maskz_compress_epi32(mask, _mm512_loadu_si512(ids_j)));
+    _mm512_storeu_si512(first + count, id_i);
     count += static_cast<std::size_t>(__builtin_popcount(mask));
   }
 };
@@ -108,7 +103,7 @@ inline void allpairs_row(const KernelInput& in, const RegionVec& rv, std::uint32
 
 std::uint32_t sweep_avx512(const KernelInput& in, std::uint32_t row, KernelOutput& out) {
   const RegionVec rv = load_region(in.region);
-  Store s{out.pairs, out.count};
+  Store s{out.first, out.second, out.count};
   std::uint32_t i = row;
   for (; i < in.n; ++i) {
     if (out.capacity - s.count < std::size_t{in.n - i} + kOutputSlack) break;
@@ -120,7 +115,7 @@ std::uint32_t sweep_avx512(const KernelInput& in, std::uint32_t row, KernelOutpu
 
 std::uint32_t allpairs_avx512(const KernelInput& in, std::uint32_t row, KernelOutput& out) {
   const RegionVec rv = load_region(in.region);
-  Store s{out.pairs, out.count};
+  Store s{out.first, out.second, out.count};
   std::uint32_t i = row;
   for (; i < in.n; ++i) {
     if (out.capacity - s.count < std::size_t{in.n - i} + kOutputSlack) break;
@@ -142,6 +137,29 @@ std::uint64_t allpairs_count_avx512(const KernelInput& in, std::uint32_t row) {
   Count c;
   for (std::uint32_t i = row; i < in.n; ++i) allpairs_row(in, rv, i, c);
   return c.count;
+}
+
+void canonical_pairs_avx512(const std::uint32_t* first, const std::uint32_t* second, std::size_t count,
+                            std::uint32_t* pairs) {
+  const __m512i lo_idx = _mm512_set_epi32(23, 7, 22, 6, 21, 5, 20, 4, 19, 3, 18, 2, 17, 1, 16, 0);
+  const __m512i hi_idx = _mm512_set_epi32(31, 15, 30, 14, 29, 13, 28, 12, 27, 11, 26, 10, 25, 9, 24, 8);
+  std::size_t k = 0;
+  for (; k + 16 <= count; k += 16) {
+    const __m512i f = _mm512_loadu_si512(first + k), s = _mm512_loadu_si512(second + k);
+    const __m512i a = _mm512_min_epu32(f, s), b = _mm512_max_epu32(f, s);
+    _mm512_storeu_si512(pairs + 2 * k, _mm512_permutex2var_epi32(a, lo_idx, b));
+    _mm512_storeu_si512(pairs + 2 * k + 16, _mm512_permutex2var_epi32(a, hi_idx, b));
+  }
+  if (k == count) return;
+  // The tail: masked, the destination may end right after the last pair.
+  const unsigned rest = static_cast<unsigned>(count - k);
+  const __mmask16 m = static_cast<__mmask16>((1u << rest) - 1);
+  const __m512i f = _mm512_maskz_loadu_epi32(m, first + k), s = _mm512_maskz_loadu_epi32(m, second + k);
+  const __m512i a = _mm512_min_epu32(f, s), b = _mm512_max_epu32(f, s);
+  const auto lo_mask = static_cast<__mmask16>(rest >= 8 ? 0xFFFFu : (1u << (2 * rest)) - 1);
+  const auto hi_mask = static_cast<__mmask16>(rest <= 8 ? 0u : (1u << (2 * (rest - 8))) - 1);
+  _mm512_mask_storeu_epi32(pairs + 2 * k, lo_mask, _mm512_permutex2var_epi32(a, lo_idx, b));
+  _mm512_mask_storeu_epi32(pairs + 2 * k + 16, hi_mask, _mm512_permutex2var_epi32(a, hi_idx, b));
 }
 
 }  // namespace hbp::kernels

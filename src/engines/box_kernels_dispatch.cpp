@@ -83,4 +83,9 @@ CountKernel allpairs_count_kernel(Isa isa) {
   return allpairs_count_scalar;
 }
 
+CanonicalPairs canonical_pairs(Isa isa) {
+  // The scalar loop vectorises well enough without AVX-512's permutes.
+  return isa == Isa::Avx512 ? canonical_pairs_avx512 : canonical_pairs_scalar;
+}
+
 }  // namespace hbp::kernels

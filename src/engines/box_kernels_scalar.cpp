@@ -6,13 +6,14 @@ namespace {
 
 inline float max_of(float a, float b) { return a > b ? a : b; }
 
-// Where a row's hits go: stored as canonical id pairs, or only counted.
+// Where a row's hits go: stored (row id, candidate id), or only counted.
 struct Store {
-  std::uint32_t* pairs;
+  std::uint32_t* first;
+  std::uint32_t* second;
   std::size_t count;
   void emit(std::uint32_t id_i, std::uint32_t id_j) {
-    pairs[2 * count] = id_i < id_j ? id_i : id_j;
-    pairs[2 * count + 1] = id_i < id_j ? id_j : id_i;
+    first[count] = id_i;
+    second[count] = id_j;
     ++count;
   }
 };
@@ -53,7 +54,7 @@ inline void allpairs_row(const KernelInput& in, std::uint32_t i, Out& out) {
 }  // namespace
 
 std::uint32_t sweep_scalar(const KernelInput& in, std::uint32_t row, KernelOutput& out) {
-  Store s{out.pairs, out.count};
+  Store s{out.first, out.second, out.count};
   std::uint32_t i = row;
   for (; i < in.n; ++i) {
     if (out.capacity - s.count < std::size_t{in.n - i} + kOutputSlack) break;
@@ -64,7 +65,7 @@ std::uint32_t sweep_scalar(const KernelInput& in, std::uint32_t row, KernelOutpu
 }
 
 std::uint32_t allpairs_scalar(const KernelInput& in, std::uint32_t row, KernelOutput& out) {
-  Store s{out.pairs, out.count};
+  Store s{out.first, out.second, out.count};
   std::uint32_t i = row;
   for (; i < in.n; ++i) {
     if (out.capacity - s.count < std::size_t{in.n - i} + kOutputSlack) break;
@@ -84,6 +85,15 @@ std::uint64_t allpairs_count_scalar(const KernelInput& in, std::uint32_t row) {
   Count c;
   for (std::uint32_t i = row; i < in.n; ++i) allpairs_row(in, i, c);
   return c.count;
+}
+
+void canonical_pairs_scalar(const std::uint32_t* first, const std::uint32_t* second, std::size_t count,
+                            std::uint32_t* pairs) {
+  for (std::size_t k = 0; k < count; ++k) {
+    const std::uint32_t f = first[k], s = second[k];
+    pairs[2 * k] = f < s ? f : s;
+    pairs[2 * k + 1] = f < s ? s : f;
+  }
 }
 
 }  // namespace hbp::kernels

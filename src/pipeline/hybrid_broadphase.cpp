@@ -81,7 +81,7 @@ struct Worker {
   std::unique_ptr<CellEngine> engine;
   const SoftwareEngine* direct = nullptr;  // the engine when it writes global ids itself
   OrderedCell cell;                        // the cell being processed, in min-x order
-  std::vector<Pair> stage;                 // kernel output before it moves on
+  std::vector<std::uint32_t> first, second;  // kernel hits before they move on (the stage)
   std::vector<Pair> local;                 // other engines: pairs in local indices
   BoxArray tile;                           // other engines: two blocks of an over-full cell
   std::vector<Pair> stored;                // two-pass: this worker's sparse cells' pairs
@@ -102,8 +102,18 @@ std::size_t stage_pairs(std::uint32_t n) {
   return std::max(kStagePairs, 2 * (std::size_t{n} + SoftwareEngine::kOutputSlack));
 }
 
-void fit_stage(Worker& w, std::size_t pairs) {
-  if (w.stage.size() < pairs || w.stage.size() > 4 * pairs + kKeepPairs) w.stage.assign(pairs, Pair{});
+void fit_stage(Worker& w, std::size_t hits) {
+  if (w.first.size() < hits || w.first.size() > 4 * hits + kKeepPairs) {
+    w.first.assign(hits, 0);
+    w.second.assign(hits, 0);
+  }
+}
+
+// Appends the stage's first `count` hits to out as canonical pairs.
+void drain_stage(const Worker& w, std::size_t count, std::vector<Pair>& out) {
+  const std::size_t base = out.size();
+  out.resize(base + count);
+  SoftwareEngine::write_pairs(w.first.data(), w.second.data(), count, out.data() + base);
 }
 
 }  // namespace
@@ -179,9 +189,10 @@ struct HybridBroadPhase::Impl {
     fit_stage(w, stage_pairs(n));
     for (std::uint32_t row = 0; row < n;) {
       std::size_t count = 0;
-      row = w.direct->emit_pairs(w.cell.boxes(), w.cell.ids(), region, row, w.stage.data(), w.stage.size(), count);
+      row = w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), region, row, w.first.data(), w.second.data(),
+                                w.first.size(), count);
       charge(count);
-      out.insert(out.end(), w.stage.begin(), w.stage.begin() + static_cast<std::ptrdiff_t>(count));
+      drain_stage(w, count, out);
       r.pairs += count;
     }
     r.candidates = r.pairs;
@@ -329,9 +340,9 @@ struct HybridBroadPhase::Impl {
     fit_stage(w, std::max(room, stage_pairs(n)));
     std::size_t count = 0;
     const std::uint32_t row =
-        w.direct->emit_pairs(w.cell.boxes(), w.cell.ids(), region, 0, w.stage.data(), room, count);
+        w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), region, 0, w.first.data(), w.second.data(), room, count);
     if (row >= n) {
-      w.stored.insert(w.stored.end(), w.stage.begin(), w.stage.begin() + static_cast<std::ptrdiff_t>(count));
+      drain_stage(w, count, w.stored);
     } else {
       count += w.direct->count_pairs(w.cell.boxes(), w.cell.ids(), region, row);
       r.stored = nullptr;
@@ -356,10 +367,10 @@ struct HybridBroadPhase::Impl {
     std::size_t written = 0;
     for (std::uint32_t row = 0; row < n;) {
       std::size_t count = 0;
-      row = w.direct->emit_pairs(w.cell.boxes(), w.cell.ids(), partition->region(c), row, w.stage.data(),
-                                 w.stage.size(), count);
+      row = w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), partition->region(c), row, w.first.data(),
+                                w.second.data(), w.first.size(), count);
       if (written + count > r.pairs) throw std::logic_error("hybrid broad phase: cell pair count changed");
-      std::memcpy(dst + written, w.stage.data(), count * sizeof(Pair));
+      SoftwareEngine::write_pairs(w.first.data(), w.second.data(), count, dst + written);
       written += count;
     }
     if (written != r.pairs) throw std::logic_error("hybrid broad phase: cell pair count changed");
