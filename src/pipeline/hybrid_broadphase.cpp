@@ -339,16 +339,27 @@ struct HybridBroadPhase::Impl {
     const std::size_t room = kStoredPairsPerBox * n + n + SoftwareEngine::kOutputSlack;
     fit_stage(w, std::max(room, stage_pairs(n)));
     std::size_t count = 0;
-    const std::uint32_t row =
+    std::uint32_t row =
         w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), region, 0, w.first.data(), w.second.data(), room, count);
-    if (row >= n) {
-      drain_stage(w, count, w.stored);
-    } else {
+    if (row < n && !options.max_pairs) {
+      // Dense: count now, write in the second pass. (With max_pairs set, a
+      // pair explosion must stop as soon as the limit is passed, not after
+      // counting every pair: such cells keep storing, charged per drain.)
       count += w.direct->count_pairs(w.cell.boxes(), w.cell.ids(), region, row);
       r.stored = nullptr;
+      r.pairs = r.candidates = count;
+      return;
     }
-    charge(count);
-    r.pairs = r.candidates = count;
+    while (true) {
+      charge(count);
+      drain_stage(w, count, w.stored);
+      r.pairs += count;
+      if (row >= n) break;
+      count = 0;
+      row = w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), region, row, w.first.data(), w.second.data(),
+                                w.first.size(), count);
+    }
+    r.candidates = r.pairs;
   }
 
   // Second pass: stored pairs are copied to their place in the frame's
