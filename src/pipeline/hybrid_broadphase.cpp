@@ -433,6 +433,8 @@ struct HybridBroadPhase::Impl {
     boxes.validate("frame");
     if (partition_in_use) own_partition.reset();  // its tree is stale by the next large frame
     partition_in_use = false;
+    cell_pairs.clear();  // buffers of earlier, larger frames
+    for (Worker& other : workers) other.stored.clear();
     Worker& w = workers.local();
     w.cell.load(boxes);
     outcomes.assign(1, CellOutcome{});
@@ -447,6 +449,9 @@ struct HybridBroadPhase::Impl {
     const std::uint32_t cells = partition->cell_count();
     outcomes.assign(cells, CellOutcome{});
     const auto t_engine = Clock::now();
+    // Each path's buffers are emptied when the other path runs, so the
+    // release at the end of the frame frees what this frame did not use.
+    for (Worker& w : workers) w.stored.clear();
     if (sink || consumer) {
       stream_cells(sink, consumer);
       engine_ms = ms_since(t_engine);
@@ -455,7 +460,6 @@ struct HybridBroadPhase::Impl {
       merge_ms = ms_since(t_merge);
     } else {
       cell_pairs.clear();
-      for (Worker& w : workers) w.stored.clear();
       for_each_cell(cells, [&](std::uint32_t c) { first_pass(c); });
       engine_ms = ms_since(t_engine);
       const auto t_merge = Clock::now();
