@@ -9,7 +9,7 @@
 //
 // A frame: the hybrid system finds the moving/moving pairs; each moving
 // object re-tests the static candidates cached for its fat box (its box grown
-// by a quarter of its largest side) and re-queries the static tree only when
+// by half its largest side) and re-queries the static tree only when
 // its box left the fat box or the statics changed. Layer table and pair
 // filter apply before a pair is kept; the sorted lists are merged, and
 // created/removed come from a merge with the previous frame's pairs.
@@ -40,11 +40,11 @@ namespace {
 constexpr std::uint32_t kNoIndex = HandleTable::kNoIndex;
 constexpr std::size_t kChunk = 1024;  // items per parallel task (fixed: deterministic output)
 
-// Fat box margin: a quarter of the box's largest side on every axis (scale
+// Fat box margin: half the box's largest side on every axis (scale
 // free; a zero-size box gets no margin and re-queries whenever it moves).
 Aabb fatten(const Aabb& b) {
   const float side = std::max({b.max[0] - b.min[0], b.max[1] - b.min[1], b.max[2] - b.min[2]});
-  const float m = 0.25f * side;
+  const float m = 0.5f * side;
   return {{b.min[0] - m, b.min[1] - m, b.min[2] - m}, {b.max[0] + m, b.max[1] + m, b.max[2] + m}};
 }
 
