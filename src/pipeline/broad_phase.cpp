@@ -428,8 +428,14 @@ struct BroadPhase::Impl {
       sync_moving();
       find_moving_pairs();
       find_static_pairs();
-      next.resize(moving_pairs.size() + static_pairs.size());
-      std::merge(moving_pairs.begin(), moving_pairs.end(), static_pairs.begin(), static_pairs.end(), next.begin());
+      if (static_pairs.empty()) {
+        next.swap(moving_pairs);
+      } else if (moving_pairs.empty()) {
+        next.swap(static_pairs);
+      } else {
+        next.resize(moving_pairs.size() + static_pairs.size());
+        std::merge(moving_pairs.begin(), moving_pairs.end(), static_pairs.begin(), static_pairs.end(), next.begin());
+      }
       if (options.max_pairs && next.size() > options.max_pairs)
         throw CapacityExceeded("BroadPhase::update: " + std::to_string(next.size()) + " pairs, more than max_pairs " +
                                std::to_string(options.max_pairs));
