@@ -414,9 +414,15 @@ TEST(BulletBroadphase, BroadphaseAabbResetPoolStatsAndInvalidBoxes) {
   EXPECT_EQ(lo, btVector3(-1, -7, 3));
   EXPECT_EQ(hi, btVector3(6, 4, 9));
 
-  // A NaN box: the frame throws, naming the object; fixed, the next works.
-  bp.setAabb(b, btVector3(std::numeric_limits<float>::quiet_NaN(), 0, 0), btVector3(1, 1, 1), nullptr);
-  EXPECT_THROW(bp.calculateOverlappingPairs(nullptr), hbp::InvalidInput);
+  // A NaN box: setAabb throws, naming the proxy, and changes nothing; fixed,
+  // the next works.
+  EXPECT_THROW(bp.setAabb(b, btVector3(std::numeric_limits<float>::quiet_NaN(), 0, 0), btVector3(1, 1, 1), nullptr),
+               hbp::InvalidInput);
+  EXPECT_THROW(bp.createProxy(btVector3(1, 1, 1), btVector3(0, 2, 2), BOX_SHAPE_PROXYTYPE, user_of(9), 1, -1, nullptr),
+               hbp::InvalidInput);
+  EXPECT_EQ(bp.proxy_count(), 2u);
+  bp.calculateOverlappingPairs(nullptr);
+  EXPECT_EQ(bp.getOverlappingPairCache()->getNumOverlappingPairs(), 0);
   bp.setAabb(b, btVector3(-0.5f, 3, 4), btVector3(1, 6, 6), nullptr);
   bp.calculateOverlappingPairs(nullptr);
   EXPECT_EQ(bp.getOverlappingPairCache()->getNumOverlappingPairs(), 1);
@@ -530,6 +536,57 @@ TEST(BulletWorld, FilterAndBodiesRemovedAndReAdded) {
     EXPECT_EQ(world.dispatcher().last().raw, expected.size());
   }
   EXPECT_GT(world.dispatcher().last().exact.size(), 500u);
+}
+
+// Issue 17 item 5: a destroyed proxy used again is caught (it used to
+// rewrite the box of whichever live proxy took its dense slot: phantom pairs).
+TEST(BulletBroadphase, StaleProxyIsRejectedNotAppliedToAnother) {
+  HybridBroadphase bp;
+  btBroadphaseProxy* a =
+      bp.createProxy(btVector3(0, 0, 0), btVector3(1, 1, 1), BOX_SHAPE_PROXYTYPE, user_of(0), 1, -1, nullptr);
+  btBroadphaseProxy* b =
+      bp.createProxy(btVector3(5, 0, 0), btVector3(6, 1, 1), BOX_SHAPE_PROXYTYPE, user_of(1), 1, -1, nullptr);
+  btBroadphaseProxy* c =
+      bp.createProxy(btVector3(10, 0, 0), btVector3(11, 1, 1), BOX_SHAPE_PROXYTYPE, user_of(2), 1, -1, nullptr);
+  bp.calculateOverlappingPairs(nullptr);
+  EXPECT_EQ(bp.getOverlappingPairCache()->getNumOverlappingPairs(), 0);
+  bp.destroyProxy(a, nullptr);
+  // A new proxy takes a's slot (same unique id), not its memory.
+  btBroadphaseProxy* d =
+      bp.createProxy(btVector3(20, 0, 0), btVector3(21, 1, 1), BOX_SHAPE_PROXYTYPE, user_of(3), 1, -1, nullptr);
+  EXPECT_NE(d, a);
+  EXPECT_EQ(d->m_uniqueId, 1);
+  // The stale proxy moved onto b: refused, loudly, naming the call.
+  try {
+    bp.setAabb(a, btVector3(5, 0, 0), btVector3(6, 1, 1), nullptr);
+    ADD_FAILURE() << "setAabb on a destroyed proxy did not throw";
+  } catch (const hbp::InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("setAabb"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("destroyed"), std::string::npos) << e.what();
+  }
+  btVector3 lo, hi;
+  EXPECT_THROW(bp.getAabb(a, lo, hi), hbp::InvalidInput);
+  EXPECT_THROW(bp.destroyProxy(a, nullptr), hbp::InvalidInput);
+  // Nothing else changed: no phantom pair, d kept its box.
+  bp.calculateOverlappingPairs(nullptr);
+  EXPECT_EQ(bp.getOverlappingPairCache()->getNumOverlappingPairs(), 0);
+  bp.getAabb(d, lo, hi);
+  EXPECT_EQ(lo, btVector3(20, 0, 0));
+  EXPECT_EQ(bp.proxy_count(), 3u);
+  // Churn: many destroyed proxies, each caught while in quarantine.
+  std::vector<btBroadphaseProxy*> dead;
+  for (int i = 0; i < 200; ++i) {
+    btBroadphaseProxy* p = bp.createProxy(btVector3(0, 0, float(i)), btVector3(1, 1, float(i) + 1),
+                                          BOX_SHAPE_PROXYTYPE, user_of(100 + i), 1, -1, nullptr);
+    bp.calculateOverlappingPairs(nullptr);
+    bp.destroyProxy(p, nullptr);
+    dead.push_back(p);
+  }
+  for (btBroadphaseProxy* p : dead)
+    EXPECT_THROW(bp.setAabb(p, btVector3(5, 0, 0), btVector3(6, 1, 1), nullptr), hbp::InvalidInput);
+  bp.calculateOverlappingPairs(nullptr);
+  EXPECT_EQ(bp.getOverlappingPairCache()->getNumOverlappingPairs(), 0);
+  for (btBroadphaseProxy* p : {b, c, d}) bp.destroyProxy(p, nullptr);
 }
 
 }  // namespace

@@ -80,7 +80,9 @@ class BroadPhase {
   using PairFilter = std::function<bool(Handle a, Handle b)>;
 
   // options.engine / cell_limit / threads / max_pairs as for HybridBroadPhase
-  // (max_pairs bounds the reported pairs of a frame); `sorted` is ignored
+  // (max_pairs bounds the reported pairs of a frame, and the moving/moving
+  // pairs before the layer filter, so memory stays bounded: update() throws
+  // CapacityExceeded and keeps the previous result); `sorted` is ignored
   // (results are always sorted).
   explicit BroadPhase(const BroadPhaseOptions& options = {});
   ~BroadPhase();
@@ -105,6 +107,9 @@ class BroadPhase {
   const BroadPhaseUpdate& last_update() const;
   const BroadPhaseUpdateStats& stats() const;
 
+  // Safe to call concurrently with each other, not with edits. InvalidInput
+  // for a malformed box, a non-finite origin or direction, or max_t < 0 or
+  // NaN (infinity is allowed).
   std::vector<Handle> query_box(const Aabb& box) const;
   std::vector<Handle> query_ray(const float origin[3], const float direction[3], float max_t) const;
 

@@ -1,21 +1,23 @@
-// hbp::bullet::HybridBroadphase: Bullet's btBroadphaseInterface over the
-// hybrid system.
+// hbp::bullet::HybridBroadphase: Bullet's btBroadphaseInterface over
+// hbp::BroadPhase.
 //
-// Live proxies are kept dense: proxy k of the BoxArray is live_[k], and
-// destroying a proxy moves the last one into its slot. The hybrid system
-// assumes object i of one frame is object i of the next (its routing starts
-// from where the object was last frame, checked against the cell region, so a
-// wrong guess costs time, never pairs). Pairs are diffed in dense-index space:
-// when proxies were created or destroyed since the last frame, the previous
-// frame's pairs are first re-mapped through prev_to_cur_ (kept up to date by
-// each create and destroy in O(1)), dropping pairs of destroyed proxies (their
-// cache entries went at destroy time).
+// Each proxy holds its BroadPhase handle; by_slot maps a handle's slot back to
+// the proxy. calculateOverlappingPairs() hands BroadPhase's created pairs to
+// addOverlappingPair and its removed pairs to removeOverlappingPair (pairs of
+// destroyed proxies left the cache at destroyProxy()).
+//
+// Stale proxies: destroyProxy() marks the proxy dead and keeps its memory in
+// a FIFO quarantine, recycled only once the quarantine holds more than
+// max(1024, live proxies); until then setAabb / getAabb / destroyProxy on it
+// throw instead of reading freed memory or touching the proxy now in its slot.
 #include "hbp/bullet/hybrid_broadphase.hpp"
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
-#include <limits>
+#include <deque>
+#include <string>
 #include <vector>
 
 #pragma GCC diagnostic push
@@ -28,7 +30,7 @@
 #include <LinearMath/btAabbUtil2.h>
 #pragma GCC diagnostic pop
 
-#include "hbp/box_array.hpp"
+#include "hbp/error.hpp"
 #include "hbp/pair.hpp"
 
 namespace hbp::bullet {
@@ -38,13 +40,13 @@ static_assert(sizeof(btScalar) == sizeof(float),
 
 namespace {
 
-constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
+constexpr std::uint32_t kSlotMask = (1u << kHandleSlotBits) - 1;
+constexpr std::size_t kMinQuarantine = 1024;
 
-// A Bullet proxy that knows its slot in the dense arrays.
+// A Bullet proxy that knows its BroadPhase handle and whether it is alive.
 struct Proxy : btBroadphaseProxy {
-  Proxy(const btVector3& lo, const btVector3& hi, void* user, int group, int mask)
-      : btBroadphaseProxy(lo, hi, user, group, mask) {}
-  std::uint32_t dense = kNone;
+  Handle handle = kInvalidHandle;
+  bool alive = false;
 };
 
 Proxy* as_proxy(btBroadphaseProxy* p) { return static_cast<Proxy*>(p); }
@@ -53,11 +55,16 @@ Aabb to_box(const btVector3& lo, const btVector3& hi) {
   return {{lo.getX(), lo.getY(), lo.getZ()}, {hi.getX(), hi.getY(), hi.getZ()}};
 }
 
+bool same_box(const btVector3& a_lo, const btVector3& a_hi, const btVector3& b_lo, const btVector3& b_hi) {
+  for (int k = 0; k < 3; ++k)
+    if (a_lo[k] != b_lo[k] || a_hi[k] != b_hi[k]) return false;
+  return true;
+}
+
 }  // namespace
 
 struct HybridBroadphase::Impl {
-  explicit Impl(btOverlappingPairCache* external, const BroadPhaseOptions& opts)
-      : options(with_sorted(opts)), system(options) {
+  explicit Impl(btOverlappingPairCache* external, const BroadPhaseOptions& opts) : options(opts), bp(options) {
     if (external) {
       cache = external;
     } else {
@@ -66,116 +73,112 @@ struct HybridBroadphase::Impl {
     }
   }
 
-  static BroadPhaseOptions with_sorted(BroadPhaseOptions o) {
-    o.sorted = true;
-    return o;
+  ~Impl() {
+    for (Proxy* p : by_slot) delete p;
+    for (Proxy* p : quarantine) delete p;
   }
 
-  int next_uid() {
-    if (!free_uids.empty()) {
-      const int uid = free_uids.back();
-      free_uids.pop_back();
-      return uid;
+  // The live proxy `p` points to, or throws naming the call.
+  Proxy* live(btBroadphaseProxy* proxy, const char* call) const {
+    Proxy* p = as_proxy(proxy);
+    if (p == nullptr || !p->alive || !bp.contains(p->handle)) {
+      throw InvalidInput(std::string("hbp::bullet::HybridBroadphase::") + call +
+                         ": the proxy was destroyed (stale proxy" +
+                         (p ? ", unique id " + std::to_string(p->m_uniqueId) : std::string()) + ")");
     }
-    return ++uid_counter;
+    return p;
   }
 
-  // Brings previous_ into the current dense numbering.
-  void remap_previous() {
-    std::size_t kept = 0;
-    for (const Pair& p : previous) {
-      const std::uint32_t a = prev_to_cur[p.a];
-      const std::uint32_t b = prev_to_cur[p.b];
-      if (a == kNone || b == kNone) continue;
-      previous[kept++] = make_pair(a, b);
+  Proxy* proxy_of(Handle h) const { return by_slot[h & kSlotMask]; }
+
+  Proxy* new_proxy() {
+    if (quarantine.size() > std::max(kMinQuarantine, bp.size())) {
+      Proxy* p = quarantine.front();
+      quarantine.pop_front();
+      *p = Proxy();
+      return p;
     }
-    previous.resize(kept);
-    sort_pairs(previous);
-  }
-
-  void reset_mapping() {
-    const auto n = static_cast<std::uint32_t>(live.size());
-    prev_to_cur.resize(n);
-    cur_to_prev.resize(n);
-    for (std::uint32_t i = 0; i < n; ++i) prev_to_cur[i] = cur_to_prev[i] = i;
-    structure_changed = false;
+    return new Proxy();
   }
 
   BroadPhaseOptions options;
-  HybridBroadPhase system;
+  BroadPhase bp;
   std::unique_ptr<btHashedOverlappingPairCache> owned_cache;
   btOverlappingPairCache* cache = nullptr;
-
-  std::vector<Proxy*> live;  // dense index -> proxy
-  BoxArray boxes;            // dense index -> exact AABB
-  std::vector<Pair> previous;  // pairs of the last frame (dense indices then)
-  // Dense index of the last frame -> now (kNone: destroyed), and back
-  // (kNone: created since). Identity after each frame.
-  std::vector<std::uint32_t> prev_to_cur, cur_to_prev;
-  bool structure_changed = false;
-
-  int uid_counter = 0;
-  std::vector<int> free_uids;
+  std::vector<Proxy*> by_slot;     // handle slot -> live proxy (nullptr when free)
+  std::deque<Proxy*> quarantine;   // destroyed proxies, oldest first
   BroadphaseCounters counters;
 };
 
 HybridBroadphase::HybridBroadphase(btOverlappingPairCache* cache, const BroadPhaseOptions& options)
     : impl_(std::make_unique<Impl>(cache, options)) {}
 
-HybridBroadphase::~HybridBroadphase() {
-  for (Proxy* p : impl_->live) delete p;
-}
+HybridBroadphase::~HybridBroadphase() = default;
 
 btBroadphaseProxy* HybridBroadphase::createProxy(const btVector3& aabbMin, const btVector3& aabbMax, int /*shapeType*/,
                                                  void* userPtr, int collisionFilterGroup, int collisionFilterMask,
                                                  btDispatcher* /*dispatcher*/) {
   Impl& s = *impl_;
-  auto* proxy = new Proxy(aabbMin, aabbMax, userPtr, collisionFilterGroup, collisionFilterMask);
-  proxy->m_uniqueId = s.next_uid();
-  proxy->dense = static_cast<std::uint32_t>(s.live.size());
-  s.live.push_back(proxy);
-  s.boxes.push_back(to_box(aabbMin, aabbMax));
-  s.cur_to_prev.push_back(kNone);
-  s.structure_changed = true;
+  // Static when Bullet's own filter rejects every pair of two such proxies.
+  const bool is_static = collisionFilterGroup == btBroadphaseProxy::StaticFilter &&
+                         (collisionFilterMask & btBroadphaseProxy::StaticFilter) == 0 &&
+                         s.cache->getOverlapFilterCallback() == nullptr;
+  const Aabb box = to_box(aabbMin, aabbMax);
+  Handle h;
+  try {
+    h = s.bp.add(std::span<const Aabb>(&box, 1), {.is_static = is_static})[0];
+  } catch (const InvalidInput& e) {
+    throw InvalidInput(std::string("hbp::bullet::HybridBroadphase::createProxy: ") + e.what());
+  }
+  Proxy* p = s.new_proxy();
+  p->m_clientObject = userPtr;
+  p->m_collisionFilterGroup = collisionFilterGroup;
+  p->m_collisionFilterMask = collisionFilterMask;
+  p->m_aabbMin = aabbMin;
+  p->m_aabbMax = aabbMax;
+  p->handle = h;
+  p->alive = true;
+  const std::uint32_t slot = h & kSlotMask;
+  p->m_uniqueId = static_cast<int>(slot) + 1;
+  if (slot >= s.by_slot.size()) s.by_slot.resize(slot + 1, nullptr);
+  s.by_slot[slot] = p;
   ++s.counters.proxies_created;
-  return proxy;
+  return p;
 }
 
 void HybridBroadphase::destroyProxy(btBroadphaseProxy* proxy, btDispatcher* dispatcher) {
   Impl& s = *impl_;
-  Proxy* p = as_proxy(proxy);
+  Proxy* p = s.live(proxy, "destroyProxy");
   s.cache->removeOverlappingPairsContainingProxy(p, dispatcher);
-  const std::uint32_t d = p->dense;
-  const auto last = static_cast<std::uint32_t>(s.live.size() - 1);
-  if (s.cur_to_prev[d] != kNone) s.prev_to_cur[s.cur_to_prev[d]] = kNone;
-  if (d != last) {
-    Proxy* moved = s.live[last];
-    moved->dense = d;
-    s.live[d] = moved;
-    s.boxes.set(d, s.boxes.get(last));
-    s.cur_to_prev[d] = s.cur_to_prev[last];
-    if (s.cur_to_prev[d] != kNone) s.prev_to_cur[s.cur_to_prev[d]] = d;
-  }
-  s.live.pop_back();
-  s.boxes.resize(last);
-  s.cur_to_prev.pop_back();
-  s.structure_changed = true;
-  s.free_uids.push_back(p->m_uniqueId);
+  s.bp.remove(std::span<const Handle>(&p->handle, 1));
+  s.by_slot[p->handle & kSlotMask] = nullptr;
+  p->alive = false;
+  s.quarantine.push_back(p);
   ++s.counters.proxies_destroyed;
-  delete p;
 }
 
 void HybridBroadphase::setAabb(btBroadphaseProxy* proxy, const btVector3& aabbMin, const btVector3& aabbMax,
                                btDispatcher* /*dispatcher*/) {
-  Proxy* p = as_proxy(proxy);
+  Impl& s = *impl_;
+  Proxy* p = s.live(proxy, "setAabb");
+  // Bullet sets every object's box every step (static ones too): an
+  // unchanged box is not a move.
+  if (same_box(p->m_aabbMin, p->m_aabbMax, aabbMin, aabbMax)) return;
+  const Aabb box = to_box(aabbMin, aabbMax);
+  try {
+    s.bp.move(std::span<const Handle>(&p->handle, 1), std::span<const Aabb>(&box, 1));
+  } catch (const InvalidInput& e) {
+    throw InvalidInput("hbp::bullet::HybridBroadphase::setAabb: proxy with unique id " +
+                       std::to_string(p->m_uniqueId) + ": " + e.what());
+  }
   p->m_aabbMin = aabbMin;
   p->m_aabbMax = aabbMax;
-  impl_->boxes.set(p->dense, to_box(aabbMin, aabbMax));
 }
 
 void HybridBroadphase::getAabb(btBroadphaseProxy* proxy, btVector3& aabbMin, btVector3& aabbMax) const {
-  aabbMin = proxy->m_aabbMin;
-  aabbMax = proxy->m_aabbMax;
+  const Proxy* p = impl_->live(proxy, "getAabb");
+  aabbMin = p->m_aabbMin;
+  aabbMax = p->m_aabbMax;
 }
 
 void HybridBroadphase::rayTest(const btVector3& rayFrom, const btVector3& /*rayTo*/,
@@ -185,84 +188,66 @@ void HybridBroadphase::rayTest(const btVector3& rayFrom, const btVector3& /*rayT
   const btScalar lambda_max = rayCallback.m_lambda_max;
   const btVector3 inverse = rayCallback.m_rayDirectionInverse;
   const unsigned int signs[3] = {rayCallback.m_signs[0], rayCallback.m_signs[1], rayCallback.m_signs[2]};
-  // Hits first, callbacks after: process() may query this broad phase again.
-  std::vector<Proxy*> proxies;
-  const auto n = static_cast<std::uint32_t>(s.live.size());
-  for (std::uint32_t i = 0; i < n; ++i) {
-    const btVector3 bounds[2] = {
-        btVector3(s.boxes.min(0)[i], s.boxes.min(1)[i], s.boxes.min(2)[i]) - aabbMax,
-        btVector3(s.boxes.max(0)[i], s.boxes.max(1)[i], s.boxes.max(2)[i]) - aabbMin};
-    btScalar tmin;
-    if (btRayAabb2(rayFrom, inverse, signs, bounds, tmin, 0, lambda_max)) proxies.push_back(s.live[i]);
+  // btRayAabb2 accepts a grown box when the segment rayFrom + t / inverse,
+  // 0 <= t <= lambda_max, touches it; every such proxy's box overlaps the
+  // segment's bounds grown by the query box, padded for rounding.
+  Aabb bounds;
+  for (int k = 0; k < 3; ++k) {
+    const double d = std::isinf(inverse[k]) || inverse[k] == 0 ? 0.0 : 1.0 / static_cast<double>(inverse[k]);
+    const double a = rayFrom[k];
+    const double b = a + static_cast<double>(lambda_max) * d;
+    const double pad = 1e-5 * (std::fabs(a) + std::fabs(b) + 1.0);
+    bounds.min[k] = static_cast<float>(std::min(a, b) + aabbMin[k] - pad);
+    bounds.max[k] = static_cast<float>(std::max(a, b) + aabbMax[k] + pad);
   }
+  std::vector<Proxy*> proxies;
+  if (!box_defect(bounds)) {
+    for (const Handle h : s.bp.query_box(bounds)) {
+      Proxy* p = s.proxy_of(h);
+      const btVector3 grown[2] = {p->m_aabbMin - aabbMax, p->m_aabbMax - aabbMin};
+      btScalar tmin;
+      if (btRayAabb2(rayFrom, inverse, signs, grown, tmin, 0, lambda_max)) proxies.push_back(p);
+    }
+  } else {
+    // Bounds past float range (a ray to infinity): test every live proxy.
+    for (Proxy* p : s.by_slot) {
+      if (!p) continue;
+      const btVector3 grown[2] = {p->m_aabbMin - aabbMax, p->m_aabbMax - aabbMin};
+      btScalar tmin;
+      if (btRayAabb2(rayFrom, inverse, signs, grown, tmin, 0, lambda_max)) proxies.push_back(p);
+    }
+  }
+  // Hits first, callbacks after: process() may query this broad phase again.
   for (Proxy* p : proxies) rayCallback.process(p);
 }
 
 void HybridBroadphase::aabbTest(const btVector3& aabbMin, const btVector3& aabbMax,
                                 btBroadphaseAabbCallback& callback) {
   Impl& s = *impl_;
-  const float lo[3] = {aabbMin.getX(), aabbMin.getY(), aabbMin.getZ()};
-  const float hi[3] = {aabbMax.getX(), aabbMax.getY(), aabbMax.getZ()};
-  std::vector<Proxy*> proxies;
-  const auto n = static_cast<std::uint32_t>(s.live.size());
-  const float* mnx = s.boxes.min(0);
-  const float* mny = s.boxes.min(1);
-  const float* mnz = s.boxes.min(2);
-  const float* mxx = s.boxes.max(0);
-  const float* mxy = s.boxes.max(1);
-  const float* mxz = s.boxes.max(2);
-  for (std::uint32_t i = 0; i < n; ++i) {
-    const bool hit = (mxx[i] >= lo[0]) & (mnx[i] <= hi[0]) & (mxy[i] >= lo[1]) & (mny[i] <= hi[1]) &
-                     (mxz[i] >= lo[2]) & (mnz[i] <= hi[2]);
-    if (hit) proxies.push_back(s.live[i]);
-  }
-  for (Proxy* p : proxies) callback.process(p);
+  const std::vector<Handle> hits = s.bp.query_box(to_box(aabbMin, aabbMax));
+  for (const Handle h : hits) callback.process(s.proxy_of(h));
 }
 
 void HybridBroadphase::calculateOverlappingPairs(btDispatcher* dispatcher) {
   Impl& s = *impl_;
   const auto start = std::chrono::steady_clock::now();
-  if (s.structure_changed) {
-    // Before the frame, so a frame that throws (invalid box) leaves a
-    // consistent state behind.
-    s.remap_previous();
-    s.reset_mapping();
-  }
-
-  static const std::vector<Pair> kNoPairs;
-  const std::vector<Pair>& current = s.live.size() >= 2 ? s.system.update(s.boxes) : kNoPairs;
-
-  // Merge the two sorted sets: pairs only in `current` appeared, pairs only
-  // in `previous` separated.
-  std::uint64_t added = 0, removed = 0;
-  auto prev = s.previous.begin();
-  const auto prev_end = s.previous.end();
-  for (const Pair& p : current) {
-    while (prev != prev_end && *prev < p) {
-      s.cache->removeOverlappingPair(s.live[prev->a], s.live[prev->b], dispatcher);
-      ++removed;
-      ++prev;
-    }
-    if (prev != prev_end && *prev == p) {
-      ++prev;
-      continue;
-    }
-    s.cache->addOverlappingPair(s.live[p.a], s.live[p.b]);
-    ++added;
-  }
-  for (; prev != prev_end; ++prev) {
-    s.cache->removeOverlappingPair(s.live[prev->a], s.live[prev->b], dispatcher);
+  const BroadPhaseUpdate& u = s.bp.update();
+  std::uint64_t removed = 0;
+  for (const Pair& p : u.removed) {
+    // A destroyed proxy's pairs left the cache at destroyProxy().
+    if (!s.bp.contains(p.a) || !s.bp.contains(p.b)) continue;
+    s.cache->removeOverlappingPair(s.proxy_of(p.a), s.proxy_of(p.b), dispatcher);
     ++removed;
   }
-  s.previous.assign(current.begin(), current.end());
+  for (const Pair& p : u.created) s.cache->addOverlappingPair(s.proxy_of(p.a), s.proxy_of(p.b));
 
   BroadphaseCounters& c = s.counters;
   ++c.frames;
-  c.pairs_added += added;
+  c.pairs_added += u.created.size();
   c.pairs_removed += removed;
-  c.last_added = added;
+  c.last_added = u.created.size();
   c.last_removed = removed;
-  c.last_pairs = current.size();
+  c.last_pairs = u.pairs.size();
   c.last_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   c.total_ms += c.last_ms;
 }
@@ -271,52 +256,51 @@ btOverlappingPairCache* HybridBroadphase::getOverlappingPairCache() { return imp
 const btOverlappingPairCache* HybridBroadphase::getOverlappingPairCache() const { return impl_->cache; }
 
 void HybridBroadphase::getBroadphaseAabb(btVector3& aabbMin, btVector3& aabbMax) const {
-  const Impl& s = *impl_;
-  const std::size_t n = s.live.size();
-  if (n == 0) {
+  bool any = false;
+  for (const Proxy* p : impl_->by_slot) {
+    if (!p) continue;
+    if (!any) {
+      aabbMin = p->m_aabbMin;
+      aabbMax = p->m_aabbMax;
+      any = true;
+    } else {
+      aabbMin.setMin(p->m_aabbMin);
+      aabbMax.setMax(p->m_aabbMax);
+    }
+  }
+  if (!any) {
     aabbMin.setValue(0, 0, 0);
     aabbMax.setValue(0, 0, 0);
-    return;
   }
-  float lo[3], hi[3];
-  for (int k = 0; k < 3; ++k) {
-    lo[k] = *std::min_element(s.boxes.min(k), s.boxes.min(k) + n);
-    hi[k] = *std::max_element(s.boxes.max(k), s.boxes.max(k) + n);
-  }
-  aabbMin.setValue(lo[0], lo[1], lo[2]);
-  aabbMax.setValue(hi[0], hi[1], hi[2]);
 }
 
 void HybridBroadphase::resetPool(btDispatcher* /*dispatcher*/) {
   Impl& s = *impl_;
-  if (!s.live.empty()) return;
-  s.system = HybridBroadPhase(s.options);
-  s.previous.clear();
-  s.prev_to_cur.clear();
-  s.cur_to_prev.clear();
-  s.structure_changed = false;
-  s.uid_counter = 0;
-  s.free_uids.clear();
+  if (s.bp.size() != 0) return;
+  // Dead proxies stay in quarantine (marked dead): still caught if used.
+  s.bp = BroadPhase(s.options);
+  s.by_slot.clear();
+  s.by_slot.shrink_to_fit();
   s.counters = {};
 }
 
 void HybridBroadphase::printStats() {
   const Impl& s = *impl_;
   const BroadphaseCounters& c = s.counters;
-  const FrameStats& f = s.system.stats();
+  const BroadPhaseUpdateStats& f = s.bp.stats();
   std::printf(
-      "hbp::bullet::HybridBroadphase: %zu proxies, %llu frames, last frame: %llu pairs (+%llu -%llu), "
-      "%u cells (min/median/max %u/%u/%u), duplication %.3f, %.3f ms (partition %.3f, engine %.3f); "
-      "total %.1f ms, pairs added %llu, removed %llu\n",
-      s.live.size(), static_cast<unsigned long long>(c.frames), static_cast<unsigned long long>(c.last_pairs),
-      static_cast<unsigned long long>(c.last_added), static_cast<unsigned long long>(c.last_removed), f.cells,
-      f.min_cell, f.median_cell, f.max_cell, f.duplication, c.last_ms, f.partition_ms, f.engine_ms, c.total_ms,
+      "hbp::bullet::HybridBroadphase: %zu proxies (%u moving, %u static), %llu frames, last frame: %llu pairs "
+      "(+%llu -%llu), %u moved, %.3f ms; total %.1f ms, pairs added %llu, removed %llu\n",
+      s.bp.size(), f.moving, f.statics, static_cast<unsigned long long>(c.frames),
+      static_cast<unsigned long long>(c.last_pairs), static_cast<unsigned long long>(c.last_added),
+      static_cast<unsigned long long>(c.last_removed), f.moved, c.last_ms, c.total_ms,
       static_cast<unsigned long long>(c.pairs_added), static_cast<unsigned long long>(c.pairs_removed));
 }
 
-std::size_t HybridBroadphase::proxy_count() const { return impl_->live.size(); }
+std::size_t HybridBroadphase::proxy_count() const { return impl_->bp.size(); }
 const BroadphaseCounters& HybridBroadphase::counters() const { return impl_->counters; }
-const FrameStats& HybridBroadphase::frame_stats() const { return impl_->system.stats(); }
+const BroadPhaseUpdateStats& HybridBroadphase::frame_stats() const { return impl_->bp.stats(); }
+const BroadPhase& HybridBroadphase::broad_phase() const { return impl_->bp; }
 const BroadPhaseOptions& HybridBroadphase::options() const { return impl_->options; }
 
 }  // namespace hbp::bullet

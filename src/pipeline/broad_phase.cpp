@@ -9,7 +9,7 @@
 //
 // A frame: the hybrid system finds the moving/moving pairs; each moving
 // object re-tests the static candidates cached for its fat box (its box grown
-// by a quarter of its largest side) and re-queries the static tree only when
+// by half its largest side) and re-queries the static tree only when
 // its box left the fat box or the statics changed. Layer table and pair
 // filter apply before a pair is kept; the sorted lists are merged, and
 // created/removed come from a merge with the previous frame's pairs.
@@ -38,13 +38,13 @@ using detail::HandleTable;
 namespace {
 
 constexpr std::uint32_t kNoIndex = HandleTable::kNoIndex;
-constexpr std::size_t kChunk = 4096;  // items per parallel task (fixed: deterministic output)
+constexpr std::size_t kChunk = 1024;  // items per parallel task (fixed: deterministic output)
 
-// Fat box margin: a quarter of the box's largest side on every axis (scale
+// Fat box margin: half the box's largest side on every axis (scale
 // free; a zero-size box gets no margin and re-queries whenever it moves).
 Aabb fatten(const Aabb& b) {
   const float side = std::max({b.max[0] - b.min[0], b.max[1] - b.min[1], b.max[2] - b.min[2]});
-  const float m = 0.25f * side;
+  const float m = 0.5f * side;
   return {{b.min[0] - m, b.min[1] - m, b.min[2] - m}, {b.max[0] + m, b.max[1] + m, b.max[2] + m}};
 }
 
@@ -116,11 +116,20 @@ struct BroadPhase::Impl {
   bool statics_dirty = false;
   std::uint32_t static_epoch = 1;  // advanced at each static rebuild
 
-  // Moving vs static candidate cache, by slot: valid while cache_epoch ==
-  // static_epoch and the object's box stays inside its fat box.
-  std::vector<Aabb> fat_box;
-  std::vector<std::uint32_t> cache_epoch;
-  std::vector<std::vector<std::uint32_t>> candidates;  // static dense indices
+  // Moving vs static candidates, by slot: valid while epoch == static_epoch
+  // and the object's box stays inside `fat`. The candidates' boxes are
+  // copied in, so a frame's re-test reads one contiguous list per object
+  // instead of six scattered static lanes per candidate.
+  struct Candidate {
+    Aabb box;
+    Handle handle;
+  };
+  struct StaticCache {
+    Aabb fat;
+    std::uint32_t epoch = 0;
+    std::vector<Candidate> list;
+  };
+  std::vector<StaticCache> cache;
 
   // Moving objects' tree, for queries only.
   BoxTree moving_tree;
@@ -135,7 +144,7 @@ struct BroadPhase::Impl {
   // Results.
   BroadPhaseUpdate result;
   BroadPhaseUpdateStats stats;
-  std::vector<Pair> moving_pairs, static_pairs, next;
+  std::vector<Pair> moving_pairs, static_pairs, next, sort_scratch;
   std::uint32_t moved = 0, static_changes = 0;
 
   // Duplicate detection within a batch.
@@ -199,12 +208,10 @@ struct BroadPhase::Impl {
       const std::uint32_t s = table.allocate(kind, o.layer);
       if (s >= slot_box.size()) {
         slot_box.resize(s + 1);
-        fat_box.resize(s + 1);
-        cache_epoch.resize(s + 1, 0);
-        candidates.resize(s + 1);
+        cache.resize(s + 1);
       }
       slot_box[s] = boxes[i];
-      cache_epoch[s] = 0;
+      cache[s].epoch = 0;
       handles[i] = table.handle_of(s);
     }
     if (boxes.empty()) return handles;
@@ -248,7 +255,7 @@ struct BroadPhase::Impl {
     for (const Handle h : handles) {
       const std::uint32_t s = HandleTable::slot_of(h);
       (table.kind(s) == HandleTable::kStatic ? statics : moving) += 1;
-      std::vector<std::uint32_t>().swap(candidates[s]);
+      cache[s] = StaticCache();
       table.release(s);
     }
     if (statics) statics_changed(statics);
@@ -273,12 +280,7 @@ struct BroadPhase::Impl {
     std::vector<Handle>().swap(static_handle);
     static_tree.clear();
     moving_tree.clear();
-    std::vector<Aabb>().swap(fat_box);
-    std::vector<std::uint32_t>().swap(cache_epoch);
-    std::vector<std::vector<std::uint32_t>>().swap(candidates);
-    fat_box.resize(slot_box.size());
-    cache_epoch.resize(slot_box.size(), 0);
-    candidates.resize(slot_box.size());
+    std::vector<StaticCache>(slot_box.size()).swap(cache);
   }
 
   // ---- structures ----------------------------------------------------------
@@ -379,32 +381,44 @@ struct BroadPhase::Impl {
                      [&](std::size_t begin, std::size_t end, std::vector<Pair>& out) {
                        for (std::size_t d = begin; d < end; ++d) {
                          const Handle hm = moving_handle[d];
-                         const std::uint32_t s = HandleTable::slot_of(hm);
-                         const Aabb& box = slot_box[s];
-                         std::vector<std::uint32_t>& cand = candidates[s];
-                         if (cache_epoch[s] != epoch || !inside(box, fat_box[s])) {
-                           fat_box[s] = fatten(box);
-                           cache_epoch[s] = epoch;
-                           cand.clear();
-                           static_tree.for_each_overlap(fat_box[s], [&](std::uint32_t i) { cand.push_back(i); });
-                           fit(cand);
+                         const Aabb box = moving_boxes.get(d);
+                         StaticCache& c = cache[HandleTable::slot_of(hm)];
+                         if (c.epoch != epoch || !inside(box, c.fat)) {
+                           c.fat = fatten(box);
+                           c.epoch = epoch;
+                           c.list.clear();
+                           static_tree.for_each_overlap(c.fat, [&](std::uint32_t i, const auto& leaf) {
+                             c.list.push_back({{{leaf.min[0], leaf.min[1], leaf.min[2]},
+                                                {leaf.max[0], leaf.max[1], leaf.max[2]}},
+                                               static_handle[i]});
+                           });
+                           fit(c.list);
                          }
-                         for (const std::uint32_t c : cand) {
-                           const bool hit = static_boxes.max(0)[c] >= box.min[0] &&
-                                            static_boxes.min(0)[c] <= box.max[0] &&
-                                            static_boxes.max(1)[c] >= box.min[1] &&
-                                            static_boxes.min(1)[c] <= box.max[1] &&
-                                            static_boxes.max(2)[c] >= box.min[2] &&
-                                            static_boxes.min(2)[c] <= box.max[2];
-                           if (!hit) continue;
-                           const Pair p = make_pair(hm, static_handle[c]);
+                         if (all && !filter) {
+                           // Branch-free: about half the candidates overlap.
+                           std::size_t size = out.size();
+                           out.resize(size + c.list.size());
+                           for (const Candidate& k : c.list) {
+                             const bool hit = (box.max[0] >= k.box.min[0]) & (box.min[0] <= k.box.max[0]) &
+                                              (box.max[1] >= k.box.min[1]) & (box.min[1] <= k.box.max[1]) &
+                                              (box.max[2] >= k.box.min[2]) & (box.min[2] <= k.box.max[2]);
+                             out[size] = make_pair(hm, k.handle);
+                             size += hit;
+                           }
+                           out.resize(size);
+                           continue;
+                         }
+                         for (const Candidate& k : c.list) {
+                           if (!overlaps(box, k.box)) continue;
+                           const Pair p = make_pair(hm, k.handle);
                            if (!all && !layers_collide(p.a, p.b)) continue;
                            if (filter && !filter(p.a, p.b)) continue;
                            out.push_back(p);
                          }
                        }
                      });
-    sort_pairs(static_pairs);
+    detail::sort_pair_list(static_pairs, sort_scratch);
+    fit(sort_scratch);
   }
 
   const BroadPhaseUpdate& update() {
@@ -414,8 +428,14 @@ struct BroadPhase::Impl {
       sync_moving();
       find_moving_pairs();
       find_static_pairs();
-      next.resize(moving_pairs.size() + static_pairs.size());
-      std::merge(moving_pairs.begin(), moving_pairs.end(), static_pairs.begin(), static_pairs.end(), next.begin());
+      if (static_pairs.empty()) {
+        next.swap(moving_pairs);
+      } else if (moving_pairs.empty()) {
+        next.swap(static_pairs);
+      } else {
+        next.resize(moving_pairs.size() + static_pairs.size());
+        std::merge(moving_pairs.begin(), moving_pairs.end(), static_pairs.begin(), static_pairs.end(), next.begin());
+      }
       if (options.max_pairs && next.size() > options.max_pairs)
         throw CapacityExceeded("BroadPhase::update: " + std::to_string(next.size()) + " pairs, more than max_pairs " +
                                std::to_string(options.max_pairs));
@@ -443,8 +463,8 @@ struct BroadPhase::Impl {
     if (const char* d = box_defect(q)) throw InvalidInput(std::string("BroadPhase::query_box: ") + d);
     sync_queries();
     std::vector<Handle> out;
-    static_tree.for_each_overlap(q, [&](std::uint32_t i) { out.push_back(static_handle[i]); });
-    moving_tree.for_each_overlap(q, [&](std::uint32_t i) { out.push_back(moving_handle[i]); });
+    static_tree.for_each_overlap(q, [&](std::uint32_t i, const auto&) { out.push_back(static_handle[i]); });
+    moving_tree.for_each_overlap(q, [&](std::uint32_t i, const auto&) { out.push_back(moving_handle[i]); });
     std::sort(out.begin(), out.end());
     return out;
   }

@@ -5,30 +5,43 @@
 //   hbp::bullet::HybridBroadphase broadphase;        // instead of btDbvtBroadphase
 //   btDiscreteDynamicsWorld world(&dispatcher, &broadphase, &solver, &config);
 //
-// Semantics, stated where they differ from btDbvtBroadphase:
+// Built on hbp::BroadPhase (broad_phase.hpp): each proxy is a handle, the
+// pair cache is fed the frame's created and removed pairs, and the queries
+// are BroadPhase's tree queries. Semantics, stated where they differ from
+// btDbvtBroadphase:
 // - Pairs are exact: the overlapping pair cache holds exactly the proxies whose
 //   AABBs overlap under the closed-interval float32 rule (touching faces
 //   collide) and that the cache's filter accepts (group/mask or a
 //   btOverlapFilterCallback, checked by addOverlappingPair when a pair
 //   appears). No fattened boxes, no stale pairs.
 // - Pairs are computed in calculateOverlappingPairs(), not in createProxy() or
-//   setAabb(): the frame's pair set is diffed against the previous frame's and
-//   only the difference goes to the cache (addOverlappingPair for new pairs,
-//   removeOverlappingPair for pairs that separated), so persisting pairs keep
+//   setAabb(): only the frame's created pairs (addOverlappingPair) and removed
+//   pairs (removeOverlappingPair) go to the cache, so persisting pairs keep
 //   their collision algorithm and contact manifold.
+// - Static proxies (collision filter group exactly StaticFilter, mask without
+//   StaticFilter, and no btOverlapFilterCallback on the cache at creation:
+//   Bullet's own filter would reject every pair of two of them) are
+//   BroadPhase static objects: they cost nothing per frame while they stay
+//   put (a setAabb with the same box is not a move).
 // - A filter change on a live proxy applies to pairs that appear afterwards;
 //   btCollisionWorld::refreshBroadphaseProxy() (destroy + create) re-filters.
-// - aabbTest() and rayTest() scan every live proxy's exact AABB (a linear scan
-//   over the structure-of-arrays boxes, not the partition): the answer is
-//   exactly what a brute-force box/box or ray/box test returns; rayTest uses
-//   Bullet's own slab test (btRayAabb2) on the exact box grown by the query
-//   box, so it is a subset of btDbvtBroadphase's answer on the same boxes.
-// - Invalid AABBs (NaN, infinite, min > max) make calculateOverlappingPairs()
-//   throw hbp::InvalidInput naming the dense object index.
+// - aabbTest(): BroadPhase::query_box, exact closed boxes; process() called in
+//   handle order. rayTest(): the proxies whose exact AABB, grown by the query
+//   box (min - aabbMax, max - aabbMin, as btDbvtBroadphase does), passes
+//   Bullet's own slab test btRayAabb2 with the callback's
+//   m_rayDirectionInverse, m_signs and m_lambda_max (read once, at the start);
+//   candidates come from query_box over the swept segment's bounds. A subset
+//   of btDbvtBroadphase's answer on the same boxes.
+// - Stale proxies are caught: setAabb, getAabb or destroyProxy on a destroyed
+//   proxy throws hbp::InvalidInput (a destroyed proxy's memory is kept, marked
+//   dead, until at least max(1024, live proxies) later proxies were destroyed,
+//   and its handle's generation no longer matches its slot's).
+// - Invalid AABBs (NaN, infinite, min > max) make createProxy() / setAabb()
+//   throw hbp::InvalidInput naming the proxy; nothing is changed.
 #include <cstdint>
 #include <memory>
 
-#include "hbp/hybrid_broadphase.hpp"
+#include "hbp/broad_phase.hpp"
 
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wunused-parameter"
@@ -61,8 +74,7 @@ class HybridBroadphase final : public btBroadphaseInterface {
  public:
   // `cache`: an overlapping pair cache to fill (not owned), or nullptr for an
   // owned btHashedOverlappingPairCache, as btDbvtBroadphase does.
-  // `options`: the hybrid system's options; `sorted` is forced on (the
-  // incremental diff merges two sorted pair lists).
+  // `options`: the hybrid system's options (BroadPhase; `sorted` is ignored).
   explicit HybridBroadphase(btOverlappingPairCache* cache = nullptr, const BroadPhaseOptions& options = {});
   explicit HybridBroadphase(const BroadPhaseOptions& options) : HybridBroadphase(nullptr, options) {}
   ~HybridBroadphase() override;
@@ -81,17 +93,16 @@ class HybridBroadphase final : public btBroadphaseInterface {
   // Every live proxy whose exact AABB, grown by the query box (min - aabbMax,
   // max - aabbMin, as btDbvtBroadphase does), passes btRayAabb2 with the
   // callback's m_rayDirectionInverse, m_signs and m_lambda_max (read once, at
-  // the start). Linear scan; hits are collected first, then process() is
-  // called for each in dense-index order.
+  // the start). Hits are collected first, then process() is called for each
+  // in handle order.
   void rayTest(const btVector3& rayFrom, const btVector3& rayTo, btBroadphaseRayCallback& rayCallback,
                const btVector3& aabbMin = btVector3(0, 0, 0),
                const btVector3& aabbMax = btVector3(0, 0, 0)) override;
   // Every live proxy whose exact AABB overlaps [aabbMin, aabbMax] (closed
-  // intervals). Linear scan; process() called in dense-index order.
+  // intervals); process() called in handle order.
   void aabbTest(const btVector3& aabbMin, const btVector3& aabbMax, btBroadphaseAabbCallback& callback) override;
 
-  // One frame of the hybrid system over the live proxies' boxes, then the
-  // incremental update of the pair cache.
+  // BroadPhase::update(), then its created / removed pairs to the cache.
   void calculateOverlappingPairs(btDispatcher* dispatcher) override;
 
   btOverlappingPairCache* getOverlappingPairCache() override;
@@ -100,18 +111,19 @@ class HybridBroadphase final : public btBroadphaseInterface {
   // The union of the live proxies' exact AABBs; a zero box when there are none.
   void getBroadphaseAabb(btVector3& aabbMin, btVector3& aabbMax) const override;
 
-  // With no live proxies: drops the partition and restarts proxy ids, so a
-  // rebuilt world gets the same ids and pair order (determinism). Otherwise
+  // With no live proxies: starts a fresh BroadPhase and restarts proxy ids, so
+  // a rebuilt world gets the same ids and pair order (determinism). Otherwise
   // does nothing (as btDbvtBroadphase).
   void resetPool(btDispatcher* dispatcher) override;
 
-  // Proxies, pairs, cells and timings of the last frame, to stdout.
+  // Proxies, pairs and timings of the last frame, to stdout.
   void printStats() override;
 
   // Not part of Bullet's interface.
   std::size_t proxy_count() const;
   const BroadphaseCounters& counters() const;
-  const FrameStats& frame_stats() const;  // the hybrid system's last frame
+  const BroadPhaseUpdateStats& frame_stats() const;  // BroadPhase's last update
+  const BroadPhase& broad_phase() const;
   const BroadPhaseOptions& options() const;
 
  private:
