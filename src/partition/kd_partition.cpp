@@ -171,6 +171,7 @@ void KdPartition::rebuild(const BoxArray& boxes) {
   s.build.a = &s.next_entries;
   s.build.b = &s.latest;
   kd::build_tree(boxes, rule, s.build, nodes_, s.entries, s.home.data(), s.prev.data());
+  if (nodes_.capacity() > 2 * nodes_.size() + 4096) nodes_.shrink_to_fit();  // a past peak of splits
   entries_ = s.entries.data();
   number_leaves();
   stats_.rebuilt = true;
