@@ -480,7 +480,11 @@ bool KdPartition::split_oversized() {
         const std::uint32_t global = k == 0 ? leaf : base + static_cast<std::uint32_t>(k) - 1;
         for (std::uint32_t i = nd.first; i < nd.first + nd.size; ++i) {
           CellEntry& e = b.entries[i];
-          s.margin[e.id] = 0;  // new planes: its next frame descends
+          // New planes: the object's next frame descends, and its cells are
+          // now those of this frame's box (the one the split routed).
+          s.margin[e.id] = 0;
+          if (s.home[e.id] != leaf)
+            s.prev[e.id] = {{e.min[0], e.min[1], e.min[2]}, {e.max[0], e.max[1], e.max[2]}};
           if (!(e.unused & kd::kNotOwner) && s.home[e.id] == leaf) {
             const bool forked = (e.unused & kd::kForkMask) != kd::kNoFork;
             s.home[e.id] = forked ? kd::fork_node(e.unused, leaf, base) : global;
