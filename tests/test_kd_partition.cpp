@@ -167,12 +167,12 @@ TEST(KdPartitionDepth, EightyThousandConvergingObjectsAtTheDefaultLimit) {
   const Converging scene(1000, 80000, 2, 0.004f);
   HybridBroadPhase bp({.engine = "sw", .threads = 2});
   KdPartition p(1024);
-  for (int f = 0; f < 12; ++f) {
+  for (int f = 0; f <= 10; f += 2) {
     const BoxArray boxes = scene.frame(f);
     expect_oracle(bp, boxes, "frame " + std::to_string(f));
     p.update(boxes);
     EXPECT_LE(p.stats().depth, KdPartition::kMaxDepth);
-    if (f == 11) expect_valid_cells(p, boxes, "frame " + std::to_string(f));
+    if (f == 10) expect_valid_cells(p, boxes, "frame " + std::to_string(f));
   }
 }
 
@@ -255,15 +255,31 @@ std::vector<BoxArray> stress_frames(std::uint32_t frames) {
 
 TEST(KdPartition, StressedMaintenanceKeepsExactCellsAndPairs) {
   const std::vector<BoxArray> frames = stress_frames(16);
-  KdPartition p(64, 0.5f);
-  std::uint32_t splits = 0, merges = 0;
-  for (std::size_t f = 0; f < frames.size(); ++f) {
-    p.update(frames[f]);
-    splits += p.stats().splits;
-    merges += p.stats().merges;
-    expect_valid_cells(p, frames[f], "frame " + std::to_string(f));
+  for (std::uint32_t limit : {7u, 64u}) {
+    KdPartition p(limit, 0.5f);
+    std::uint32_t splits = 0;
+    for (std::size_t f = 0; f < frames.size(); ++f) {
+      p.update(frames[f]);
+      splits += p.stats().splits;
+      expect_valid_cells(p, frames[f], "limit " + std::to_string(limit) + " frame " + std::to_string(f));
+    }
+    EXPECT_GT(splits, 0u) << "limit " << limit;
   }
-  EXPECT_GT(splits, 0u);
+  // Slow coherent motion at a small limit: objects in several cells keep
+  // them without a descent while they move less than their margin, and
+  // splits re-base them (the case the margin skip once got wrong).
+  hbp::ScenarioParams sp;
+  sp.n = 4000;
+  sp.seed = 11;
+  hbp::Scenario scene(sp);
+  KdPartition slow(7, 0.5f);
+  BoxArray boxes;
+  for (int f = 0; f < 6; ++f) {
+    scene.compute_boxes(boxes);
+    slow.update(boxes);
+    expect_valid_cells(slow, boxes, "paper frame " + std::to_string(f));
+    scene.step();
+  }
   for (const char* engine : {"sw", "brute"}) {
     HybridBroadPhase bp({.engine = engine, .cell_limit = 64});
     for (std::size_t f = 0; f < frames.size(); ++f)

@@ -4,6 +4,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <cmath>
 #include <array>
 #include <limits>
 #include <stdexcept>
@@ -99,7 +100,8 @@ void merge_tail(CellEntry* e, std::uint32_t k, std::uint32_t m, std::vector<Cell
 struct KdPartition::State {
   RawBuffer<CellEntry> entries, next_entries;  // this frame's cells; the next frame's being written
   RawBuffer<std::uint32_t> home;               // object -> deepest node holding all its cells
-  RawBuffer<StoredBox> prev;                   // object -> its box last frame (objects homed at an inner node)
+  RawBuffer<StoredBox> prev;                   // object -> its box at its last descent (objects homed at an inner node)
+  RawBuffer<float> margin;                     // object -> how far that box's faces were from every plane it was tested on
   std::size_t objects = 0;
   std::vector<CellRegion> node_regions;        // per live node
   std::vector<std::uint32_t> leaf_depth;       // cell -> depth of its leaf
@@ -164,6 +166,8 @@ void KdPartition::rebuild(const BoxArray& boxes) {
   const std::size_t n = boxes.size();
   s.home.resize(n);
   s.prev.resize(n);
+  s.margin.resize(n);
+  std::fill(s.margin.data(), s.margin.data() + n, 0.0f);  // the first maintained frame descends once
   s.objects = n;
   const kd::SplitRule rule{cell_limit_, x_split_weight_, &cell_cost_};
   // The next frame's entry buffer and the per-object entries serve as the
@@ -171,6 +175,7 @@ void KdPartition::rebuild(const BoxArray& boxes) {
   s.build.a = &s.next_entries;
   s.build.b = &s.latest;
   kd::build_tree(boxes, rule, s.build, nodes_, s.entries, s.home.data(), s.prev.data());
+  if (nodes_.capacity() > 2 * nodes_.size() + 4096) nodes_.shrink_to_fit();  // a past peak of splits
   entries_ = s.entries.data();
   number_leaves();
   stats_.rebuilt = true;
@@ -182,6 +187,7 @@ void KdPartition::maintain(const BoxArray& boxes) {
   if (n != s.objects) {  // objects appended (no home yet) or removed at the end
     s.home.resize(n);
     s.prev.resize(n);
+    s.margin.resize(n);
     for (std::size_t i = s.objects; i < n; ++i) s.home[i] = kNoHome;
     s.objects = n;
   }
@@ -302,6 +308,7 @@ void KdPartition::find_crossings(const BoxArray& boxes) {
   const CellRegion* node_regions = s.node_regions.data();
   std::uint32_t* home = s.home.data();
   StoredBox* prev = s.prev.data();
+  float* margin = s.margin.data();
   s.latest.resize(n);
   CellEntry* latest = s.latest.data();
   auto chunk = [&](std::uint32_t c) {
@@ -318,7 +325,17 @@ void KdPartition::find_crossings(const BoxArray& boxes) {
       if (h != kNoHome) {
         const bool in = inside(b, node_regions[h]);
         if (in && nodes[h].axis < 0) continue;  // the common case: still inside its one cell
-        if (in) node = h;
+        if (in) {
+          // In several cells: if no face moved by as much as the margin of its
+          // last descent, every plane test of that descent comes out the same,
+          // and so do its cells (half the margin: float rounding).
+          const StoredBox& p = prev[i];
+          float moved = 0;
+          for (int a = 0; a < 3; ++a)
+            moved = std::max(moved, std::max(std::abs(b[a] - p.min[a]), std::abs(b[3 + a] - p.max[a])));
+          if (moved < 0.5f * margin[i]) continue;
+          node = h;
+        }
       }
       const bool was_leaf = h != kNoHome && nodes[h].axis < 0;
       float old[6] = {};
@@ -327,11 +344,13 @@ void KdPartition::find_crossings(const BoxArray& boxes) {
         for (int a = 0; a < 3; ++a) old[a] = p.min[a], old[3 + a] = p.max[a];
       }
       std::uint32_t top = 0, fork = kNoHome;
+      float m = std::numeric_limits<float>::infinity();
       while (true) {
         while (nodes[node].axis >= 0) {
           const KdTreeNode& nd = nodes[node];
           const bool left = b[nd.axis] < nd.split;
           const bool right = b[3 + nd.axis] >= nd.split;
+          m = std::min(m, std::min(std::abs(b[nd.axis] - nd.split), std::abs(b[3 + nd.axis] - nd.split)));
           if (left && right) {
             if (fork == kNoHome) fork = node;  // first fork: the new home
             stack[top++] = nd.child + 1;
@@ -345,7 +364,10 @@ void KdPartition::find_crossings(const BoxArray& boxes) {
         node = stack[--top];
       }
       home[i] = fork;
-      if (nodes[fork].axis >= 0) prev[i] = {{b[0], b[1], b[2]}, {b[3], b[4], b[5]}};
+      if (nodes[fork].axis >= 0) {
+        prev[i] = {{b[0], b[1], b[2]}, {b[3], b[4], b[5]}};
+        margin[i] = m;
+      }
     }
   };
   static_assert(sizeof(StoredBox) == 6 * sizeof(float));
@@ -458,6 +480,11 @@ bool KdPartition::split_oversized() {
         const std::uint32_t global = k == 0 ? leaf : base + static_cast<std::uint32_t>(k) - 1;
         for (std::uint32_t i = nd.first; i < nd.first + nd.size; ++i) {
           CellEntry& e = b.entries[i];
+          // New planes: the object's next frame descends, and its cells are
+          // now those of this frame's box (the one the split routed).
+          s.margin[e.id] = 0;
+          if (s.home[e.id] != leaf)
+            s.prev[e.id] = {{e.min[0], e.min[1], e.min[2]}, {e.max[0], e.max[1], e.max[2]}};
           if (!(e.unused & kd::kNotOwner) && s.home[e.id] == leaf) {
             const bool forked = (e.unused & kd::kForkMask) != kd::kNoFork;
             s.home[e.id] = forked ? kd::fork_node(e.unused, leaf, base) : global;
