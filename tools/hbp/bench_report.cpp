@@ -223,7 +223,9 @@ std::string format_tables(const BenchResult& r, const BenchHeader& h) {
   head.push_back("fastest measured");
   table_head(o, head);
   for (const auto& row : r.rows) {
-    std::vector<std::string> cells = {std::to_string(row.n), std::to_string(row.median_pairs)};
+    const bool any_ran = std::any_of(row.cells.begin(), row.cells.end(),
+                                     [](const CellResult& c) { return c.status == CellStatus::Ran && c.frames > 0; });
+    std::vector<std::string> cells = {std::to_string(row.n), any_ran ? std::to_string(row.median_pairs) : ""};
     for (const auto& c : row.cells) cells.push_back(cell_text(c));
     if (h.paper) cells.push_back("not run");
     const int f = fastest_measured(r, row);
