@@ -39,6 +39,11 @@ const std::vector<std::uint32_t> kTable4Rows = {100,   200,   300,   400,    500
 const std::vector<std::uint32_t> kQuickRows = {100, 1000, 4000, 16000, 64000};
 // bench kind: one row per decade up to a million objects.
 const std::vector<std::uint32_t> kKindRows = {1000, 10000, 100000, 1000000};
+// The degenerate scene stacks a third of its objects as mutually
+// overlapping identical boxes: about n^2 / 18 pairs (5.6 million at 10,000,
+// 5.6 * 10^10 at 10^6, beyond any memory), so its rows stop early.
+const std::vector<std::uint32_t> kDegenerateRows = {1000, 3000, 10000};
+constexpr std::uint32_t kDegenerateLimit = 20000;
 
 std::string kind_description(ScenarioKind kind) {
   const std::string common = "sizes 25-75 m, |v| <= 25 m/s, |w| <= 2.5 rad/s per axis, spheres/cuboids/cylinders/"
@@ -169,9 +174,18 @@ void run_bench(const BenchArgs& a, BenchSource source) {
   header.started = now_text("%Y-%m-%dT%H:%M:%S%z");
   header.paper = paper;
   if (generated) {
-    rows = a.n.empty() ? (paper ? (a.quick ? kQuickRows : kTable4Rows) : kKindRows) : a.n;
-    for (std::uint32_t n : rows)
+    const bool degenerate = kind == ScenarioKind::Degenerate;
+    rows = a.n.empty() ? (paper ? (a.quick ? kQuickRows : kTable4Rows) : degenerate ? kDegenerateRows : kKindRows)
+                       : a.n;
+    for (std::uint32_t n : rows) {
       if (n < 2) throw InvalidInput("--n: every object count must be at least 2 (got " + std::to_string(n) + ")");
+      if (degenerate && n > kDegenerateLimit)
+        throw InvalidInput("--n " + std::to_string(n) + ": the degenerate scene has about n^2/18 pairs (a third of "
+                           "its objects are mutually overlapping identical boxes), " +
+                           std::to_string(static_cast<unsigned long long>(double(n) * n / 18)) +
+                           " here; bench kind degenerate takes at most " + std::to_string(kDegenerateLimit) +
+                           " objects");
+    }
     header.title = paper ? "paper scenario" : std::string("scene kind ") + scenario_kind_name(kind);
     header.scene = kind_description(kind);
   } else {
@@ -316,7 +330,10 @@ const RegisterCommand reg([](CLI::App& app) {
   kind->add_option("kind", ka->kind, "Scene kind: paper, clustered, flat, huge, degenerate")
       ->required()
       ->check(CLI::IsMember({"paper", "clustered", "flat", "huge", "degenerate"}));
-  kind->add_option("--n", ka->n, "Object counts (comma list; default 1000,10000,100000,1000000)")->delimiter(',');
+  kind->add_option("--n", ka->n,
+                   "Object counts (comma list; default 1000,10000,100000,1000000; degenerate: 1000,3000,10000, "
+                   "at most 20000)")
+      ->delimiter(',');
   kind->add_option("--variants", ka->variants, "Variants (seeds) per row")->capture_default_str();
   add_common(kind, *ka);
   kind->callback([ka, kind] {
