@@ -274,3 +274,90 @@ TEST(HybridBroadPhase, BroadmarkSceneFilesMatchOracle) {
 }
 
 }  // namespace
+
+#include <random>
+
+namespace {
+
+// Frames of at most cell_limit objects take the one-cell path (no partition,
+// calling thread only); every size up to and past the limit matches the
+// oracle, and the path switches both ways without leaving stale state.
+TEST(HybridBroadPhase, OneCellSmallWorldsMatchOracleAtEverySize) {
+  std::vector<std::uint32_t> sizes;
+  for (std::uint32_t n = 0; n <= 40; ++n) sizes.push_back(n);
+  for (std::uint32_t n = 41; n <= 2000; n += 53) sizes.push_back(n);
+  for (std::uint32_t n : {1023u, 1024u, 1025u, 2000u, 700u, 1500u, 3u}) sizes.push_back(n);  // and back down
+  HybridBroadPhase one({.engine = "sw", .threads = 1, .sorted = false});
+  HybridBroadPhase two({.engine = "sw", .threads = 2, .sorted = false});
+  HybridBroadPhase sorted({.engine = "sw", .threads = 2});
+  for (std::uint32_t n : sizes) {
+    hbp::ScenarioParams p;
+    p.n = std::max(n, 1u);
+    p.seed = n;
+    hbp::Scenario scene(p);
+    BoxArray boxes;
+    scene.compute_boxes(boxes);
+    boxes.resize(n);
+    const auto want = hbp::brute_force_pairs(boxes);
+    std::vector<Pair> a = one.update(boxes);
+    ASSERT_EQ(a, two.update(boxes)) << "n=" << n << ": order differs between 1 and 2 threads";
+    ASSERT_EQ(sorted.update(boxes), want) << "n=" << n;
+    EXPECT_EQ(one.stats().one_cell, n <= one.cell_limit()) << "n=" << n;
+    EXPECT_EQ(sorted.stats().pairs, want.size());
+    ASSERT_EQ(hbp::canonicalize(a), 0u) << "n=" << n;
+    ASSERT_EQ(a, want) << "n=" << n;
+  }
+}
+
+TEST(HybridBroadPhase, OneCellPathWithSinkAndOtherEngines) {
+  hbp::ScenarioParams p;
+  p.n = 600;
+  p.seed = 4;
+  hbp::Scenario scene(p);
+  BoxArray boxes;
+  scene.compute_boxes(boxes);
+  const auto want = hbp::brute_force_pairs(boxes);
+  for (const std::string engine : {"sw", "sw-allpairs", "brute"}) {
+    HybridBroadPhase bp({.engine = engine, .cell_limit = 1024, .threads = 2});
+    std::uint32_t calls = 0;
+    std::size_t seen = 0;
+    bp.update(boxes, [&](std::uint32_t cell, const Pair*, std::size_t count) {
+      EXPECT_EQ(cell, 0u);
+      ++calls;
+      seen += count;
+    });
+    EXPECT_TRUE(bp.stats().one_cell) << engine;
+    EXPECT_EQ(calls, 1u) << engine;
+    EXPECT_EQ(seen, want.size()) << engine;
+    EXPECT_EQ(bp.pairs(), want) << engine;
+  }
+}
+
+// Pair-dense cells are counted in the first pass and written straight into
+// the frame's list in the second: same pairs, same order as when the cells
+// are streamed to a sink, for 1 or 2 threads.
+TEST(HybridBroadPhase, DenseCellsTwoPassOutputEqualsStreamedOutput) {
+  std::mt19937 rng(21);
+  std::uniform_real_distribution<float> pos(0, 40), ext(2, 9);
+  BoxArray boxes;
+  for (int i = 0; i < 4000; ++i) {
+    const float x = pos(rng), y = pos(rng), z = pos(rng);
+    boxes.push_back({{x, y, z}, {x + ext(rng), y + ext(rng), z + ext(rng)}});
+  }
+  const auto want = hbp::brute_force_pairs(boxes);
+  ASSERT_GT(want.size(), 20u * boxes.size()) << "scene not dense enough to exercise the dense path";
+  for (unsigned threads : {1u, 2u}) {
+    HybridBroadPhase bp({.engine = "sw", .cell_limit = 256, .threads = threads, .sorted = false});
+    const std::vector<Pair> two_pass = bp.update(boxes);
+    std::vector<Pair> streamed;
+    bp.update(boxes, [&](std::uint32_t, const Pair* q, std::size_t count) { streamed.insert(streamed.end(), q, q + count); });
+    EXPECT_GT(bp.stats().cells, 4u);
+    EXPECT_EQ(two_pass, streamed) << threads << " threads";
+    EXPECT_EQ(two_pass, bp.pairs()) << threads << " threads";
+    std::vector<Pair> got = two_pass;
+    EXPECT_EQ(hbp::canonicalize(got), 0u);
+    EXPECT_EQ(got, want) << threads << " threads";
+  }
+}
+
+}  // namespace

@@ -126,7 +126,7 @@ TEST(NarrowGjkEpa, AgreesWithClosedForms) {
       }
       if (!rc) continue;
       ++hits;
-      EXPECT_NEAR(c.depth, e.depth, 1e-6 * c.depth + 1e-8 * scale) << shape_kind_name(ka) << "-" << shape_kind_name(kb);
+      EXPECT_NEAR(c.depth, e.depth, narrow::kContactDepthTolerance * c.depth + 1e-8 * scale) << shape_kind_name(ka) << "-" << shape_kind_name(kb);
       if (c.depth > 1e-3) {
         EXPECT_GT(dotv(c.normal, e.normal), 0.999);
       }
@@ -199,7 +199,7 @@ TEST(NarrowGjkEpa, SymmetricInArgumentOrder) {
       continue;
     }
     if (!r1) continue;
-    EXPECT_NEAR(ab.depth, ba.depth, 1e-6 * ab.depth + 1e-8);
+    EXPECT_NEAR(ab.depth, ba.depth, 2 * narrow::kContactDepthTolerance * ab.depth + 1e-8);
     if (ab.depth > 1e-3) {
       EXPECT_LT(dotv(ab.normal, ba.normal), -0.999);
     }
@@ -224,9 +224,9 @@ TEST(NarrowGjkEpa, ContactPointMidwayBetweenSupportPoints) {
     const Vec3 pb{c.point.x - n.x * c.depth / 2, c.point.y - n.y * c.depth / 2, c.point.z - n.z * c.depth / 2};
     const double ha = dotv(support_point(p.a, n), n), hb = dotv(support_point(p.b, m), m);
     const std::string what = std::string(shape_kind_name(p.a.kind)) + "-" + shape_kind_name(p.b.kind);
-    EXPECT_NEAR(dotv(pa, n), ha, 1e-3) << what;
-    EXPECT_NEAR(dotv(pb, m), hb, 1e-3) << what;
-    EXPECT_NEAR(c.depth, ha + hb, 1e-5 * c.depth) << what;
+    EXPECT_NEAR(dotv(pa, n), ha, 1e-3 + 2 * narrow::kContactDepthTolerance * c.depth) << what;
+    EXPECT_NEAR(dotv(pb, m), hb, 1e-3 + 2 * narrow::kContactDepthTolerance * c.depth) << what;
+    EXPECT_NEAR(c.depth, ha + hb, 2 * narrow::kContactDepthTolerance * c.depth) << what;
   }
   EXPECT_GT(checked, 500);
 }

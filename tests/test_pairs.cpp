@@ -38,14 +38,25 @@ TEST(Pair, MakePairIsCanonicalAndOrderIsLexicographic) {
 TEST(SortPairs, MatchesStdSortForSmallAndLargeIds) {
   // Below and above the radix threshold, small ids (upper passes skipped)
   // and ids using all 32 bits (every pass runs).
-  for (std::uint32_t max_id : {100u, 70000u, 0xFFFFFFFFu}) {
-    for (std::size_t count : {0u, 1u, 255u, 256u, 100000u}) {
+  for (std::uint32_t max_id : {1u, 100u, 2047u, 70000u, 1u << 20, 0xFFFFFFFFu}) {
+    for (std::size_t count : {0u, 1u, 255u, 256u, 1023u, 1024u, 1025u, 100000u}) {
       auto pairs = random_pairs(count, max_id, static_cast<unsigned>(count + max_id));
       auto expected = pairs;
       std::sort(expected.begin(), expected.end());
       hbp::sort_pairs(pairs);
       EXPECT_EQ(pairs, expected) << "count " << count << " max id " << max_id;
     }
+  }
+}
+
+TEST(SortPairs, ScratchOverloadReusesItsBufferAcrossSizes) {
+  std::vector<Pair> scratch;
+  for (std::size_t count : {50000u, 3000u, 200000u, 10u}) {
+    auto pairs = random_pairs(count, 1u << 20, static_cast<unsigned>(count));
+    auto expected = pairs;
+    std::sort(expected.begin(), expected.end());
+    hbp::sort_pairs(pairs, scratch);
+    EXPECT_EQ(pairs, expected) << "count " << count;
   }
 }
 

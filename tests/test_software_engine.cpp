@@ -58,22 +58,60 @@ std::vector<Pair> owned_oracle(const BoxArray& boxes, const CellRegion& r) {
   return out;
 }
 
-std::vector<Pair> run_kernel(k::Kernel kernel, const BoxArray& boxes, const CellRegion& r, std::size_t capacity) {
+// Ids reported for the boxes: scrambled and spread over the 32 bits (the
+// kernels must map and order them), padded like the box lanes.
+std::vector<std::uint32_t> scrambled_ids(std::uint32_t n) {
+  std::vector<std::uint32_t> ids(n + 16, 0xFFFFFFFFu);
+  for (std::uint32_t i = 0; i < n; ++i) ids[i] = (n - 1 - i) * 2654435761u % 4294967291u;
+  return ids;
+}
+
+// The oracle's pairs with each index replaced by its id, canonical and sorted.
+std::vector<Pair> with_ids(const std::vector<Pair>& pairs, const std::vector<std::uint32_t>& ids) {
+  std::vector<Pair> out;
+  for (const Pair& p : pairs) out.push_back(hbp::make_pair(ids[p.a], ids[p.b]));
+  hbp::canonicalize(out);
+  return out;
+}
+
+// Runs a kernel to the end through an output of `capacity` pairs, draining
+// it whenever the kernel stops; checks the pairs are canonical and the count
+// kernel agrees.
+std::vector<Pair> run_kernel(k::Kernel kernel, k::CountKernel counter, const BoxArray& boxes,
+                             const std::vector<std::uint32_t>& ids, const CellRegion& r, std::size_t capacity) {
   const auto n = static_cast<std::uint32_t>(boxes.size());
-  k::KernelInput in{{boxes.min(0), boxes.min(1), boxes.min(2)}, {boxes.max(0), boxes.max(1), boxes.max(2)}, n, r};
+  k::KernelInput in{{boxes.min(0), boxes.min(1), boxes.min(2)}, {boxes.max(0), boxes.max(1), boxes.max(2)},
+                    ids.data(), n, r};
   std::vector<std::uint32_t> first(capacity), second(capacity);
   std::vector<Pair> pairs;
   std::uint32_t row = 0;
   int resumes = 0;
   while (true) {
     k::KernelOutput out{first.data(), second.data(), capacity, 0};
+    const std::uint32_t from = row;
     row = kernel(in, row, out);
-    for (std::size_t i = 0; i < out.count; ++i) pairs.push_back({first[i], second[i]});
+    EXPECT_EQ(counter(in, from) - counter(in, row), out.count) << "count kernel disagrees on rows " << from << "-" << row;
+    // Every ISA's canonical_pairs must agree with the scalar one; an exact-size
+    // destination catches a vector tail written past the end (ASan).
+    std::vector<Pair> canonical(out.count), reference(out.count);
+    k::canonical_pairs(k::selected_isa())(first.data(), second.data(), out.count,
+                                          reinterpret_cast<std::uint32_t*>(canonical.data()));
+    k::canonical_pairs_scalar(first.data(), second.data(), out.count, reinterpret_cast<std::uint32_t*>(reference.data()));
+    EXPECT_EQ(canonical, reference);
+    pairs.insert(pairs.end(), canonical.begin(), canonical.end());
     if (row >= n) break;
     EXPECT_LT(++resumes, 1000000) << "kernel makes no progress";
   }
+  for (const Pair& p : pairs) EXPECT_LT(p.a, p.b) << "not canonical";
   hbp::canonicalize(pairs);
   return pairs;
+}
+
+std::vector<Pair> run_kernel(k::Kernel kernel, k::CountKernel counter, const BoxArray& boxes, const CellRegion& r,
+                             std::size_t capacity) {
+  std::vector<std::uint32_t> ids(boxes.size() + 16);
+  for (std::uint32_t i = 0; i < ids.size(); ++i) ids[i] = i;
+  return run_kernel(kernel, counter, boxes, ids, r, capacity);
 }
 
 TEST(SoftwareKernels, EveryIsaMatchesTheOracleWithAndWithoutARegion) {
@@ -84,9 +122,17 @@ TEST(SoftwareKernels, EveryIsaMatchesTheOracleWithAndWithoutARegion) {
       const CellRegion regions[] = {CellRegion::everything(), {{-10, -20, -5}, {10, 30, 25}}};
       for (const CellRegion& r : regions) {
         const auto want = owned_oracle(boxes, r);
-        EXPECT_EQ(run_kernel(k::sweep_kernel(isa), boxes, r, 4 * n + 64), want) << k::isa_name(isa) << " sweep n=" << n;
-        EXPECT_EQ(run_kernel(k::allpairs_kernel(isa), boxes, r, 4 * n + 64), want)
+        EXPECT_EQ(run_kernel(k::sweep_kernel(isa), k::sweep_count_kernel(isa), boxes, r, 4 * n + 64), want)
+            << k::isa_name(isa) << " sweep n=" << n;
+        EXPECT_EQ(run_kernel(k::allpairs_kernel(isa), k::allpairs_count_kernel(isa), boxes, r, 4 * n + 64), want)
             << k::isa_name(isa) << " all-pairs n=" << n;
+        const auto ids = scrambled_ids(n);
+        EXPECT_EQ(run_kernel(k::sweep_kernel(isa), k::sweep_count_kernel(isa), boxes, ids, r, 4 * n + 64),
+                  with_ids(want, ids))
+            << k::isa_name(isa) << " sweep with ids n=" << n;
+        EXPECT_EQ(run_kernel(k::allpairs_kernel(isa), k::allpairs_count_kernel(isa), boxes, ids, r, 4 * n + 64),
+                  with_ids(want, ids))
+            << k::isa_name(isa) << " all-pairs with ids n=" << n;
       }
     }
   }
@@ -99,8 +145,12 @@ TEST(SoftwareKernels, DenseCellsResumeWhenTheOutputIsFull) {
     const auto want = owned_oracle(boxes, CellRegion::everything());
     ASSERT_GT(want.size(), 20000u);
     // Room for a little more than one row at a time.
-    EXPECT_EQ(run_kernel(k::sweep_kernel(isa), boxes, CellRegion::everything(), 400), want) << k::isa_name(isa);
-    EXPECT_EQ(run_kernel(k::allpairs_kernel(isa), boxes, CellRegion::everything(), 400), want) << k::isa_name(isa);
+    EXPECT_EQ(run_kernel(k::sweep_kernel(isa), k::sweep_count_kernel(isa), boxes, CellRegion::everything(), 400), want)
+        << k::isa_name(isa);
+    EXPECT_EQ(
+        run_kernel(k::allpairs_kernel(isa), k::allpairs_count_kernel(isa), boxes, CellRegion::everything(), 400),
+        want)
+        << k::isa_name(isa);
   }
 }
 
@@ -160,7 +210,7 @@ TEST(KdPartition, MembershipFollowsTheRoutingRuleAcrossFrames) {
   p.seed = 4;
   p.linear_speed = 400;  // fast movers: migrations, splits, merges
   hbp::Scenario scene(p);
-  hbp::KdPartition partition(64, 0.5f);
+  hbp::KdPartition partition(64, 1.0f);  // 0.5 happens to need no split here
   BoxArray boxes;
   std::uint32_t splits = 0;
   for (int f = 0; f < 12; ++f) {
@@ -177,12 +227,19 @@ TEST(KdPartition, MembershipFollowsTheRoutingRuleAcrossFrames) {
         if (in) want[c].push_back(i);
       }
       std::vector<std::uint32_t> got;
-      for (const auto& e : partition.cell(c)) {
+      const auto cell = partition.cell(c);
+      for (std::size_t k = 0; k < cell.size(); ++k) {
+        const auto& e = cell[k];
         got.push_back(e.id);
         const auto b = boxes.get(e.id);
         ASSERT_EQ(e.min[0], b.min[0]);
         ASSERT_EQ(e.max[2], b.max[2]);
+        if (k > 0) {  // the contract: min x order, ties by id
+          ASSERT_TRUE(cell[k - 1].min[0] < e.min[0] || (cell[k - 1].min[0] == e.min[0] && cell[k - 1].id < e.id))
+              << "frame " << f << " cell " << c << " entry " << k;
+        }
       }
+      std::sort(got.begin(), got.end());
       ASSERT_EQ(got, want[c]) << "frame " << f << " cell " << c;
     }
     EXPECT_LE(partition.stats().max_cell, 64u) << "frame " << f;

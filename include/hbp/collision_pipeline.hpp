@@ -42,6 +42,11 @@ class CollisionPipeline {
   NarrowPhase narrow_;
   // A deque: growing it never moves the vectors other threads are filling.
   std::deque<std::vector<Contact>> cell_contacts_;
+  // Frame-to-frame coherence: last frame's per-pair directions (read by every
+  // consumer) and what each cell's consumer learns this frame.
+  NarrowCache cache_;
+  std::deque<std::vector<NarrowCacheEntry>> cell_learned_;
+  std::vector<const std::vector<NarrowCacheEntry>*> learned_lists_;
   std::vector<Contact> contacts_;
   PipelineStats stats_;
 };

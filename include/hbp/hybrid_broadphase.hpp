@@ -39,9 +39,21 @@ struct FrameStats {
   std::uint32_t oversized_cells = 0;  // could not be split: processed in tiles
   bool rebuilt = false;               // partition rebuilt from scratch this frame
   std::uint32_t splits = 0, merges = 0;  // incremental partition maintenance
-  // Measured wall times: partition (validation, maintenance, routing), engine
-  // (cells, with de-duplication fused in), merge (gathering the cells' pairs).
-  double wall_ms = 0, partition_ms = 0, engine_ms = 0, dedup_ms = 0;
+  // Measured wall times (steady clock) of the frame's stages, which add up
+  // to wall_ms:
+  //   partition_ms  validation, tree maintenance, routing (0 on a shared
+  //                 partition and on one-cell frames, see below)
+  //   engine_ms     every cell through the engine, de-duplication fused in
+  //   merge_ms      writing the frame's pair list from the cells (copies;
+  //                 pair-dense cells re-run their kernel straight into it)
+  //   sort_ms       sorting it by (a, b) (0 when options().sorted is false)
+  double wall_ms = 0, partition_ms = 0, engine_ms = 0, merge_ms = 0, sort_ms = 0;
+  // Deprecated name kept for readers of older output: merge_ms + sort_ms
+  // (de-duplication has no stage of its own; it is fused into the engine).
+  double dedup_ms = 0;
+  // Frames of at most cell_limit objects skip the partition: one cell, run
+  // on the calling thread (the partition would make exactly that cell).
+  bool one_cell = false;
   std::uint64_t modelled_cycles = 0;  // sum over cells (one accelerator)
   double modelled_ms = 0;             // modelled_cycles / clock (0 if software)
 };

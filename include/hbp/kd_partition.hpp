@@ -16,6 +16,7 @@
 // right when max >= split.
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -45,29 +46,47 @@ struct CellEntry {
   std::uint32_t unused;
 };
 
+// The tree's node, shared by the partition and its builder (kd_build.cpp).
+struct KdTreeNode {
+  float split = 0;
+  std::int32_t axis = -1;    // -1: leaf
+  std::uint32_t child = 0;   // left child; right child is child + 1
+  std::uint32_t leaf = 0;    // cell index when a leaf
+  std::uint32_t size = 0;    // leaves: entries in the cell
+  std::uint32_t first = 0;   // leaves: position of the first entry
+};
+
 class KdPartition {
  public:
   // x_split_weight scales the x spread when choosing the split axis (< 1
-  // favours splitting y and z: cells longer in x, for a sweep along x).
-  // cell_cost, when given, is the engine's cost of one cell of n objects
-  // (the hardware models' cycles): a leaf under the limit is still split while
-  // that lowers the summed cost (duplicates included), and sibling leaves are
-  // merged when that does not raise it.
+  // favours splitting y and z: cells longer in x, for a sweep along x; the
+  // sweep engine asks for 0.5). cell_cost, when given, is the engine's cost of
+  // one cell of n objects (the hardware models' cycles): a leaf under the
+  // limit is still split while that lowers the summed cost (duplicates
+  // included), and sibling leaves are merged when that does not raise it.
   using CellCost = std::function<double(std::uint32_t n)>;
   explicit KdPartition(std::uint32_t cell_limit, float x_split_weight = 1.0f, CellCost cell_cost = {});
+  ~KdPartition();
+  KdPartition(KdPartition&&) noexcept;
+  KdPartition& operator=(KdPartition&&) noexcept;
 
   // Partitions a frame. Boxes must be valid (no NaN, min <= max). Object i of
-  // this frame is assumed to be object i of the previous one (coherence).
+  // this frame is assumed to be object i of the previous one (coherence: the
+  // cells keep their members and only objects that cross a plane move); any
+  // box may change arbitrarily and objects may be added or removed at the end.
   void update(const BoxArray& boxes);
   // Drops the tree; the next update builds from scratch.
   void reset();
 
   std::uint32_t cell_limit() const { return cell_limit_; }
+  float x_split_weight() const { return x_split_weight_; }
   std::uint32_t cell_count() const { return static_cast<std::uint32_t>(regions_.size()); }
-  // Cell c's objects (id and box), by increasing id, contiguous in memory.
+  // Cell c's objects (id and box), contiguous in memory, SORTED BY MIN X,
+  // ties by increasing id: engines that sweep along x need no sort of their
+  // own. The order is kept across frames and repaired by insertion sort.
   std::span<const CellEntry> cell(std::uint32_t c) const {
-    const Node& leaf = nodes_[leaf_nodes_[c]];
-    return {entries_.data() + leaf.first, leaf.size};
+    const KdTreeNode& leaf = nodes_[leaf_nodes_[c]];
+    return {entries_ + leaf.first, leaf.size};
   }
   std::uint32_t cell_size(std::uint32_t c) const { return nodes_[leaf_nodes_[c]].size; }
   const CellRegion& region(std::uint32_t c) const { return regions_[c]; }
@@ -83,49 +102,39 @@ class KdPartition {
   };
   std::uint32_t node_count() const { return static_cast<std::uint32_t>(nodes_.size()); }
   NodeView node(std::uint32_t i) const {
-    const Node& n = nodes_[i];
+    const KdTreeNode& n = nodes_[i];
     return {n.axis, n.split, n.child, n.leaf};
   }
   const PartitionStats& stats() const { return stats_; }
 
- private:
-  struct Node {
-    float split = 0;
-    std::int32_t axis = -1;    // -1: leaf
-    std::uint32_t child = 0;   // left child; right child is child + 1
-    std::uint32_t leaf = 0;    // cell index when a leaf
-    std::uint32_t size = 0;    // leaves: entries routed here (this frame once routed)
-    std::uint32_t first = 0;   // leaves: position of the first entry in entries_
-    std::uint32_t epoch = 0;   // numbering pass that last reached this node
-  };
-  static constexpr std::uint32_t kNoHome = 0xFFFFFFFFu;
+  // The deepest the tree may grow (root at depth 0). A leaf at this depth
+  // that is still over-full stays so and is processed in tiles; every
+  // traversal is safe up to it.
+  static constexpr std::uint32_t kMaxDepth = 64;
 
-  void build(std::vector<std::uint32_t>& ids);
-  void build_node(std::uint32_t node, std::vector<std::uint32_t>& ids, std::uint32_t depth);
-  void route_all();
-  bool split_oversized();
-  void route_subtree(std::uint32_t node, const std::vector<CellEntry>& entries);
+ private:
+  struct State;  // maintenance state (kd_partition.cpp)
+
+  void rebuild(const BoxArray& boxes);
+  void maintain(const BoxArray& boxes);
   void merge_sparse();
   void number_leaves();
-  void compute_stats();
+  void find_crossings(const BoxArray& boxes);
+  void bucket_additions();
+  void refresh_cells(const BoxArray& boxes);
+  bool split_oversized();
+  void compute_stats(std::size_t objects);
+  bool degraded() const;
 
   std::uint32_t cell_limit_;
   float x_split_weight_;
   CellCost cell_cost_;
-  const BoxArray* boxes_ = nullptr;  // the frame being partitioned
-  std::vector<Node> nodes_;
-  std::vector<CellRegion> node_regions_;   // per node, valid for live nodes
-  std::vector<std::uint32_t> home_;        // object -> root of the subtree holding its cells
-  std::uint32_t epoch_ = 0;
-  std::vector<CellEntry> entries_;         // leaf after leaf (split leaves' at the end)
-  std::vector<CellRegion> regions_;        // cell -> region
+  std::vector<KdTreeNode> nodes_;
   std::vector<std::uint32_t> leaf_nodes_;  // cell -> node
-  std::vector<std::vector<std::uint64_t>> chunk_routes_;
-  std::vector<std::uint32_t> chunk_counts_;
-  std::vector<float> scratch_;
+  std::vector<CellRegion> regions_;        // cell -> region
+  const CellEntry* entries_ = nullptr;     // this frame's cell entries (owned by state_)
+  std::unique_ptr<State> state_;
   PartitionStats stats_;
-  double rebuild_duplication_ = 0;
-  std::uint32_t rebuild_cells_ = 0;
 };
 
 }  // namespace hbp

@@ -20,6 +20,9 @@ inline Pair make_pair(std::uint32_t i, std::uint32_t j) {
 
 // Orders pairs by (a, b) (radix sort: linear in the pair count).
 void sort_pairs(std::vector<Pair>& pairs);
+// The same with caller-kept scratch (resized to pairs.size()), so a frame
+// loop does not allocate.
+void sort_pairs(std::vector<Pair>& pairs, std::vector<Pair>& scratch);
 
 // Swaps each pair into a < b, sorts, and removes duplicates. Returns how many
 // duplicates were removed (an engine that reports a pair twice is a bug the

@@ -33,11 +33,31 @@ class SoftwareEngine final : public CellEngine {
   // The instruction set the kernels run with ("avx512", "avx2", "scalar").
   static const char* isa();
 
+  // The hybrid system's path, without intermediate copies. `cell` is sorted
+  // by min x (the sweep needs it), ids[k] is the id reported for box k
+  // (readable up to cell.size() + kOutputSlack). Runs rows [row, n) and
+  // writes hit k as the two ids (first[count + k], second[count + k]), not yet
+  // ordered; returns the row it stopped at: n when done, earlier when fewer
+  // than n - row + kOutputSlack of `capacity` entries were free (drain with
+  // write_pairs() and resume from there).
+  std::uint32_t emit_hits(const BoxArray& cell, const std::uint32_t* ids, const CellRegion& region, std::uint32_t row,
+                          std::uint32_t* first, std::uint32_t* second, std::size_t capacity,
+                          std::size_t& count) const;
+  // Hits as canonical pairs (min id, max id), written to out[0 .. count).
+  static void write_pairs(const std::uint32_t* first, const std::uint32_t* second, std::size_t count, Pair* out);
+  // The hits rows [row, n) would emit, counted without storing them.
+  std::uint64_t count_pairs(const BoxArray& cell, const std::uint32_t* ids, const CellRegion& region,
+                            std::uint32_t row) const;
+  // Spare entries emit_hits may write past the last hit it reports.
+  static constexpr std::size_t kOutputSlack = 16;
+
  private:
   void run(const BoxArray& cell, const CellRegion& region, std::vector<Pair>& out);
 
   Kernel kernel_;
   std::vector<std::uint32_t> first_, second_;  // kernel output, reused across cells
+  std::size_t stage_capacity_ = 0;
+  std::vector<std::uint32_t> local_ids_;  // 0, 1, 2, ...: local indices as ids
   BoxArray sorted_;                    // find_pairs on unsorted input
   std::vector<std::uint32_t> order_;
 };

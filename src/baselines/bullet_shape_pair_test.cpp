@@ -1,4 +1,5 @@
 #include "baselines/bullet_shape_pair_test.hpp"
+#include "baselines/bullet_shapes.hpp"
 
 #include <memory>
 
@@ -26,6 +27,9 @@ namespace {
 class ScaledConvex : public btConvexInternalShape {
  public:
   ScaledConvex(const btConvexShape* child, const btVector3& scale) : child_(child), scale_(scale) {
+    // A convex type, so btCollisionDispatcher picks its convex-convex
+    // algorithm (GJK + EPA through the virtual support mapping).
+    m_shapeType = CUSTOM_CONVEX_SHAPE_TYPE;
     setMargin(0);
   }
   btVector3 localGetSupportingVertexWithoutMargin(const btVector3& d) const override {
@@ -48,12 +52,7 @@ class ScaledConvex : public btConvexInternalShape {
   btVector3 scale_;
 };
 
-// Owns the Bullet objects that make up one hbp shape.
-struct BulletShape {
-  std::unique_ptr<btConvexShape> child;
-  std::unique_ptr<btConvexShape> outer;
-  const btConvexShape* shape() const { return outer ? outer.get() : child.get(); }
-};
+}  // namespace
 
 BulletShape make_bullet_shape(const Shape& s) {
   const btScalar hx = btScalar(0.5 * s.size.x), hy = btScalar(0.5 * s.size.y), hz = btScalar(0.5 * s.size.z);
@@ -96,8 +95,6 @@ btTransform make_transform(const Shape& s) {
   return btTransform(btQuaternion(btScalar(q.x), btScalar(q.y), btScalar(q.z), btScalar(q.w)),
                      btVector3(btScalar(s.position.x), btScalar(s.position.y), btScalar(s.position.z)));
 }
-
-}  // namespace
 
 BulletPairResult bullet_shape_pair_test(const Shape& a, const Shape& b) {
   const BulletShape sa = make_bullet_shape(a), sb = make_bullet_shape(b);

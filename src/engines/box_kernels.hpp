@@ -2,7 +2,8 @@
 // Inner loops of the software cell engine, one per instruction set. These
 // translation units are compiled with different -m flags, so they use only
 // intrinsics and plain C (no inline std templates, whose one-definition copies
-// could be merged across ISAs by the linker).
+// could be merged across ISAs by the linker; templates inside an anonymous
+// namespace are fine: each file keeps its own copy).
 #include <cstddef>
 #include <cstdint>
 
@@ -13,26 +14,40 @@ namespace hbp::kernels {
 struct KernelInput {
   const float* min[3];
   const float* max[3];
+  // ids[k]: the id reported for box k (the global object id, or k itself for
+  // local indices); readable up to n + 16, like the box lanes.
+  const std::uint32_t* ids;
   std::uint32_t n;     // boxes; lanes are padded by >= 16 non-overlapping boxes
   CellRegion region;   // ownership filter (CellRegion::everything() for none)
 };
 
 struct KernelOutput {
-  std::uint32_t* first;   // pair k is (first[k], second[k]), local indices, first < second
+  // Hit k is between the boxes with ids first[k] (the row) and second[k]:
+  // not yet ordered. Emission stays light (the kernel scans many more
+  // vectors than it finds pairs); canonical_pairs() orders and interleaves
+  // the hits once, as they leave the stage.
+  std::uint32_t* first;
   std::uint32_t* second;
   std::size_t capacity;   // entries in each array
-  std::size_t count;      // pairs written so far
+  std::size_t count;      // hits written so far
 };
 
 // Both kernels process rows from `row` on and return the row they stopped at:
 // n when done, earlier when the output might overflow. Row i starts only when
 // n - i + kOutputSlack entries are free (a row emits at most n - i - 1 pairs;
-// vector kernels store whole vectors past the last pair); the caller grows the
-// buffers and resumes.
+// vector kernels store whole vectors past the last pair); the caller drains
+// or grows the buffer and resumes.
 inline constexpr std::size_t kOutputSlack = 16;
 //   sweep:     boxes sorted by min x; scans j > i while min_x[j] <= max_x[i]
 //   all-pairs: any order; every j > i (the area-efficient datapath's work)
 using Kernel = std::uint32_t (*)(const KernelInput& in, std::uint32_t row, KernelOutput& out);
+// The same tests, counting the pairs of rows [row, n) without storing them
+// (the hybrid system sizes its output before writing it).
+using CountKernel = std::uint64_t (*)(const KernelInput& in, std::uint32_t row);
+// Writes hit k as the canonical pair (min, max) of (first[k], second[k]) to
+// pairs[2k], pairs[2k + 1] (the layout of hbp::Pair).
+using CanonicalPairs = void (*)(const std::uint32_t* first, const std::uint32_t* second, std::size_t count,
+                                std::uint32_t* pairs);
 
 std::uint32_t sweep_scalar(const KernelInput&, std::uint32_t, KernelOutput&);
 std::uint32_t sweep_avx2(const KernelInput&, std::uint32_t, KernelOutput&);
@@ -40,6 +55,14 @@ std::uint32_t sweep_avx512(const KernelInput&, std::uint32_t, KernelOutput&);
 std::uint32_t allpairs_scalar(const KernelInput&, std::uint32_t, KernelOutput&);
 std::uint32_t allpairs_avx2(const KernelInput&, std::uint32_t, KernelOutput&);
 std::uint32_t allpairs_avx512(const KernelInput&, std::uint32_t, KernelOutput&);
+std::uint64_t sweep_count_scalar(const KernelInput&, std::uint32_t);
+std::uint64_t sweep_count_avx2(const KernelInput&, std::uint32_t);
+std::uint64_t sweep_count_avx512(const KernelInput&, std::uint32_t);
+std::uint64_t allpairs_count_scalar(const KernelInput&, std::uint32_t);
+std::uint64_t allpairs_count_avx2(const KernelInput&, std::uint32_t);
+std::uint64_t allpairs_count_avx512(const KernelInput&, std::uint32_t);
+void canonical_pairs_scalar(const std::uint32_t*, const std::uint32_t*, std::size_t, std::uint32_t*);
+void canonical_pairs_avx512(const std::uint32_t*, const std::uint32_t*, std::size_t, std::uint32_t*);
 
 enum class Isa { Scalar, Avx2, Avx512 };
 // Best ISA this CPU supports, unless HBP_SIMD=scalar|avx2|avx512 says otherwise
@@ -48,5 +71,8 @@ Isa selected_isa();
 const char* isa_name(Isa isa);
 Kernel sweep_kernel(Isa isa);
 Kernel allpairs_kernel(Isa isa);
+CountKernel sweep_count_kernel(Isa isa);
+CountKernel allpairs_count_kernel(Isa isa);
+CanonicalPairs canonical_pairs(Isa isa);
 
 }  // namespace hbp::kernels

@@ -25,72 +25,112 @@ inline __m256 owned(const RegionVec& r, __m256 px, __m256 py, __m256 pz) {
   return _mm256_and_ps(m, _mm256_and_ps(_mm256_cmp_ps(pz, r.lo[2], _CMP_GE_OQ), _mm256_cmp_ps(pz, r.hi[2], _CMP_LT_OQ)));
 }
 
-inline void emit(std::uint32_t i, std::uint32_t j, unsigned mask, KernelOutput& out) {
-  while (mask) {
-    const unsigned bit = static_cast<unsigned>(__builtin_ctz(mask));
-    out.first[out.count] = i;
-    out.second[out.count] = j + bit;
-    ++out.count;
-    mask &= mask - 1;
+// Where a row's hits go: stored (row id, candidate id), or only counted.
+struct Store {
+  std::uint32_t* first;
+  std::uint32_t* second;
+  std::size_t count;
+  void emit(std::uint32_t id_i, const std::uint32_t* ids_j, unsigned mask) {
+    while (mask) {
+      first[count] = id_i;
+      second[count] = ids_j[__builtin_ctz(mask)];
+      ++count;
+      mask &= mask - 1;
+    }
+  }
+};
+
+struct Count {
+  std::uint64_t count = 0;
+  void emit(std::uint32_t, const std::uint32_t*, unsigned mask) { count += static_cast<std::uint64_t>(__builtin_popcount(mask)); }
+};
+
+template <class Out>
+inline void sweep_row(const KernelInput& in, const RegionVec& rv, std::uint32_t i, Out& out) {
+  const float *minx = in.min[0], *miny = in.min[1], *minz = in.min[2];
+  const float *maxy = in.max[1], *maxz = in.max[2];
+  const __m256 bx = _mm256_set1_ps(in.max[0][i]);
+  const __m256 ly = _mm256_set1_ps(miny[i]), hy = _mm256_set1_ps(maxy[i]);
+  const __m256 lz = _mm256_set1_ps(minz[i]), hz = _mm256_set1_ps(maxz[i]);
+  for (std::uint32_t j = i + 1;; j += 8) {
+    const __m256 vminx = _mm256_loadu_ps(minx + j);
+    const __m256 cx = _mm256_cmp_ps(vminx, bx, _CMP_LE_OQ);
+    const unsigned mx = static_cast<unsigned>(_mm256_movemask_ps(cx));
+    if (!mx) break;
+    const __m256 vminy = _mm256_loadu_ps(miny + j), vminz = _mm256_loadu_ps(minz + j);
+    __m256 c = _mm256_and_ps(cx, _mm256_cmp_ps(_mm256_loadu_ps(maxy + j), ly, _CMP_GE_OQ));
+    c = _mm256_and_ps(c, _mm256_cmp_ps(vminy, hy, _CMP_LE_OQ));
+    c = _mm256_and_ps(c, _mm256_cmp_ps(_mm256_loadu_ps(maxz + j), lz, _CMP_GE_OQ));
+    c = _mm256_and_ps(c, _mm256_cmp_ps(vminz, hz, _CMP_LE_OQ));
+    if (_mm256_movemask_ps(c)) {
+      c = _mm256_and_ps(c, owned(rv, vminx, _mm256_max_ps(vminy, ly), _mm256_max_ps(vminz, lz)));
+      out.emit(in.ids[i], in.ids + j, static_cast<unsigned>(_mm256_movemask_ps(c)));
+    }
+    if (mx != 0xFF) break;
+  }
+}
+
+template <class Out>
+inline void allpairs_row(const KernelInput& in, const RegionVec& rv, std::uint32_t i, Out& out) {
+  const float *minx = in.min[0], *miny = in.min[1], *minz = in.min[2];
+  const float *maxx = in.max[0], *maxy = in.max[1], *maxz = in.max[2];
+  const __m256 lx = _mm256_set1_ps(minx[i]), hx = _mm256_set1_ps(maxx[i]);
+  const __m256 ly = _mm256_set1_ps(miny[i]), hy = _mm256_set1_ps(maxy[i]);
+  const __m256 lz = _mm256_set1_ps(minz[i]), hz = _mm256_set1_ps(maxz[i]);
+  for (std::uint32_t j = i + 1; j < in.n; j += 8) {
+    const __m256 vminx = _mm256_loadu_ps(minx + j), vminy = _mm256_loadu_ps(miny + j),
+                 vminz = _mm256_loadu_ps(minz + j);
+    __m256 c = _mm256_and_ps(_mm256_cmp_ps(_mm256_loadu_ps(maxx + j), lx, _CMP_GE_OQ),
+                             _mm256_cmp_ps(vminx, hx, _CMP_LE_OQ));
+    c = _mm256_and_ps(c, _mm256_cmp_ps(_mm256_loadu_ps(maxy + j), ly, _CMP_GE_OQ));
+    c = _mm256_and_ps(c, _mm256_cmp_ps(vminy, hy, _CMP_LE_OQ));
+    c = _mm256_and_ps(c, _mm256_cmp_ps(_mm256_loadu_ps(maxz + j), lz, _CMP_GE_OQ));
+    c = _mm256_and_ps(c, _mm256_cmp_ps(vminz, hz, _CMP_LE_OQ));
+    if (_mm256_movemask_ps(c)) {
+      c = _mm256_and_ps(c, owned(rv, _mm256_max_ps(vminx, lx), _mm256_max_ps(vminy, ly), _mm256_max_ps(vminz, lz)));
+      out.emit(in.ids[i], in.ids + j, static_cast<unsigned>(_mm256_movemask_ps(c)));
+    }
   }
 }
 
 }  // namespace
 
 std::uint32_t sweep_avx2(const KernelInput& in, std::uint32_t row, KernelOutput& out) {
-  const float *minx = in.min[0], *miny = in.min[1], *minz = in.min[2];
-  const float *maxx = in.max[0], *maxy = in.max[1], *maxz = in.max[2];
   const RegionVec rv = load_region(in.region);
-  for (std::uint32_t i = row; i < in.n; ++i) {
-    if (out.capacity - out.count < std::size_t{in.n - i} + kOutputSlack) return i;
-    const __m256 bx = _mm256_set1_ps(maxx[i]);
-    const __m256 ly = _mm256_set1_ps(miny[i]), hy = _mm256_set1_ps(maxy[i]);
-    const __m256 lz = _mm256_set1_ps(minz[i]), hz = _mm256_set1_ps(maxz[i]);
-    for (std::uint32_t j = i + 1;; j += 8) {
-      const __m256 vminx = _mm256_loadu_ps(minx + j);
-      const __m256 cx = _mm256_cmp_ps(vminx, bx, _CMP_LE_OQ);
-      const unsigned mx = static_cast<unsigned>(_mm256_movemask_ps(cx));
-      if (!mx) break;
-      const __m256 vminy = _mm256_loadu_ps(miny + j), vminz = _mm256_loadu_ps(minz + j);
-      __m256 c = _mm256_and_ps(cx, _mm256_cmp_ps(_mm256_loadu_ps(maxy + j), ly, _CMP_GE_OQ));
-      c = _mm256_and_ps(c, _mm256_cmp_ps(vminy, hy, _CMP_LE_OQ));
-      c = _mm256_and_ps(c, _mm256_cmp_ps(_mm256_loadu_ps(maxz + j), lz, _CMP_GE_OQ));
-      c = _mm256_and_ps(c, _mm256_cmp_ps(vminz, hz, _CMP_LE_OQ));
-      if (_mm256_movemask_ps(c)) {
-        c = _mm256_and_ps(c, owned(rv, vminx, _mm256_max_ps(vminy, ly), _mm256_max_ps(vminz, lz)));
-        emit(i, j, static_cast<unsigned>(_mm256_movemask_ps(c)), out);
-      }
-      if (mx != 0xFF) break;
-    }
+  Store s{out.first, out.second, out.count};
+  std::uint32_t i = row;
+  for (; i < in.n; ++i) {
+    if (out.capacity - s.count < std::size_t{in.n - i} + kOutputSlack) break;
+    sweep_row(in, rv, i, s);
   }
-  return in.n;
+  out.count = s.count;
+  return i;
 }
 
 std::uint32_t allpairs_avx2(const KernelInput& in, std::uint32_t row, KernelOutput& out) {
-  const float *minx = in.min[0], *miny = in.min[1], *minz = in.min[2];
-  const float *maxx = in.max[0], *maxy = in.max[1], *maxz = in.max[2];
   const RegionVec rv = load_region(in.region);
-  for (std::uint32_t i = row; i < in.n; ++i) {
-    if (out.capacity - out.count < std::size_t{in.n - i} + kOutputSlack) return i;
-    const __m256 lx = _mm256_set1_ps(minx[i]), hx = _mm256_set1_ps(maxx[i]);
-    const __m256 ly = _mm256_set1_ps(miny[i]), hy = _mm256_set1_ps(maxy[i]);
-    const __m256 lz = _mm256_set1_ps(minz[i]), hz = _mm256_set1_ps(maxz[i]);
-    for (std::uint32_t j = i + 1; j < in.n; j += 8) {
-      const __m256 vminx = _mm256_loadu_ps(minx + j), vminy = _mm256_loadu_ps(miny + j),
-                   vminz = _mm256_loadu_ps(minz + j);
-      __m256 c = _mm256_and_ps(_mm256_cmp_ps(_mm256_loadu_ps(maxx + j), lx, _CMP_GE_OQ),
-                               _mm256_cmp_ps(vminx, hx, _CMP_LE_OQ));
-      c = _mm256_and_ps(c, _mm256_cmp_ps(_mm256_loadu_ps(maxy + j), ly, _CMP_GE_OQ));
-      c = _mm256_and_ps(c, _mm256_cmp_ps(vminy, hy, _CMP_LE_OQ));
-      c = _mm256_and_ps(c, _mm256_cmp_ps(_mm256_loadu_ps(maxz + j), lz, _CMP_GE_OQ));
-      c = _mm256_and_ps(c, _mm256_cmp_ps(vminz, hz, _CMP_LE_OQ));
-      if (_mm256_movemask_ps(c)) {
-        c = _mm256_and_ps(c, owned(rv, _mm256_max_ps(vminx, lx), _mm256_max_ps(vminy, ly), _mm256_max_ps(vminz, lz)));
-        emit(i, j, static_cast<unsigned>(_mm256_movemask_ps(c)), out);
-      }
-    }
+  Store s{out.first, out.second, out.count};
+  std::uint32_t i = row;
+  for (; i < in.n; ++i) {
+    if (out.capacity - s.count < std::size_t{in.n - i} + kOutputSlack) break;
+    allpairs_row(in, rv, i, s);
   }
-  return in.n;
+  out.count = s.count;
+  return i;
+}
+
+std::uint64_t sweep_count_avx2(const KernelInput& in, std::uint32_t row) {
+  const RegionVec rv = load_region(in.region);
+  Count c;
+  for (std::uint32_t i = row; i < in.n; ++i) sweep_row(in, rv, i, c);
+  return c.count;
+}
+
+std::uint64_t allpairs_count_avx2(const KernelInput& in, std::uint32_t row) {
+  const RegionVec rv = load_region(in.region);
+  Count c;
+  for (std::uint32_t i = row; i < in.n; ++i) allpairs_row(in, rv, i, c);
+  return c.count;
 }
 
 }  // namespace hbp::kernels

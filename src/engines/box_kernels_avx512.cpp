@@ -31,71 +31,135 @@ inline __mmask16 owned(const RegionVec& r, __m512 px, __m512 py, __m512 pz) {
   return _mm512_mask_cmp_ps_mask(m, pz, r.hi[2], _CMP_LT_OQ);
 }
 
-// Branch-free: compress the hit lanes' j into the front of a vector and
-// store all 16 lanes (the output keeps kOutputSlack spare entries); a branch
-// on "any hit" mispredicts too often to pay.
-inline void emit(std::uint32_t i, std::uint32_t j, __mmask16 mask, KernelOutput& out) {
-  const __m512i lanes = _mm512_set_epi32(15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0);
-  const __m512i js = _mm512_maskz_compress_epi32(mask, _mm512_add_epi32(_mm512_set1_epi32(static_cast<int>(j)), lanes));
-  _mm512_storeu_si512(out.second + out.count, js);
-  _mm512_storeu_si512(out.first + out.count, _mm512_set1_epi32(static_cast<int>(i)));
-  out.count += static_cast<std::size_t>(__builtin_popcount(mask));
+// Where a row's hits go: stored (row id, candidate id), or only counted.
+struct Store {
+  std::uint32_t* first;
+  std::uint32_t* second;
+  std::size_t count;
+  // Branch-free: compress the hit lanes' ids into the front of a vector and
+  // store all 16 lanes (the output keeps kOutputSlack spare entries); a
+  // branch on "any hit" mispredicts too often to pay.
+  void emit(__m512i id_i, const std::uint32_t* ids_j, __mmask16 mask) {
+    _mm512_storeu_si512(second + count, _mm512_maskz_compress_epi32(mask, _mm512_loadu_si512(ids_j)));
+    _mm512_storeu_si512(first + count, id_i);
+    count += static_cast<std::size_t>(__builtin_popcount(mask));
+  }
+};
+
+struct Count {
+  std::uint64_t count = 0;
+  void emit(__m512i, const std::uint32_t*, __mmask16 mask) { count += static_cast<std::uint64_t>(__builtin_popcount(mask)); }
+};
+
+template <class Out>
+inline void sweep_row(const KernelInput& in, const RegionVec& rv, std::uint32_t i, Out& out) {
+  const float *minx = in.min[0], *miny = in.min[1], *minz = in.min[2];
+  const float *maxy = in.max[1], *maxz = in.max[2];
+  const __m512 bx = _mm512_set1_ps(in.max[0][i]);
+  const __m512 ly = _mm512_set1_ps(miny[i]), hy = _mm512_set1_ps(maxy[i]);
+  const __m512 lz = _mm512_set1_ps(minz[i]), hz = _mm512_set1_ps(maxz[i]);
+  const __m512i id_i = _mm512_set1_epi32(static_cast<int>(in.ids[i]));
+  for (std::uint32_t j = i + 1;; j += 16) {
+    const __m512 vminx = _mm512_loadu_ps(minx + j);
+    const __m512 vminy = _mm512_loadu_ps(miny + j), vminz = _mm512_loadu_ps(minz + j);
+    // Padding boxes have min = +inf, so the scan always ends inside the lane.
+    const __mmask16 mx = _mm512_cmp_ps_mask(vminx, bx, _CMP_LE_OQ);
+    // Independent compares joined by kand: a short dependency chain.
+    const __mmask16 my = _mm512_cmp_ps_mask(_mm512_loadu_ps(maxy + j), ly, _CMP_GE_OQ) &
+                         _mm512_cmp_ps_mask(vminy, hy, _CMP_LE_OQ);
+    const __mmask16 mz = _mm512_cmp_ps_mask(_mm512_loadu_ps(maxz + j), lz, _CMP_GE_OQ) &
+                         _mm512_cmp_ps_mask(vminz, hz, _CMP_LE_OQ);
+    const __mmask16 m = mx & my & mz & owned(rv, vminx, _mm512_max_ps(vminy, ly), _mm512_max_ps(vminz, lz));
+    out.emit(id_i, in.ids + j, m);
+    if (mx != 0xFFFF) break;
+  }
+}
+
+template <class Out>
+inline void allpairs_row(const KernelInput& in, const RegionVec& rv, std::uint32_t i, Out& out) {
+  const float *minx = in.min[0], *miny = in.min[1], *minz = in.min[2];
+  const float *maxx = in.max[0], *maxy = in.max[1], *maxz = in.max[2];
+  const __m512 lx = _mm512_set1_ps(minx[i]), hx = _mm512_set1_ps(maxx[i]);
+  const __m512 ly = _mm512_set1_ps(miny[i]), hy = _mm512_set1_ps(maxy[i]);
+  const __m512 lz = _mm512_set1_ps(minz[i]), hz = _mm512_set1_ps(maxz[i]);
+  const __m512i id_i = _mm512_set1_epi32(static_cast<int>(in.ids[i]));
+  for (std::uint32_t j = i + 1; j < in.n; j += 16) {
+    const __m512 vminx = _mm512_loadu_ps(minx + j), vminy = _mm512_loadu_ps(miny + j),
+                 vminz = _mm512_loadu_ps(minz + j);
+    __mmask16 m = _mm512_cmp_ps_mask(_mm512_loadu_ps(maxx + j), lx, _CMP_GE_OQ);
+    m = _mm512_mask_cmp_ps_mask(m, vminx, hx, _CMP_LE_OQ);
+    m = _mm512_mask_cmp_ps_mask(m, _mm512_loadu_ps(maxy + j), ly, _CMP_GE_OQ);
+    m = _mm512_mask_cmp_ps_mask(m, vminy, hy, _CMP_LE_OQ);
+    m = _mm512_mask_cmp_ps_mask(m, _mm512_loadu_ps(maxz + j), lz, _CMP_GE_OQ);
+    m = _mm512_mask_cmp_ps_mask(m, vminz, hz, _CMP_LE_OQ);
+    if (m) {
+      m &= owned(rv, _mm512_max_ps(vminx, lx), _mm512_max_ps(vminy, ly), _mm512_max_ps(vminz, lz));
+      out.emit(id_i, in.ids + j, m);
+    }
+  }
 }
 
 }  // namespace
 
 std::uint32_t sweep_avx512(const KernelInput& in, std::uint32_t row, KernelOutput& out) {
-  const float *minx = in.min[0], *miny = in.min[1], *minz = in.min[2];
-  const float *maxx = in.max[0], *maxy = in.max[1], *maxz = in.max[2];
   const RegionVec rv = load_region(in.region);
-  for (std::uint32_t i = row; i < in.n; ++i) {
-    if (out.capacity - out.count < std::size_t{in.n - i} + kOutputSlack) return i;
-    const __m512 bx = _mm512_set1_ps(maxx[i]);
-    const __m512 ly = _mm512_set1_ps(miny[i]), hy = _mm512_set1_ps(maxy[i]);
-    const __m512 lz = _mm512_set1_ps(minz[i]), hz = _mm512_set1_ps(maxz[i]);
-    for (std::uint32_t j = i + 1;; j += 16) {
-      const __m512 vminx = _mm512_loadu_ps(minx + j);
-      const __m512 vminy = _mm512_loadu_ps(miny + j), vminz = _mm512_loadu_ps(minz + j);
-      // Padding boxes have min = +inf, so the scan always ends inside the lane.
-      const __mmask16 mx = _mm512_cmp_ps_mask(vminx, bx, _CMP_LE_OQ);
-      // Independent compares joined by kand: a short dependency chain.
-      const __mmask16 my = _mm512_cmp_ps_mask(_mm512_loadu_ps(maxy + j), ly, _CMP_GE_OQ) &
-                           _mm512_cmp_ps_mask(vminy, hy, _CMP_LE_OQ);
-      const __mmask16 mz = _mm512_cmp_ps_mask(_mm512_loadu_ps(maxz + j), lz, _CMP_GE_OQ) &
-                           _mm512_cmp_ps_mask(vminz, hz, _CMP_LE_OQ);
-      const __mmask16 m = mx & my & mz & owned(rv, vminx, _mm512_max_ps(vminy, ly), _mm512_max_ps(vminz, lz));
-      emit(i, j, m, out);
-      if (mx != 0xFFFF) break;
-    }
+  Store s{out.first, out.second, out.count};
+  std::uint32_t i = row;
+  for (; i < in.n; ++i) {
+    if (out.capacity - s.count < std::size_t{in.n - i} + kOutputSlack) break;
+    sweep_row(in, rv, i, s);
   }
-  return in.n;
+  out.count = s.count;
+  return i;
 }
 
 std::uint32_t allpairs_avx512(const KernelInput& in, std::uint32_t row, KernelOutput& out) {
-  const float *minx = in.min[0], *miny = in.min[1], *minz = in.min[2];
-  const float *maxx = in.max[0], *maxy = in.max[1], *maxz = in.max[2];
   const RegionVec rv = load_region(in.region);
-  for (std::uint32_t i = row; i < in.n; ++i) {
-    if (out.capacity - out.count < std::size_t{in.n - i} + kOutputSlack) return i;
-    const __m512 lx = _mm512_set1_ps(minx[i]), hx = _mm512_set1_ps(maxx[i]);
-    const __m512 ly = _mm512_set1_ps(miny[i]), hy = _mm512_set1_ps(maxy[i]);
-    const __m512 lz = _mm512_set1_ps(minz[i]), hz = _mm512_set1_ps(maxz[i]);
-    for (std::uint32_t j = i + 1; j < in.n; j += 16) {
-      const __m512 vminx = _mm512_loadu_ps(minx + j), vminy = _mm512_loadu_ps(miny + j),
-                   vminz = _mm512_loadu_ps(minz + j);
-      __mmask16 m = _mm512_cmp_ps_mask(_mm512_loadu_ps(maxx + j), lx, _CMP_GE_OQ);
-      m = _mm512_mask_cmp_ps_mask(m, vminx, hx, _CMP_LE_OQ);
-      m = _mm512_mask_cmp_ps_mask(m, _mm512_loadu_ps(maxy + j), ly, _CMP_GE_OQ);
-      m = _mm512_mask_cmp_ps_mask(m, vminy, hy, _CMP_LE_OQ);
-      m = _mm512_mask_cmp_ps_mask(m, _mm512_loadu_ps(maxz + j), lz, _CMP_GE_OQ);
-      m = _mm512_mask_cmp_ps_mask(m, vminz, hz, _CMP_LE_OQ);
-      if (m) {
-        m &= owned(rv, _mm512_max_ps(vminx, lx), _mm512_max_ps(vminy, ly), _mm512_max_ps(vminz, lz));
-        emit(i, j, m, out);
-      }
-    }
+  Store s{out.first, out.second, out.count};
+  std::uint32_t i = row;
+  for (; i < in.n; ++i) {
+    if (out.capacity - s.count < std::size_t{in.n - i} + kOutputSlack) break;
+    allpairs_row(in, rv, i, s);
   }
-  return in.n;
+  out.count = s.count;
+  return i;
+}
+
+std::uint64_t sweep_count_avx512(const KernelInput& in, std::uint32_t row) {
+  const RegionVec rv = load_region(in.region);
+  Count c;
+  for (std::uint32_t i = row; i < in.n; ++i) sweep_row(in, rv, i, c);
+  return c.count;
+}
+
+std::uint64_t allpairs_count_avx512(const KernelInput& in, std::uint32_t row) {
+  const RegionVec rv = load_region(in.region);
+  Count c;
+  for (std::uint32_t i = row; i < in.n; ++i) allpairs_row(in, rv, i, c);
+  return c.count;
+}
+
+void canonical_pairs_avx512(const std::uint32_t* first, const std::uint32_t* second, std::size_t count,
+                            std::uint32_t* pairs) {
+  const __m512i lo_idx = _mm512_set_epi32(23, 7, 22, 6, 21, 5, 20, 4, 19, 3, 18, 2, 17, 1, 16, 0);
+  const __m512i hi_idx = _mm512_set_epi32(31, 15, 30, 14, 29, 13, 28, 12, 27, 11, 26, 10, 25, 9, 24, 8);
+  std::size_t k = 0;
+  for (; k + 16 <= count; k += 16) {
+    const __m512i f = _mm512_loadu_si512(first + k), s = _mm512_loadu_si512(second + k);
+    const __m512i a = _mm512_min_epu32(f, s), b = _mm512_max_epu32(f, s);
+    _mm512_storeu_si512(pairs + 2 * k, _mm512_permutex2var_epi32(a, lo_idx, b));
+    _mm512_storeu_si512(pairs + 2 * k + 16, _mm512_permutex2var_epi32(a, hi_idx, b));
+  }
+  if (k == count) return;
+  // The tail: masked, the destination may end right after the last pair.
+  const unsigned rest = static_cast<unsigned>(count - k);
+  const __mmask16 m = static_cast<__mmask16>((1u << rest) - 1);
+  const __m512i f = _mm512_maskz_loadu_epi32(m, first + k), s = _mm512_maskz_loadu_epi32(m, second + k);
+  const __m512i a = _mm512_min_epu32(f, s), b = _mm512_max_epu32(f, s);
+  const auto lo_mask = static_cast<__mmask16>(rest >= 8 ? 0xFFFFu : (1u << (2 * rest)) - 1);
+  const auto hi_mask = static_cast<__mmask16>(rest <= 8 ? 0u : (1u << (2 * (rest - 8))) - 1);
+  _mm512_mask_storeu_epi32(pairs + 2 * k, lo_mask, _mm512_permutex2var_epi32(a, lo_idx, b));
+  _mm512_mask_storeu_epi32(pairs + 2 * k + 16, hi_mask, _mm512_permutex2var_epi32(a, hi_idx, b));
 }
 
 }  // namespace hbp::kernels

@@ -62,3 +62,30 @@ Kernel allpairs_kernel(Isa isa) {
 }
 
 }  // namespace hbp::kernels
+
+namespace hbp::kernels {
+
+CountKernel sweep_count_kernel(Isa isa) {
+  switch (isa) {
+    case Isa::Avx512: return sweep_count_avx512;
+    case Isa::Avx2: return sweep_count_avx2;
+    case Isa::Scalar: break;
+  }
+  return sweep_count_scalar;
+}
+
+CountKernel allpairs_count_kernel(Isa isa) {
+  switch (isa) {
+    case Isa::Avx512: return allpairs_count_avx512;
+    case Isa::Avx2: return allpairs_count_avx2;
+    case Isa::Scalar: break;
+  }
+  return allpairs_count_scalar;
+}
+
+CanonicalPairs canonical_pairs(Isa isa) {
+  // The scalar loop vectorises well enough without AVX-512's permutes.
+  return isa == Isa::Avx512 ? canonical_pairs_avx512 : canonical_pairs_scalar;
+}
+
+}  // namespace hbp::kernels

@@ -3,47 +3,97 @@
 namespace hbp::kernels {
 
 namespace {
+
 inline float max_of(float a, float b) { return a > b ? a : b; }
+
+// Where a row's hits go: stored (row id, candidate id), or only counted.
+struct Store {
+  std::uint32_t* first;
+  std::uint32_t* second;
+  std::size_t count;
+  void emit(std::uint32_t id_i, std::uint32_t id_j) {
+    first[count] = id_i;
+    second[count] = id_j;
+    ++count;
+  }
+};
+
+struct Count {
+  std::uint64_t count = 0;
+  void emit(std::uint32_t, std::uint32_t) { ++count; }
+};
+
+template <class Out>
+inline void sweep_row(const KernelInput& in, std::uint32_t i, Out& out) {
+  const float *minx = in.min[0], *miny = in.min[1], *minz = in.min[2];
+  const float *maxy = in.max[1], *maxz = in.max[2];
+  const CellRegion& r = in.region;
+  const float bx = in.max[0][i], ly = miny[i], hy = maxy[i], lz = minz[i], hz = maxz[i];
+  // Sorted by min x: min_x[j] >= min_x[i] and max_x[j] >= min_x[j], so only
+  // min_x[j] <= max_x[i] remains to test on x, and it ends the scan.
+  for (std::uint32_t j = i + 1; j < in.n && minx[j] <= bx; ++j) {
+    if (maxy[j] >= ly && miny[j] <= hy && maxz[j] >= lz && minz[j] <= hz &&
+        r.contains(minx[j], max_of(miny[j], ly), max_of(minz[j], lz)))
+      out.emit(in.ids[i], in.ids[j]);
+  }
+}
+
+template <class Out>
+inline void allpairs_row(const KernelInput& in, std::uint32_t i, Out& out) {
+  const float *minx = in.min[0], *miny = in.min[1], *minz = in.min[2];
+  const float *maxx = in.max[0], *maxy = in.max[1], *maxz = in.max[2];
+  const CellRegion& r = in.region;
+  const float lx = minx[i], hx = maxx[i], ly = miny[i], hy = maxy[i], lz = minz[i], hz = maxz[i];
+  for (std::uint32_t j = i + 1; j < in.n; ++j) {
+    if (maxx[j] >= lx && minx[j] <= hx && maxy[j] >= ly && miny[j] <= hy && maxz[j] >= lz && minz[j] <= hz &&
+        r.contains(max_of(minx[j], lx), max_of(miny[j], ly), max_of(minz[j], lz)))
+      out.emit(in.ids[i], in.ids[j]);
+  }
+}
+
 }  // namespace
 
 std::uint32_t sweep_scalar(const KernelInput& in, std::uint32_t row, KernelOutput& out) {
-  const float *minx = in.min[0], *miny = in.min[1], *minz = in.min[2];
-  const float *maxx = in.max[0], *maxy = in.max[1], *maxz = in.max[2];
-  const CellRegion& r = in.region;
-  for (std::uint32_t i = row; i < in.n; ++i) {
-    if (out.capacity - out.count < std::size_t{in.n - i} + kOutputSlack) return i;
-    const float bx = maxx[i], ly = miny[i], hy = maxy[i], lz = minz[i], hz = maxz[i];
-    // Sorted by min x: min_x[j] >= min_x[i] and max_x[j] >= min_x[j], so only
-    // min_x[j] <= max_x[i] remains to test on x, and it ends the scan.
-    for (std::uint32_t j = i + 1; j < in.n && minx[j] <= bx; ++j) {
-      if (maxy[j] >= ly && miny[j] <= hy && maxz[j] >= lz && minz[j] <= hz &&
-          r.contains(minx[j], max_of(miny[j], ly), max_of(minz[j], lz))) {
-        out.first[out.count] = i;
-        out.second[out.count] = j;
-        ++out.count;
-      }
-    }
+  Store s{out.first, out.second, out.count};
+  std::uint32_t i = row;
+  for (; i < in.n; ++i) {
+    if (out.capacity - s.count < std::size_t{in.n - i} + kOutputSlack) break;
+    sweep_row(in, i, s);
   }
-  return in.n;
+  out.count = s.count;
+  return i;
 }
 
 std::uint32_t allpairs_scalar(const KernelInput& in, std::uint32_t row, KernelOutput& out) {
-  const float *minx = in.min[0], *miny = in.min[1], *minz = in.min[2];
-  const float *maxx = in.max[0], *maxy = in.max[1], *maxz = in.max[2];
-  const CellRegion& r = in.region;
-  for (std::uint32_t i = row; i < in.n; ++i) {
-    if (out.capacity - out.count < std::size_t{in.n - i} + kOutputSlack) return i;
-    const float lx = minx[i], hx = maxx[i], ly = miny[i], hy = maxy[i], lz = minz[i], hz = maxz[i];
-    for (std::uint32_t j = i + 1; j < in.n; ++j) {
-      if (maxx[j] >= lx && minx[j] <= hx && maxy[j] >= ly && miny[j] <= hy && maxz[j] >= lz && minz[j] <= hz &&
-          r.contains(max_of(minx[j], lx), max_of(miny[j], ly), max_of(minz[j], lz))) {
-        out.first[out.count] = i;
-        out.second[out.count] = j;
-        ++out.count;
-      }
-    }
+  Store s{out.first, out.second, out.count};
+  std::uint32_t i = row;
+  for (; i < in.n; ++i) {
+    if (out.capacity - s.count < std::size_t{in.n - i} + kOutputSlack) break;
+    allpairs_row(in, i, s);
   }
-  return in.n;
+  out.count = s.count;
+  return i;
+}
+
+std::uint64_t sweep_count_scalar(const KernelInput& in, std::uint32_t row) {
+  Count c;
+  for (std::uint32_t i = row; i < in.n; ++i) sweep_row(in, i, c);
+  return c.count;
+}
+
+std::uint64_t allpairs_count_scalar(const KernelInput& in, std::uint32_t row) {
+  Count c;
+  for (std::uint32_t i = row; i < in.n; ++i) allpairs_row(in, i, c);
+  return c.count;
+}
+
+void canonical_pairs_scalar(const std::uint32_t* first, const std::uint32_t* second, std::size_t count,
+                            std::uint32_t* pairs) {
+  for (std::size_t k = 0; k < count; ++k) {
+    const std::uint32_t f = first[k], s = second[k];
+    pairs[2 * k] = f < s ? f : s;
+    pairs[2 * k + 1] = f < s ? s : f;
+  }
 }
 
 }  // namespace hbp::kernels

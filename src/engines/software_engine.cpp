@@ -1,6 +1,7 @@
 #include "hbp/software_engine.hpp"
 
 #include <algorithm>
+#include <cstddef>
 #include <numeric>
 
 #include "engines/box_kernels.hpp"
@@ -22,30 +23,65 @@ const char* SoftwareEngine::isa() { return kernels::isa_name(kernels::selected_i
 
 std::unique_ptr<CellEngine> SoftwareEngine::clone() const { return std::make_unique<SoftwareEngine>(kernel_); }
 
+static_assert(sizeof(Pair) == 2 * sizeof(std::uint32_t) && offsetof(Pair, a) == 0 && offsetof(Pair, b) == 4,
+              "canonical_pairs writes Pairs as interleaved (a, b) words");
+static_assert(SoftwareEngine::kOutputSlack == kernels::kOutputSlack);
+
+std::uint32_t SoftwareEngine::emit_hits(const BoxArray& cell, const std::uint32_t* ids, const CellRegion& region,
+                                        std::uint32_t row, std::uint32_t* first, std::uint32_t* second,
+                                        std::size_t capacity, std::size_t& count) const {
+  const auto n = static_cast<std::uint32_t>(cell.size());
+  if (n < 2) return n;
+  const kernels::KernelInput in{
+      {cell.min(0), cell.min(1), cell.min(2)}, {cell.max(0), cell.max(1), cell.max(2)}, ids, n, region};
+  const kernels::Isa isa = kernels::selected_isa();
+  const kernels::Kernel k = kernel_ == Kernel::Sweep ? kernels::sweep_kernel(isa) : kernels::allpairs_kernel(isa);
+  kernels::KernelOutput o{first, second, capacity, count};
+  row = k(in, row, o);
+  count = o.count;
+  return row;
+}
+
+void SoftwareEngine::write_pairs(const std::uint32_t* first, const std::uint32_t* second, std::size_t count,
+                                 Pair* out) {
+  if (count) kernels::canonical_pairs(kernels::selected_isa())(first, second, count, reinterpret_cast<std::uint32_t*>(out));
+}
+
+std::uint64_t SoftwareEngine::count_pairs(const BoxArray& cell, const std::uint32_t* ids, const CellRegion& region,
+                                          std::uint32_t row) const {
+  const auto n = static_cast<std::uint32_t>(cell.size());
+  if (n < 2) return 0;
+  const kernels::KernelInput in{
+      {cell.min(0), cell.min(1), cell.min(2)}, {cell.max(0), cell.max(1), cell.max(2)}, ids, n, region};
+  const kernels::Isa isa = kernels::selected_isa();
+  return (kernel_ == Kernel::Sweep ? kernels::sweep_count_kernel(isa) : kernels::allpairs_count_kernel(isa))(in, row);
+}
+
 void SoftwareEngine::run(const BoxArray& cell, const CellRegion& region, std::vector<Pair>& out) {
   const auto n = static_cast<std::uint32_t>(cell.size());
   if (n < 2) return;
-  kernels::KernelInput in{{cell.min(0), cell.min(1), cell.min(2)}, {cell.max(0), cell.max(1), cell.max(2)}, n, region};
-  const kernels::Isa isa = kernels::selected_isa();
-  const kernels::Kernel k = kernel_ == Kernel::Sweep ? kernels::sweep_kernel(isa) : kernels::allpairs_kernel(isa);
-  const std::size_t want = 2 * (std::size_t{n} + kernels::kOutputSlack);
-  if (first_.size() < want) {
-    first_.resize(want);
-    second_.resize(want);
+  if (local_ids_.size() < n + kOutputSlack) {
+    local_ids_.resize(n + kOutputSlack);
+    std::iota(local_ids_.begin(), local_ids_.end(), 0u);
+  }
+  // A stage of a few rows' worth, drained into `out` whenever it fills: the
+  // engine's own memory stays bounded by the cell size, not its pair count.
+  const std::size_t want = 4 * (std::size_t{n} + kOutputSlack);
+  if (stage_capacity_ < want || stage_capacity_ > 4 * want) {
+    stage_capacity_ = want;
+    first_.assign(want, 0);
+    second_.assign(want, 0);
   }
   std::uint32_t row = 0;
-  while (true) {
-    kernels::KernelOutput o{first_.data(), second_.data(), first_.size(), 0};
-    row = k(in, row, o);
+  while (row < n) {
+    std::size_t count = 0;
+    row = emit_hits(cell, local_ids_.data(), region, row, first_.data(), second_.data(), stage_capacity_, count);
     const std::size_t base = out.size();
-    out.resize(base + o.count);
-    for (std::size_t p = 0; p < o.count; ++p) out[base + p] = {first_[p], second_[p]};
-    if (row >= n) break;
-    if (out.size() > pair_limit_)
+    out.resize(base + count);
+    write_pairs(first_.data(), second_.data(), count, out.data() + base);
+    if (row < n && out.size() > pair_limit_)
       throw CapacityExceeded("cell of " + std::to_string(n) + " boxes has more than " + std::to_string(pair_limit_) +
                              " overlapping pairs (max_pairs)");
-    first_.resize(first_.size() * 2);  // a dense cell: grow and resume
-    second_.resize(second_.size() * 2);
   }
 }
 

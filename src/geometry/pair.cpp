@@ -1,6 +1,7 @@
 #include "hbp/pair.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cstdint>
 #include <string>
 
@@ -10,32 +11,51 @@ namespace hbp {
 
 namespace {
 
-std::uint64_t key(const Pair& p) { return (std::uint64_t{p.a} << 32) | p.b; }
+// Below this many pairs a comparison sort beats the radix sort's fixed costs.
+constexpr std::size_t kComparisonSortBelow = 1024;
+constexpr int kMaxDigitBits = 11;  // 2048 buckets: the histograms stay in L1
 
-// LSD radix sort on the 64-bit (a, b) key, 16 bits per pass; skips passes whose
-// digit is constant (small ids leave the top passes empty).
-void radix_sort(std::vector<Pair>& pairs) {
+// LSD radix sort on the key (a << bits(b)) | b, which orders like (a, b) and
+// holds only the bits the ids use (a million objects: 40 bits, 4 passes of
+// 10). All histograms come from one read; passes whose digit is the same for
+// every pair are skipped.
+void radix_sort(std::vector<Pair>& pairs, std::vector<Pair>& scratch) {
   const std::size_t n = pairs.size();
-  if (n < 256) {
+  if (n < kComparisonSortBelow) {
     std::sort(pairs.begin(), pairs.end());
     return;
   }
-  std::vector<Pair> tmp(n);
+  std::uint32_t any_a = 0, any_b = 0;
+  for (const Pair& p : pairs) {
+    any_a |= p.a;
+    any_b |= p.b;
+  }
+  const int bits_b = std::bit_width(any_b);
+  const int bits = std::bit_width(any_a) + bits_b;
+  if (bits == 0) return;
+  const int passes = (bits + kMaxDigitBits - 1) / kMaxDigitBits;
+  const int digit = (bits + passes - 1) / passes;
+  const std::uint64_t mask = (std::uint64_t{1} << digit) - 1;
+  auto key = [bits_b](const Pair& p) { return (std::uint64_t{p.a} << bits_b) | p.b; };
+  std::vector<std::size_t> count(static_cast<std::size_t>(passes) << digit, 0);
+  for (const Pair& p : pairs) {
+    const std::uint64_t k = key(p);
+    for (int q = 0; q < passes; ++q) ++count[(static_cast<std::size_t>(q) << digit) + ((k >> (q * digit)) & mask)];
+  }
+  scratch.resize(n);
   Pair* src = pairs.data();
-  Pair* dst = tmp.data();
-  std::vector<std::size_t> count(1 << 16);
-  for (int pass = 0; pass < 4; ++pass) {
-    const int shift = pass * 16;
-    std::fill(count.begin(), count.end(), 0);
-    for (std::size_t i = 0; i < n; ++i) ++count[(key(src[i]) >> shift) & 0xffff];
-    if (count[(key(src[0]) >> shift) & 0xffff] == n) continue;
+  Pair* dst = scratch.data();
+  for (int q = 0; q < passes; ++q) {
+    std::size_t* c = count.data() + (static_cast<std::size_t>(q) << digit);
+    const int shift = q * digit;
+    if (c[(key(src[0]) >> shift) & mask] == n) continue;
     std::size_t sum = 0;
-    for (auto& c : count) {
-      const std::size_t t = c;
-      c = sum;
+    for (std::size_t d = 0; d <= mask; ++d) {
+      const std::size_t t = c[d];
+      c[d] = sum;
       sum += t;
     }
-    for (std::size_t i = 0; i < n; ++i) dst[count[(key(src[i]) >> shift) & 0xffff]++] = src[i];
+    for (std::size_t i = 0; i < n; ++i) dst[c[(key(src[i]) >> shift) & mask]++] = src[i];
     std::swap(src, dst);
   }
   if (src != pairs.data()) std::copy(src, src + n, pairs.data());
@@ -53,7 +73,12 @@ std::string list(const std::vector<Pair>& v, std::size_t max_listed) {
 
 }  // namespace
 
-void sort_pairs(std::vector<Pair>& pairs) { radix_sort(pairs); }
+void sort_pairs(std::vector<Pair>& pairs) {
+  std::vector<Pair> scratch;
+  radix_sort(pairs, scratch);
+}
+
+void sort_pairs(std::vector<Pair>& pairs, std::vector<Pair>& scratch) { radix_sort(pairs, scratch); }
 
 std::size_t canonicalize(std::vector<Pair>& pairs) {
   for (auto& p : pairs) {

@@ -49,6 +49,17 @@ V3 Convex::support(const V3& d) const {
   return centre + to_world(local_support(kind, h, to_local(d)));
 }
 
+double bounding_radius(const Shape& shape) {
+  const double hx = 0.5 * shape.size.x, hy = 0.5 * shape.size.y, hz = 0.5 * shape.size.z;
+  switch (shape.kind) {
+    case ShapeKind::Sphere: return std::fmax(hx, std::fmax(hy, hz));
+    case ShapeKind::Cuboid: return std::sqrt(hx * hx + hy * hy + hz * hz);
+    case ShapeKind::Cylinder:
+    case ShapeKind::Cone: return std::sqrt(std::fmax(hx * hx, hy * hy) + hz * hz);
+  }
+  return 0;
+}
+
 Convex make_convex(const Shape& shape) {
   Convex c;
   c.kind = shape.kind;
@@ -57,13 +68,7 @@ Convex make_convex(const Shape& shape) {
   c.h[2] = 0.5 * shape.size.z;
   rotation_matrix(normalized(shape.orientation), c.r);
   c.centre = to_v3(shape.position);
-  const double hx = c.h[0], hy = c.h[1], hz = c.h[2];
-  switch (shape.kind) {
-    case ShapeKind::Sphere: c.radius = std::fmax(hx, std::fmax(hy, hz)); break;
-    case ShapeKind::Cuboid: c.radius = std::sqrt(hx * hx + hy * hy + hz * hz); break;
-    case ShapeKind::Cylinder:
-    case ShapeKind::Cone: c.radius = std::sqrt(std::fmax(hx * hx, hy * hy) + hz * hz); break;
-  }
+  c.radius = bounding_radius(shape);
   return c;
 }
 

@@ -1,6 +1,7 @@
 #include "hbp/narrow/epa.hpp"
 
 #include <cmath>
+#include <type_traits>
 #include <utility>
 
 namespace hbp::narrow {
@@ -19,6 +20,20 @@ struct Face {
   int adj_edge[3];
   unsigned pass;
   bool alive;
+};
+
+// Fixed-size storage left uninitialised: V3's default member initialisers
+// would otherwise zero about 50 kB of polytope on every EPA call, most of
+// it never used. Elements are written before they are read.
+template <class T, int N>
+struct Uninitialised {
+  static_assert(std::is_trivially_destructible_v<T> && std::is_trivially_copyable_v<T>);
+  union {
+    T v[N];
+  };
+  Uninitialised() {}
+  T& operator[](int i) { return v[i]; }
+  const T& operator[](int i) const { return v[i]; }
 };
 
 struct Horizon {
@@ -130,9 +145,9 @@ class Polytope {
 
  private:
   double area_eps_, plane_eps_;
-  SupportVertex verts_[kMaxVertices];
+  Uninitialised<SupportVertex, kMaxVertices> verts_;
   int nv_ = 0;
-  Face faces_[kMaxFaces];
+  Uninitialised<Face, kMaxFaces> faces_;
   int free_[kMaxFaces];
   int removed_[kMaxFaces];
   int nfree_ = 0, nused_ = 0, nremoved_ = 0;
@@ -235,8 +250,26 @@ EpaResult epa(const Convex& a, const Convex& b, const Simplex& simplex, const Ep
     const double len = norm(d);
     r.normal = len > 0 ? d * (1.0 / len) : V3{0, 0, 1};
   }
+  // Without a polytope, the support function along the centre line, lowered
+  // by descent, is the answer: h_D(u) < 0 proves the shapes apart (GJK's
+  // verdict was wrong), else h_D(u) is a translation that separates them.
+  // Never a silent depth-0 contact.
+  auto without_polytope = [&]() {
+    V3 u = r.normal;
+    SupportVertex w = support_difference(a, b, u);
+    double f = dot(u, w.w);
+    V3 pa = w.a, pb = w.b;
+    refine_upper_bound(a, b, scale, f, u, pa, pb);
+    r.ok = false;
+    r.separated = f < 0;
+    r.depth = f > 0 ? f : 0;
+    r.normal = u;
+    r.point_a = pa;
+    r.point_b = pb;
+    return r;
+  };
   Simplex s = simplex;
-  if (s.n < 1 || !enclose_origin(a, b, s, scale)) return r;
+  if (s.n < 1 || !enclose_origin(a, b, s, scale)) return without_polytope();
 
   Polytope p(scale);
   int vi[4];
@@ -250,7 +283,7 @@ EpaResult epa(const Convex& a, const Convex& b, const Simplex& simplex, const Ep
     const V3 wi = p.vertex(i).w;
     if (dot(cross(p.vertex(j).w - wi, p.vertex(k).w - wi), p.vertex(vi[kTet[t][3]]).w - wi) > 0) std::swap(j, k);
     tf[t] = p.new_face(i, j, k);
-    if (tf[t] < 0) return r;
+    if (tf[t] < 0) return without_polytope();
   }
   for (int f = 0; f < 4; ++f) {
     for (int e = 0; e < 3; ++e) {
@@ -274,12 +307,13 @@ EpaResult epa(const Convex& a, const Convex& b, const Simplex& simplex, const Ep
   double upper = INFINITY;
   V3 upper_normal, upper_a, upper_b;
   unsigned pass = 0;
+  double last_d = 0;  // the closest face's distance: a lower bound of the depth
   for (int it = 0;; ++it) {
     r.iterations = it;
     const int best = p.closest_face();
     if (best < 0) break;
     Face& B = p.face(best);
-    fill_result(p, B, r);
+    last_d = B.d;
     const SupportVertex w = support_difference(a, b, B.n);
     const double hd = dot(B.n, w.w);
     if (hd < upper) {
@@ -290,7 +324,12 @@ EpaResult epa(const Convex& a, const Convex& b, const Simplex& simplex, const Ep
     }
     const double gap = hd - B.d;
     if (gap <= options.rel_tolerance * std::fabs(B.d) + options.abs_tolerance * scale) {
+      // Report the support value along the face normal (the upper end of the
+      // bracket): moving b by it separates the shapes, never falls short.
+      fill_result(p, B, r);
       r.converged = true;
+      r.lower_bound = B.d;
+      r.depth = hd > 0 ? hd : 0;
       break;
     }
     if (p.vertex_count() >= kMaxVertices) break;
@@ -305,7 +344,12 @@ EpaResult epa(const Convex& a, const Convex& b, const Simplex& simplex, const Ep
     p.release_removed();
     p.release(best);
   }
-  r.lower_bound = r.depth;
+  if (!r.converged && upper == INFINITY) return without_polytope();
+  r.ok = true;
+  if (!r.converged) r.lower_bound = last_d > 0 ? last_d : 0;
+  // A support value below zero is a separating plane: GJK's simplex did not
+  // really enclose the origin.
+  r.separated = upper < 0;
   if (!r.converged && upper < INFINITY) {
     refine_upper_bound(a, b, scale, upper, upper_normal, upper_a, upper_b);
     r.depth = upper > 0 ? upper : 0;

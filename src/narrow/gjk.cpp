@@ -102,9 +102,19 @@ void closest_triangle(Simplex& s, int i, int j, int k) {
 }
 
 // Tetrahedron: true if the origin is inside (s unchanged, lambda set);
-// otherwise reduces s to the closest face/edge/vertex.
-bool closest_tetrahedron(Simplex& s) {
+// otherwise reduces s to the closest face/edge/vertex. *sliver: the
+// tetrahedron was too flat to decide and was treated as flat.
+bool closest_tetrahedron(Simplex& s, bool* sliver_out) {
   static constexpr int kFaces[4][4] = {{0, 1, 2, 3}, {0, 2, 3, 1}, {0, 3, 1, 2}, {1, 3, 2, 0}};
+  // A sliver (volume tiny against its edges, e.g. three nearly equal support
+  // points of a curved surface and one far vertex) has face planes whose
+  // sides are rounding noise: it must never certify that it encloses the
+  // origin. It is treated as flat: the closest point over all four faces.
+  const V3 e1 = s.v[1].w - s.v[0].w, e2 = s.v[2].w - s.v[0].w, e3 = s.v[3].w - s.v[0].w;
+  const double vol6 = std::fabs(det3(e1, e2, e3));
+  const double edges = std::sqrt(norm2(e1) * norm2(e2) * norm2(e3));
+  const bool sliver = !(vol6 > 1e-12 * edges);
+  *sliver_out = sliver;
   bool outside_any = false;
   Simplex best;
   double best_d = INFINITY;
@@ -115,7 +125,7 @@ bool closest_tetrahedron(Simplex& s) {
     const double side_opposite = dot(d - a, n);
     // Origin strictly on the other side of this face than the fourth vertex
     // (or a flat tetrahedron): the closest point may lie on this face.
-    if (side_opposite == 0 || side_origin * side_opposite < 0) {
+    if (sliver || side_opposite == 0 || side_origin * side_opposite < 0) {
       outside_any = true;
       Simplex t = s;
       closest_triangle(t, f[0], f[1], f[2]);
@@ -149,8 +159,15 @@ GjkResult gjk(const Convex& a, const Convex& b, const GjkOptions& options) {
   const double scale = pair_scale(a, b);
   const double touch2 = (1e-12 * scale) * (1e-12 * scale);
   const double eps = options.rel_tolerance;
+  // Shapes closer than this (relative to their size) may be called touching
+  // when the simplex has gone flat: far inside the agreement band with
+  // Bullet (1e-4 m + 2e-6 x scale, docs/narrow-phase.md).
+  const double sliver_touch2 = (1e-10 * scale) * (1e-10 * scale);
 
-  V3 v = a.centre - b.centre;  // a point of D (both centres are interior)
+  // v: a point of D (both centres are interior), or minus the cached
+  // direction: only its direction matters for the first support query.
+  V3 v = a.centre - b.centre;
+  if (norm2(options.initial_direction) > 0) v = -options.initial_direction;
   if (norm2(v) == 0) v = {scale, 0, 0};
   double prev_vv = INFINITY;
   for (int it = 0; it < options.max_iterations; ++it) {
@@ -162,6 +179,7 @@ GjkResult gjk(const Convex& a, const Convex& b, const GjkOptions& options) {
       // Separating plane found: D lies entirely on the far side of it.
       r.intersecting = false;
       r.distance = vw / std::sqrt(vv);
+      r.v = v;
       return r;
     }
     if (s.n > 0) {
@@ -172,12 +190,19 @@ GjkResult gjk(const Convex& a, const Convex& b, const GjkOptions& options) {
     const Simplex before = s;
     const V3 v_before = v;
     s.v[s.n++] = w;
-    bool inside = false;
+    bool inside = false, sliver = false;
     switch (s.n) {
       case 1: s.lambda[0] = 1; break;
       case 2: closest_segment(s, 0, 1); break;
       case 3: closest_triangle(s, 0, 1, 2); break;
-      default: inside = closest_tetrahedron(s); break;
+      default: inside = closest_tetrahedron(s, &sliver); break;
+    }
+    if (sliver && norm2(combine(s)) <= sliver_touch2) {
+      // A flat simplex within the touching tolerance of the origin: touching
+      // (EPA certifies or refutes it with a support value).
+      r.intersecting = true;
+      r.distance = 0;
+      return r;
     }
     if (inside) {
       r.intersecting = true;
@@ -200,6 +225,7 @@ GjkResult gjk(const Convex& a, const Convex& b, const GjkOptions& options) {
   }
   r.intersecting = false;
   r.distance = norm(v);
+  r.v = v;
   V3 pa, pb;
   for (int i = 0; i < s.n; ++i) {
     pa = pa + s.lambda[i] * s.v[i].a;

@@ -4,6 +4,7 @@
 #include "hbp/narrow/epa.hpp"
 #include "hbp/narrow/gjk.hpp"
 #include "hbp/narrow/libccd_solver.hpp"
+#include "hbp/narrow/obb_reject.hpp"
 
 namespace hbp {
 
@@ -36,33 +37,74 @@ bool closed_form(const Convex& a, const Convex& b, Hit* hit, bool* applies) {
   return false;
 }
 
-bool gjk_epa(const Convex& a, const Convex& b, Hit* hit) {
+V3 unit(const V3& v) {
+  const double n = norm(v);
+  return n > 0 ? v * (1.0 / n) : V3{};
+}
+
+bool gjk_epa(const Convex& a, const Convex& b, Hit* hit, const V3* warm, V3* learned) {
+  // The verdict never needs the distance of a separated pair: GJK stops at
+  // the first separating plane in both modes, so contacts and intersection
+  // only give the same verdicts.
   GjkOptions go;
-  go.boolean_only = hit == nullptr;
+  go.boolean_only = true;
+  if (warm) go.initial_direction = *warm;
   const GjkResult g = gjk(a, b, go);
-  if (!g.intersecting) return false;
-  if (!hit) return true;
-  const EpaResult e = epa(a, b, g.simplex);
+  if (!g.intersecting) {
+    if (learned) *learned = unit(-g.v);
+    return false;
+  }
+  if (!hit) {
+    if (learned) *learned = warm ? *warm : V3{};
+    return true;
+  }
+  EpaOptions eo;
+  eo.rel_tolerance = kContactDepthTolerance;
+  const EpaResult e = epa(a, b, g.simplex, eo);
+  if (e.separated) return false;  // a support value below zero: proved apart
   hit->normal = e.normal;
   hit->depth = e.depth;
-  hit->point = e.ok ? 0.5 * (e.point_a + e.point_b) : 0.5 * (a.centre + b.centre);
+  hit->point = 0.5 * (e.point_a + e.point_b);
+  if (learned) *learned = e.normal;
   return true;
 }
 
 }  // namespace
 
 bool intersect(const Convex& a, const Convex& b, Hit* hit, NarrowMethod method) {
+  return intersect(a, b, hit, method, nullptr, nullptr);
+}
+
+bool intersect(const Convex& a, const Convex& b, Hit* hit, NarrowMethod method, const V3* warm, V3* learned) {
+  if (learned) *learned = V3{};
   // Bounding spheres apart: no further work (most broad-phase false positives).
   const double reach = a.radius + b.radius;
   if (norm2(b.centre - a.centre) > reach * reach) return false;
-  switch (method) {
-    case NarrowMethod::Auto: {
-      bool applies = false;
+  if (method == NarrowMethod::Auto || method == NarrowMethod::GjkEpa) {
+    bool applies = false;
+    if (method == NarrowMethod::Auto) {
       const bool r = closed_form(a, b, hit, &applies);
       if (applies) return r;
-      return gjk_epa(a, b, hit);
     }
-    case NarrowMethod::GjkEpa: return gjk_epa(a, b, hit);
+    // Last frame's axis still separates: one support query (h_D(u) < 0).
+    if (warm) {
+      const SupportVertex w = support_difference(a, b, *warm);
+      if (dot(*warm, w.w) < 0) {
+        if (learned) *learned = *warm;
+        return false;
+      }
+    }
+    // Oriented bounding boxes apart (15 axes).
+    V3 axis;
+    if (obb_disjoint(a, b, &axis)) {
+      if (learned) *learned = axis;
+      return false;
+    }
+    return gjk_epa(a, b, hit, warm, learned);
+  }
+  switch (method) {
+    case NarrowMethod::Auto:
+    case NarrowMethod::GjkEpa: return false;  // handled above
     case NarrowMethod::LibccdMpr: return libccd_intersect(a, b, hit, CcdAlgorithm::Mpr);
     case NarrowMethod::LibccdGjkEpa: return libccd_intersect(a, b, hit, CcdAlgorithm::GjkEpa);
   }

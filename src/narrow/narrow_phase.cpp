@@ -1,5 +1,6 @@
 #include "hbp/narrow/narrow_phase.hpp"
 
+#include <cstdint>
 #include <string>
 
 #include "hbp/error.hpp"
@@ -8,18 +9,46 @@ namespace hbp {
 
 std::size_t NarrowPhase::process(const std::vector<Shape>& shapes, const Pair* pairs, std::size_t count,
                                  std::vector<Contact>& out) const {
+  return process(shapes, pairs, count, out, nullptr, nullptr);
+}
+
+std::size_t NarrowPhase::process(const std::vector<Shape>& shapes, const Pair* pairs, std::size_t count,
+                                 std::vector<Contact>& out, const NarrowCache* cache,
+                                 std::vector<NarrowCacheEntry>* learned) const {
   const std::size_t before = out.size();
   const std::size_t n = shapes.size();
+  narrow::Convex a;
+  std::uint32_t prepared_id = UINT32_MAX;
   for (std::size_t k = 0; k < count; ++k) {
     const Pair p = pairs[k];
     if (p.a >= n || p.b >= n) {
       throw InvalidInput("narrow phase: pair " + std::to_string(p.a) + "-" + std::to_string(p.b) +
                          " names an object beyond the " + std::to_string(n) + " shapes");
     }
-    const narrow::Convex a = narrow::make_convex(shapes[p.a]);
-    const narrow::Convex b = narrow::make_convex(shapes[p.b]);
+    // Bounding spheres apart: nothing to prepare (most broad-phase false
+    // positives end here).
+    const Shape& sa = shapes[p.a];
+    const Shape& sb = shapes[p.b];
+    const double reach = narrow::bounding_radius(sa) + narrow::bounding_radius(sb);
+    const double dx = sb.position.x - sa.position.x, dy = sb.position.y - sa.position.y,
+                 dz = sb.position.z - sa.position.z;
+    if (dx * dx + dy * dy + dz * dz > reach * reach) continue;
+    // Pairs come sorted or grouped by their first object: its prepared
+    // shape is reused across the group.
+    if (p.a != prepared_id) {
+      a = narrow::make_convex(sa);
+      prepared_id = p.a;
+    }
+    const narrow::Convex b = narrow::make_convex(sb);
     narrow::Hit hit;
-    if (!narrow::intersect(a, b, options_.contacts ? &hit : nullptr, options_.method)) continue;
+    narrow::V3 warm, dir;
+    const float* cached = cache ? cache->find(p) : nullptr;
+    if (cached) warm = {cached[0], cached[1], cached[2]};
+    const bool collide = narrow::intersect(a, b, options_.contacts ? &hit : nullptr, options_.method,
+                                           cached ? &warm : nullptr, learned ? &dir : nullptr);
+    if (learned && narrow::norm2(dir) > 0)
+      learned->push_back({p, {static_cast<float>(dir.x), static_cast<float>(dir.y), static_cast<float>(dir.z)}});
+    if (!collide) continue;
     Contact c;
     c.a = p.a;
     c.b = p.b;

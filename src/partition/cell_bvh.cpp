@@ -246,18 +246,28 @@ bool edit(std::span<const CellEntry> entries, std::span<const std::uint32_t> old
   s.added.clear();
   std::uint32_t removed = 0;
   {
+    // Both lists in id order (cells come in min-x order), then one merge walk.
+    std::vector<std::uint32_t>& old_by_id = s.left;
+    std::vector<std::uint32_t>& new_by_id = s.right;
+    old_by_id.resize(old_count);
+    new_by_id.resize(new_count);
+    for (std::uint32_t i = 0; i < old_count; ++i) old_by_id[i] = i;
+    for (std::uint32_t j = 0; j < new_count; ++j) new_by_id[j] = j;
+    std::sort(old_by_id.begin(), old_by_id.end(), [&](auto a, auto b) { return old_ids[a] < old_ids[b]; });
+    std::sort(new_by_id.begin(), new_by_id.end(), [&](auto a, auto b) { return entries[a].id < entries[b].id; });
     std::uint32_t i = 0, j = 0;
     while (i < old_count || j < new_count) {
-      if (j == new_count || (i < old_count && old_ids[i] < entries[j].id)) {
+      if (j == new_count || (i < old_count && old_ids[old_by_id[i]] < entries[new_by_id[j]].id)) {
         ++removed;
         ++i;
-      } else if (i == old_count || entries[j].id < old_ids[i]) {
-        s.added.push_back(j++);
+      } else if (i == old_count || entries[new_by_id[j]].id < old_ids[old_by_id[i]]) {
+        s.added.push_back(new_by_id[j++]);
       } else {
-        s.remap[i++] = j++;
+        s.remap[old_by_id[i++]] = new_by_id[j++];
       }
       if (removed + s.added.size() > max_changes) return false;
     }
+    std::sort(s.added.begin(), s.added.end());  // newcomers inserted in entry order
   }
   if (new_count == 0 || old_count == 0) return false;
 

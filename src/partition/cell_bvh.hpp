@@ -33,8 +33,8 @@ float refit(std::span<const CellEntry> entries, std::span<BvhNode> nodes);
 float refit(const BoxArray& boxes, std::span<BvhNode> nodes);  // parallel when large
 float sah_cost(std::span<const BvhNode> nodes);
 
-// Membership changed from `old_ids` (sorted; old entry index -> id) to
-// `entries` (sorted by id): removes the leaves of departed objects, renumbers
+// Membership changed from `old_ids` (old entry index -> id) to `entries`
+// (any order; the partition delivers min-x order): removes the leaves of departed objects, renumbers
 // the survivors' entry indices, inserts the newcomers where they enlarge the
 // tree least, and leaves `nodes` in pre-order (boxes not yet refitted).
 // Returns false, leaving `nodes` untouched, when more than

@@ -1,111 +1,256 @@
 #include "hbp/kd_partition.hpp"
 
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
-#include <cstdlib>
-#include <cmath>
-#include <utility>
+#include <array>
 #include <limits>
+#include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "hbp/error.hpp"
+#include "partition/kd_build.hpp"
+#include "partition/raw_buffer.hpp"
 
 namespace hbp {
 
 namespace {
 
-constexpr std::uint32_t kMaxDepth = 64;
-// Routing and scattering work on a fixed number of chunks of object ids, so
-// the result never depends on the thread count.
-constexpr std::uint32_t kRouteChunks = 64;
+using kd::kNoHome;
+using kd::StoredBox;
+
+// The object pass works on fixed chunks of ids (a function of n only), so the
+// cells' additions, concatenated chunk after chunk, come in increasing id
+// order whatever the thread count.
+constexpr std::uint32_t kChunkObjects = 1u << 14;
+
+// The rebuild rule: the tree is rebuilt (on the next frame) when the frame's
+// duplication ratio exceeds kDuplicationGrowth times its value after the last
+// rebuild plus kDuplicationSlack, when the cell count exceeds kCellGrowth
+// times its value then plus kCellSlack, or when merged-away nodes make the
+// node array more than kDeadNodeFactor times the live nodes plus
+// kDeadNodeSlack.
+constexpr double kDuplicationGrowth = 1.2;
+constexpr double kDuplicationSlack = 0.01;
+constexpr std::size_t kCellGrowth = 2;
+constexpr std::size_t kCellSlack = 8;
+constexpr std::size_t kDeadNodeFactor = 2;
+constexpr std::size_t kDeadNodeSlack = 64;
+// Sibling leaves merge (without a cell cost) when together they hold at most
+// the cell limit divided by this.
+constexpr std::uint32_t kMergeFraction = 4;
+
+struct Box6 {
+  float b[6];  // min x y z, max x y z
+};
+
+Box6 load(const BoxArray& boxes, std::uint32_t i) {
+  return {{boxes.min(0)[i], boxes.min(1)[i], boxes.min(2)[i], boxes.max(0)[i], boxes.max(1)[i], boxes.max(2)[i]}};
+}
+
+// The box reaches the half-open region (the routing rule: min < hi, max >= lo).
+bool overlaps(const float* b, const CellRegion& r) {
+  return (b[0] < r.hi[0]) & (b[3] >= r.lo[0]) & (b[1] < r.hi[1]) & (b[4] >= r.lo[1]) & (b[2] < r.hi[2]) &
+         (b[5] >= r.lo[2]);
+}
+// The box reaches no region outside r (it cannot straddle any plane of r's
+// boundary).
+bool inside(const float* b, const CellRegion& r) {
+  return (b[0] >= r.lo[0]) & (b[3] < r.hi[0]) & (b[1] >= r.lo[1]) & (b[4] < r.hi[1]) & (b[2] >= r.lo[2]) &
+         (b[5] < r.hi[2]);
+}
+
+CellEntry make_entry(const Box6& x, std::uint32_t id) {
+  return {{x.b[0], x.b[1], x.b[2]}, {x.b[3], x.b[4], x.b[5]}, id, 0};
+}
+
+// Nearly sorted (objects move a fraction of their size per frame): insertion
+// sort is linear plus the few inversions.
+void insertion_sort(CellEntry* e, std::uint32_t n) {
+  for (std::uint32_t i = 1; i < n; ++i) {
+    if (!kd::entry_less(e[i], e[i - 1])) continue;
+    const CellEntry v = e[i];
+    std::uint32_t j = i;
+    do {
+      e[j] = e[j - 1];
+      --j;
+    } while (j > 0 && kd::entry_less(v, e[j - 1]));
+    e[j] = v;
+  }
+}
+
+// e[0..k) and e[k..k+m) sorted: merges them in place, tail copied out first
+// (the tail is the cell's few newcomers).
+void merge_tail(CellEntry* e, std::uint32_t k, std::uint32_t m, std::vector<CellEntry>& tmp) {
+  if (m == 0 || k == 0) return;
+  tmp.assign(e + k, e + k + m);
+  std::int64_t i = static_cast<std::int64_t>(k) - 1, j = static_cast<std::int64_t>(m) - 1;
+  std::int64_t out = static_cast<std::int64_t>(k + m) - 1;
+  while (j >= 0) {
+    if (i >= 0 && kd::entry_less(tmp[static_cast<std::size_t>(j)], e[i])) e[out--] = e[i--];
+    else e[out--] = tmp[static_cast<std::size_t>(j--)];
+  }
+}
 
 }  // namespace
 
+struct KdPartition::State {
+  RawBuffer<CellEntry> entries, next_entries;  // this frame's cells; the next frame's being written
+  RawBuffer<std::uint32_t> home;               // object -> deepest node holding all its cells
+  RawBuffer<StoredBox> prev;                   // object -> its box last frame (objects homed at an inner node)
+  std::size_t objects = 0;
+  std::vector<CellRegion> node_regions;        // per live node
+  std::vector<std::uint32_t> leaf_depth;       // cell -> depth of its leaf
+  std::size_t live_nodes = 1;
+  std::vector<std::vector<std::uint64_t>> chunk_adds;  // (cell << 32 | id) per chunk
+  std::vector<std::uint32_t> add_offsets;              // cell -> first addition in add_ids
+  std::vector<std::uint32_t> add_ids;
+  std::vector<std::size_t> cell_offsets;
+  tbb::enumerable_thread_specific<std::vector<CellEntry>> merge_scratch;
+  std::vector<CellEntry> merged;
+  std::vector<std::uint32_t> sizes;
+  RawBuffer<CellEntry> latest;                 // object -> this frame's box and id, as a cell entry
+  kd::SubtreeBuilder splitter;
+  kd::BuildScratch split_scratch;
+  kd::BuildBuffers build;
+  bool rebuild_next = false;
+  double rebuild_duplication = 0;
+  std::size_t rebuild_cells = 0;
+};
+
 KdPartition::KdPartition(std::uint32_t cell_limit, float x_split_weight, CellCost cell_cost)
-    : cell_limit_(cell_limit), x_split_weight_(x_split_weight), cell_cost_(std::move(cell_cost)) {
+    : cell_limit_(cell_limit),
+      x_split_weight_(x_split_weight),
+      cell_cost_(std::move(cell_cost)),
+      state_(std::make_unique<State>()) {
   if (cell_limit < 2) throw InvalidInput("cell limit must be >= 2 (got " + std::to_string(cell_limit) + ")");
+  if (!(x_split_weight > 0) || !(x_split_weight <= 1e6f))
+    throw InvalidInput("x split weight must be positive and finite (got " + std::to_string(x_split_weight) + ")");
 }
+KdPartition::~KdPartition() = default;
+KdPartition::KdPartition(KdPartition&&) noexcept = default;
+KdPartition& KdPartition::operator=(KdPartition&&) noexcept = default;
 
 void KdPartition::reset() { nodes_.clear(); }
 
-void KdPartition::build(std::vector<std::uint32_t>& ids) {
-  nodes_.clear();
-  nodes_.push_back(Node{});
-  build_node(0, ids, 0);
+void KdPartition::update(const BoxArray& boxes) {
+  if (boxes.size() >= std::numeric_limits<std::uint32_t>::max())
+    throw CapacityExceeded("k-d partition: at most 2^32 - 1 objects per frame");
+  stats_.rebuilt = false;
+  stats_.merges = 0;
+  stats_.splits = 0;
+  if (nodes_.empty() || state_->rebuild_next) {
+    rebuild(boxes);
+  } else {
+    maintain(boxes);
+  }
+  compute_stats(boxes.size());
+  State& s = *state_;
+  if (stats_.rebuilt) {
+    s.rebuild_duplication = stats_.duplication;
+    s.rebuild_cells = leaf_nodes_.size();
+    s.rebuild_next = false;
+  } else {
+    // Decided now, done at the start of the next frame: no frame pays for
+    // both maintenance and a rebuild.
+    s.rebuild_next = degraded();
+  }
 }
 
-void KdPartition::build_node(std::uint32_t node, std::vector<std::uint32_t>& ids, std::uint32_t depth) {
-  const auto count = static_cast<std::uint32_t>(ids.size());
-  nodes_[node].axis = -1;
-  nodes_[node].size = count;
-  const bool over_limit = count > cell_limit_;
-  if ((!over_limit && !cell_cost_) || count < 4 || depth >= kMaxDepth) return;
-  const BoxArray& boxes = *boxes_;
+void KdPartition::rebuild(const BoxArray& boxes) {
+  State& s = *state_;
+  const std::size_t n = boxes.size();
+  s.home.resize(n);
+  s.prev.resize(n);
+  s.objects = n;
+  const kd::SplitRule rule{cell_limit_, x_split_weight_, &cell_cost_};
+  // The next frame's entry buffer and the per-object entries serve as the
+  // build's scratch: the pages the next frame needs are touched once.
+  s.build.a = &s.next_entries;
+  s.build.b = &s.latest;
+  kd::build_tree(boxes, rule, s.build, nodes_, s.entries, s.home.data(), s.prev.data());
+  entries_ = s.entries.data();
+  number_leaves();
+  stats_.rebuilt = true;
+}
 
-  // Axes ordered by the spread of box centres, widest first.
-  float lo[3], hi[3];
-  for (int a = 0; a < 3; ++a) {
-    lo[a] = std::numeric_limits<float>::infinity();
-    hi[a] = -std::numeric_limits<float>::infinity();
-    const float* mn = boxes.min(a);
-    const float* mx = boxes.max(a);
-    for (std::uint32_t id : ids) {
-      const float c = 0.5f * mn[id] + 0.5f * mx[id];
-      lo[a] = std::min(lo[a], c);
-      hi[a] = std::max(hi[a], c);
-    }
+void KdPartition::maintain(const BoxArray& boxes) {
+  State& s = *state_;
+  const std::size_t n = boxes.size();
+  if (n != s.objects) {  // objects appended (no home yet) or removed at the end
+    s.home.resize(n);
+    s.prev.resize(n);
+    for (std::size_t i = s.objects; i < n; ++i) s.home[i] = kNoHome;
+    s.objects = n;
   }
-  int axes[3] = {0, 1, 2};
-  const float xw = std::getenv("XW") ? std::atof(std::getenv("XW")) : 1.0f;
-  auto spread = [&](int a) { return (hi[a] - lo[a]) * (a == 0 ? xw : 1.0f); };
-  std::stable_sort(axes, axes + 3, [&](int x, int y) { return spread(x) > spread(y); });
+  merge_sparse();
+  number_leaves();
+  find_crossings(boxes);
+  bucket_additions();
+  refresh_cells(boxes);
+  if (split_oversized()) number_leaves();
+}
 
-  std::vector<std::uint32_t> left, right;
-  for (int a : axes) {
-    if (!(hi[a] > lo[a])) continue;
-    const float* mn = boxes.min(a);
-    const float* mx = boxes.max(a);
-    scratch_.resize(count);
-    for (std::uint32_t i = 0; i < count; ++i) scratch_[i] = 0.5f * mn[ids[i]] + 0.5f * mx[ids[i]];
-    auto mid = scratch_.begin() + count / 2;
-    std::nth_element(scratch_.begin(), mid, scratch_.end());
-    float split = *mid;
-    if (!(split > lo[a])) split = std::nextafter(lo[a], hi[a]);  // keep the left side non-empty
-    left.clear();
-    right.clear();
-    for (std::uint32_t id : ids) {
-      if (mn[id] < split) left.push_back(id);
-      if (mx[id] >= split) right.push_back(id);
+void KdPartition::merge_sparse() {
+  // Sibling leaves that together held few objects last frame become one leaf
+  // (their nodes stay unused until the next rebuild). The merged cell's
+  // entries are the two lists merged in (min x, id) order, objects that were
+  // in both kept once; objects homed at either leaf are homed at the parent.
+  State& s = *state_;
+  std::vector<std::uint32_t> stack{0};
+  while (!stack.empty()) {
+    const std::uint32_t p = stack.back();
+    stack.pop_back();
+    KdTreeNode& nd = nodes_[p];
+    if (nd.axis < 0) continue;
+    const std::uint32_t l = nd.child, r = nd.child + 1;
+    if (nodes_[l].axis < 0 && nodes_[r].axis < 0) {
+      const std::uint32_t ls = nodes_[l].size, rs = nodes_[r].size;
+      const bool merge = cell_cost_ ? (ls + rs <= cell_limit_ && cell_cost_(ls + rs) <= cell_cost_(ls) + cell_cost_(rs))
+                                    : ls + rs <= cell_limit_ / kMergeFraction;
+      if (merge) {
+        const CellEntry* a = s.entries.data() + nodes_[l].first;
+        const CellEntry* b = s.entries.data() + nodes_[r].first;
+        s.merged.clear();
+        std::uint32_t i = 0, j = 0;
+        while (i < ls || j < rs) {
+          if (j == rs || (i < ls && kd::entry_less(a[i], b[j]))) {
+            s.merged.push_back(a[i++]);
+          } else if (i < ls && a[i].id == b[j].id) {  // in both: once
+            s.merged.push_back(a[i++]);
+            ++j;
+          } else {
+            s.merged.push_back(b[j++]);
+          }
+        }
+        const std::size_t objects = s.home.size();  // ids past it were removed this frame
+        for (std::uint32_t k = 0; k < ls; ++k)
+          if (a[k].id < objects && s.home[a[k].id] == l) s.home[a[k].id] = p;
+        for (std::uint32_t k = 0; k < rs; ++k)
+          if (b[k].id < objects && s.home[b[k].id] == r) s.home[b[k].id] = p;
+        nd.axis = -1;
+        nd.first = static_cast<std::uint32_t>(s.entries.size());
+        nd.size = static_cast<std::uint32_t>(s.merged.size());
+        s.entries.append(s.merged.data(), s.merged.size());
+        ++stats_.merges;
+      }
+      continue;
     }
-    bool accept = left.size() < count && right.size() < count;
-    if (accept && !over_limit) {
-      // Under the limit: split only if the engine's summed cost drops.
-      const double children = cell_cost_(static_cast<std::uint32_t>(left.size())) +
-                              cell_cost_(static_cast<std::uint32_t>(right.size()));
-      accept = children < 0.95 * cell_cost_(count);
-    }
-    if (accept) {
-      const auto child = static_cast<std::uint32_t>(nodes_.size());
-      nodes_[node].axis = a;
-      nodes_[node].split = split;
-      nodes_[node].child = child;
-      nodes_.push_back(Node{});
-      nodes_.push_back(Node{});
-      std::vector<std::uint32_t>().swap(ids);  // release before recursing
-      build_node(child, left, depth + 1);
-      build_node(child + 1, right, depth + 1);
-      return;
-    }
+    stack.push_back(nd.child);
+    stack.push_back(nd.child + 1);
   }
-  // No axis shrinks both halves: an over-full leaf, processed in tiles.
+  entries_ = s.entries.data();
 }
 
 void KdPartition::number_leaves() {
-  ++epoch_;
+  State& s = *state_;
   leaf_nodes_.clear();
   regions_.clear();
-  node_regions_.resize(nodes_.size());
+  s.leaf_depth.clear();
+  s.node_regions.resize(nodes_.size());
+  s.live_nodes = 0;
   struct Item {
     std::uint32_t node;
     CellRegion region;
@@ -117,14 +262,15 @@ void KdPartition::number_leaves() {
   while (!stack.empty()) {
     Item it = stack.back();
     stack.pop_back();
-    Node& nd = nodes_[it.node];
-    nd.epoch = epoch_;
+    KdTreeNode& nd = nodes_[it.node];
+    ++s.live_nodes;
     stats_.depth = std::max(stats_.depth, it.depth);
-    node_regions_[it.node] = it.region;
+    s.node_regions[it.node] = it.region;
     if (nd.axis < 0) {
       nd.leaf = static_cast<std::uint32_t>(leaf_nodes_.size());
       leaf_nodes_.push_back(it.node);
       regions_.push_back(it.region);
+      s.leaf_depth.push_back(it.depth);
       continue;
     }
     Item l = it, r = it;
@@ -136,230 +282,228 @@ void KdPartition::number_leaves() {
     stack.push_back(r);  // left is processed first: DFS order, left to right
     stack.push_back(l);
   }
+  // Every split checks the depth, so traversals may use fixed stacks.
+  if (stats_.depth > kMaxDepth) throw std::logic_error("k-d partition deeper than kMaxDepth");
 }
 
-void KdPartition::route_all() {
-  const BoxArray& boxes = *boxes_;
+void KdPartition::find_crossings(const BoxArray& boxes) {
+  // Per object: if its box is still inside its home leaf, nothing changes.
+  // Otherwise its new cells are found by a descent (from its home when the
+  // box is still inside the home's region, else from the root) and the cells
+  // it was not in last frame get an addition; the cells it left drop it in
+  // refresh_cells. Last frame's cells: its home leaf, or (homed at an inner
+  // node) the leaves its previous box reached.
+  State& s = *state_;
   const auto n = static_cast<std::uint32_t>(boxes.size());
-  const auto cells = static_cast<std::uint32_t>(leaf_nodes_.size());
-  chunk_routes_.resize(kRouteChunks);
-  chunk_counts_.assign(static_cast<std::size_t>(kRouteChunks) * cells, 0);
-  const Node* nodes = nodes_.data();
-  const CellRegion* node_regions = node_regions_.data();
-  const std::uint32_t epoch = epoch_;
-  tbb::parallel_for(std::uint32_t{0}, kRouteChunks, [&](std::uint32_t c) {
-    const auto begin = static_cast<std::uint32_t>(std::uint64_t{n} * c / kRouteChunks);
-    const auto end = static_cast<std::uint32_t>(std::uint64_t{n} * (c + 1) / kRouteChunks);
-    auto& out = chunk_routes_[c];
-    out.clear();
-    std::uint32_t* cnt = chunk_counts_.data() + static_cast<std::size_t>(c) * cells;
-    std::uint32_t stack[kMaxDepth + 2];
-    for (std::uint32_t id = begin; id < end; ++id) {
-      const float b[6] = {boxes.min(0)[id], boxes.min(1)[id], boxes.min(2)[id],
-                          boxes.max(0)[id], boxes.max(1)[id], boxes.max(2)[id]};
-      // Coherence: home_ holds the deepest node whose subtree held all of the
-      // object's cells last frame (its leaf, when it was in one cell). If the
-      // box is still strictly inside that node's region, a descent from the
-      // root would enter no other subtree: start there.
+  const std::uint32_t chunks = (n + kChunkObjects - 1) / kChunkObjects;
+  if (s.chunk_adds.size() < chunks) s.chunk_adds.resize(chunks);
+  s.chunk_adds.resize(chunks);
+  const KdTreeNode* nodes = nodes_.data();
+  const CellRegion* node_regions = s.node_regions.data();
+  std::uint32_t* home = s.home.data();
+  StoredBox* prev = s.prev.data();
+  s.latest.resize(n);
+  CellEntry* latest = s.latest.data();
+  auto chunk = [&](std::uint32_t c) {
+    std::vector<std::uint64_t>& adds = s.chunk_adds[c];
+    adds.clear();
+    std::array<std::uint32_t, kMaxDepth + 1> stack;
+    const std::uint32_t end = std::min(n, (c + 1) * kChunkObjects);
+    for (std::uint32_t i = c * kChunkObjects; i < end; ++i) {
+      const Box6 box = load(boxes, i);
+      const float* b = box.b;
+      latest[i] = make_entry(box, i);  // one cache line per object for refresh_cells' gather
+      const std::uint32_t h = home[i];
       std::uint32_t node = 0;
-      const std::uint32_t home = home_[id];
-      if (home != kNoHome && nodes[home].epoch == epoch) {
-        const CellRegion& r = node_regions[home];
-        if (b[0] >= r.lo[0] && b[3] < r.hi[0] && b[1] >= r.lo[1] && b[4] < r.hi[1] && b[2] >= r.lo[2] &&
-            b[5] < r.hi[2])
-          node = home;
+      if (h != kNoHome) {
+        const bool in = inside(b, node_regions[h]);
+        if (in && nodes[h].axis < 0) continue;  // the common case: still inside its one cell
+        if (in) node = h;
       }
-      std::uint32_t top = 0, deepest = kNoHome;
+      const bool was_leaf = h != kNoHome && nodes[h].axis < 0;
+      float old[6] = {};
+      if (h != kNoHome && !was_leaf) {
+        const StoredBox& p = prev[i];
+        for (int a = 0; a < 3; ++a) old[a] = p.min[a], old[3 + a] = p.max[a];
+      }
+      std::uint32_t top = 0, fork = kNoHome;
       while (true) {
-        // Descend: straddling the plane is the rare case, so only it
-        // branches; the common one-sided step is a select.
         while (nodes[node].axis >= 0) {
-          const Node& nd = nodes[node];
+          const KdTreeNode& nd = nodes[node];
           const bool left = b[nd.axis] < nd.split;
           const bool right = b[3 + nd.axis] >= nd.split;
           if (left && right) {
-            if (deepest == kNoHome) deepest = node;  // first fork: the subtree root
+            if (fork == kNoHome) fork = node;  // first fork: the new home
             stack[top++] = nd.child + 1;
           }
           node = nd.child + (left ? 0u : 1u);
         }
-        out.push_back((std::uint64_t{nodes[node].leaf} << 32) | id);
-        ++cnt[nodes[node].leaf];
-        if (deepest == kNoHome) deepest = node;  // one cell only: its leaf
+        const bool was = h == kNoHome ? false : was_leaf ? node == h : overlaps(old, node_regions[node]);
+        if (!was) adds.push_back((std::uint64_t{nodes[node].leaf} << 32) | i);
+        if (fork == kNoHome) fork = node;  // one cell only: its leaf
         if (top == 0) break;
         node = stack[--top];
       }
-      home_[id] = deepest;
+      home[i] = fork;
+      if (nodes[fork].axis >= 0) prev[i] = {{b[0], b[1], b[2]}, {b[3], b[4], b[5]}};
     }
-  });
-  // Positions per (cell, chunk): chunks in order inside each cell keep every
-  // cell's ids increasing.
-  std::uint64_t total = 0;
-  for (std::uint32_t cell = 0; cell < cells; ++cell) {
-    Node& leaf = nodes_[leaf_nodes_[cell]];
-    leaf.first = static_cast<std::uint32_t>(std::min<std::uint64_t>(total, 0xFFFFFFFFu));
-    for (std::uint32_t c = 0; c < kRouteChunks; ++c) {
-      std::uint32_t& v = chunk_counts_[static_cast<std::size_t>(c) * cells + cell];
-      const std::uint32_t t = v;
-      v = static_cast<std::uint32_t>(total);
-      total += t;
-    }
-    leaf.size = static_cast<std::uint32_t>(std::min<std::uint64_t>(total - leaf.first, 0xFFFFFFFFu));
+  };
+  static_assert(sizeof(StoredBox) == 6 * sizeof(float));
+  if (chunks <= 1) {
+    for (std::uint32_t c = 0; c < chunks; ++c) chunk(c);
+  } else {
+    tbb::parallel_for(std::uint32_t{0}, chunks, chunk);
   }
+}
+
+void KdPartition::bucket_additions() {
+  // Counting sort of the additions by cell; stable, so each cell's come in
+  // increasing id order.
+  State& s = *state_;
+  const auto cells = static_cast<std::uint32_t>(leaf_nodes_.size());
+  s.add_offsets.assign(cells + 1, 0);
+  std::size_t total = 0;
+  for (const auto& adds : s.chunk_adds) {
+    total += adds.size();
+    for (std::uint64_t a : adds) ++s.add_offsets[(a >> 32) + 1];
+  }
+  for (std::uint32_t c = 0; c < cells; ++c) s.add_offsets[c + 1] += s.add_offsets[c];
+  s.add_ids.resize(total);
+  std::vector<std::uint32_t>& cursor = s.sizes;  // scratch
+  cursor.assign(s.add_offsets.begin(), s.add_offsets.end() - 1);
+  for (const auto& adds : s.chunk_adds)
+    for (std::uint64_t a : adds) s.add_ids[cursor[a >> 32]++] = static_cast<std::uint32_t>(a);
+  if (s.add_ids.capacity() > 2 * total + 4096) s.add_ids.shrink_to_fit();
+  for (auto& adds : s.chunk_adds)
+    if (adds.capacity() > 2 * adds.size() + 4096) adds.shrink_to_fit();
+}
+
+void KdPartition::refresh_cells(const BoxArray& boxes) {
+  // Each cell, into the next buffer: its members with this frame's boxes,
+  // minus those that no longer reach its region, in repaired min-x order,
+  // plus its additions merged in.
+  State& s = *state_;
+  const auto cells = static_cast<std::uint32_t>(leaf_nodes_.size());
+  const auto n = static_cast<std::uint32_t>(boxes.size());
+  s.cell_offsets.resize(cells + 1);
+  std::size_t total = 0;
+  for (std::uint32_t c = 0; c < cells; ++c) {
+    s.cell_offsets[c] = total;
+    total += nodes_[leaf_nodes_[c]].size + (s.add_offsets[c + 1] - s.add_offsets[c]);
+  }
+  s.cell_offsets[cells] = total;
   if (total > std::numeric_limits<std::uint32_t>::max() / 2)
     throw CapacityExceeded("k-d partition: more than 2^31 cell entries (" + std::to_string(total) + ")");
-  entries_.resize(total);
-  tbb::parallel_for(std::uint32_t{0}, kRouteChunks, [&](std::uint32_t c) {
-    std::uint32_t* cursor = chunk_counts_.data() + static_cast<std::size_t>(c) * cells;
-    const float* src[6] = {boxes.min(0), boxes.min(1), boxes.min(2), boxes.max(0), boxes.max(1), boxes.max(2)};
-    CellEntry* dst = entries_.data();
-    for (std::uint64_t e : chunk_routes_[c]) {
-      const auto id = static_cast<std::uint32_t>(e);
-      dst[cursor[e >> 32]++] = {{src[0][id], src[1][id], src[2][id]}, {src[3][id], src[4][id], src[5][id]}, id, 0};
+  s.next_entries.resize(total);
+  const CellEntry* from = s.entries.data();
+  CellEntry* to = s.next_entries.data();
+  const CellEntry* latest = s.latest.data();
+  tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, cells, 4), [&](const auto& range) {
+    std::vector<CellEntry>& tmp = s.merge_scratch.local();
+    for (std::uint32_t c = range.begin(); c != range.end(); ++c) {
+      KdTreeNode& leaf = nodes_[leaf_nodes_[c]];
+      const CellRegion& region = regions_[c];
+      const CellEntry* src = from + leaf.first;
+      CellEntry* dst = to + s.cell_offsets[c];
+      std::uint32_t k = 0;
+      constexpr std::uint32_t kAhead = 8;  // prefetch distance: the gather is random in id
+      for (std::uint32_t e = 0; e < leaf.size; ++e) {
+        if (e + kAhead < leaf.size && src[e + kAhead].id < n) __builtin_prefetch(latest + src[e + kAhead].id);
+        const std::uint32_t id = src[e].id;
+        if (id >= n) continue;  // object removed
+        const CellEntry& x = latest[id];
+        const float b[6] = {x.min[0], x.min[1], x.min[2], x.max[0], x.max[1], x.max[2]};
+        if (overlaps(b, region)) dst[k++] = x;
+      }
+      insertion_sort(dst, k);
+      const std::uint32_t a0 = s.add_offsets[c], m = s.add_offsets[c + 1] - a0;
+      for (std::uint32_t e = 0; e < m; ++e) {
+        const std::uint32_t id = s.add_ids[a0 + e];
+        dst[k + e] = latest[id];
+      }
+      insertion_sort(dst + k, m);
+      merge_tail(dst, k, m, tmp);
+      leaf.first = static_cast<std::uint32_t>(s.cell_offsets[c]);
+      leaf.size = k + m;
     }
   });
+  s.entries.swap(s.next_entries);
+  entries_ = s.entries.data();
 }
 
 bool KdPartition::split_oversized() {
-  stats_.splits = 0;
+  // A leaf over the limit is split in place: its entries (already this
+  // frame's, sorted) go through a subtree built over them, appended to the
+  // entry buffer; objects homed at the leaf get their home in the subtree.
+  State& s = *state_;
+  const kd::SplitRule rule{cell_limit_, x_split_weight_, &cell_cost_};
   const auto cells = static_cast<std::uint32_t>(leaf_nodes_.size());
-  std::vector<std::uint32_t> ids;
-  std::vector<CellEntry> moved;
   for (std::uint32_t cell = 0; cell < cells; ++cell) {
-    const std::uint32_t node = leaf_nodes_[cell];
-    if (nodes_[node].size <= cell_limit_) continue;
-    moved.assign(entries_.begin() + nodes_[node].first, entries_.begin() + nodes_[node].first + nodes_[node].size);
-    ids.clear();
-    for (const CellEntry& e : moved) ids.push_back(e.id);
-    build_node(node, ids, 0);
-    if (nodes_[node].axis < 0) continue;  // could not split: entries stay in place
+    const std::uint32_t leaf = leaf_nodes_[cell];
+    if (nodes_[leaf].size <= cell_limit_ || s.leaf_depth[cell] >= kMaxDepth) continue;
+    kd::SubtreeBuilder& b = s.splitter;
+    b.build(s.entries.data() + nodes_[leaf].first, nodes_[leaf].size, s.leaf_depth[cell], rule, true,
+            s.split_scratch);
+    if (b.nodes.size() == 1) continue;  // could not split: entries stay in place
+    if (nodes_.size() + b.nodes.size() > kd::kMaxNodes)
+      throw CapacityExceeded("k-d partition: too many tree nodes");
     ++stats_.splits;
-    route_subtree(node, moved);
+    const auto base = static_cast<std::uint32_t>(nodes_.size());
+    const auto entry_base = static_cast<std::uint32_t>(s.entries.size());
+    for (std::size_t k = 0; k < b.nodes.size(); ++k) {
+      KdTreeNode nd = b.nodes[k];
+      if (nd.axis >= 0) {
+        nd.child = base + nd.child - 1;
+      } else {
+        const std::uint32_t global = k == 0 ? leaf : base + static_cast<std::uint32_t>(k) - 1;
+        for (std::uint32_t i = nd.first; i < nd.first + nd.size; ++i) {
+          CellEntry& e = b.entries[i];
+          if (!(e.unused & kd::kNotOwner) && s.home[e.id] == leaf) {
+            const bool forked = (e.unused & kd::kForkMask) != kd::kNoFork;
+            s.home[e.id] = forked ? kd::fork_node(e.unused, leaf, base) : global;
+            if (forked) s.prev[e.id] = {{e.min[0], e.min[1], e.min[2]}, {e.max[0], e.max[1], e.max[2]}};
+          }
+          e.unused = 0;
+        }
+        nd.first += entry_base;
+      }
+      if (k == 0) nodes_[leaf] = nd;
+      else nodes_.push_back(nd);
+    }
+    s.entries.append(b.entries.data(), b.entries.size());
   }
+  entries_ = s.entries.data();
   return stats_.splits > 0;
 }
 
-void KdPartition::route_subtree(std::uint32_t root, const std::vector<CellEntry>& moved) {
-  // Only the split leaf's entries move: through its new subtree, appended to
-  // entries_ leaf by leaf (in id order), the other cells untouched.
-  std::vector<std::vector<CellEntry>> lists;
-  std::vector<std::uint32_t> leaves;
-  std::vector<std::uint32_t> stack{root};
-  while (!stack.empty()) {  // leaves of the subtree, left to right
-    const std::uint32_t node = stack.back();
-    stack.pop_back();
-    if (nodes_[node].axis < 0) {
-      nodes_[node].leaf = static_cast<std::uint32_t>(leaves.size());
-      leaves.push_back(node);
-      continue;
-    }
-    stack.push_back(nodes_[node].child + 1);
-    stack.push_back(nodes_[node].child);
-  }
-  lists.resize(leaves.size());
-  for (const CellEntry& e : moved) {
-    const float b[6] = {e.min[0], e.min[1], e.min[2], e.max[0], e.max[1], e.max[2]};
-    stack.assign(1, root);
-    while (!stack.empty()) {
-      const Node& nd = nodes_[stack.back()];
-      stack.pop_back();
-      if (nd.axis < 0) {
-        lists[nd.leaf].push_back(e);
-        continue;
-      }
-      if (b[3 + nd.axis] >= nd.split) stack.push_back(nd.child + 1);
-      if (b[nd.axis] < nd.split) stack.push_back(nd.child);
-    }
-  }
-  for (std::size_t l = 0; l < leaves.size(); ++l) {
-    Node& leaf = nodes_[leaves[l]];
-    leaf.first = static_cast<std::uint32_t>(entries_.size());
-    leaf.size = static_cast<std::uint32_t>(lists[l].size());
-    entries_.insert(entries_.end(), lists[l].begin(), lists[l].end());
-  }
-}
-
-void KdPartition::merge_sparse() {
-  // Sibling leaves that together held at most a quarter of the limit last
-  // frame become one leaf (their nodes stay unused until the next rebuild).
-  stats_.merges = 0;
-  std::vector<std::uint32_t> stack{0};
-  while (!stack.empty()) {
-    Node& nd = nodes_[stack.back()];
-    stack.pop_back();
-    if (nd.axis < 0) continue;
-    const Node& l = nodes_[nd.child];
-    const Node& r = nodes_[nd.child + 1];
-    if (l.axis < 0 && r.axis < 0) {
-      const bool merge = cell_cost_ ? (l.size + r.size <= cell_limit_ &&
-                                       cell_cost_(l.size + r.size) <= cell_cost_(l.size) + cell_cost_(r.size))
-                                    : l.size + r.size <= cell_limit_ / 4;
-      if (merge) {
-        nd.size = l.size + r.size;
-        nd.axis = -1;
-        ++stats_.merges;
-      }
-      continue;
-    }
-    stack.push_back(nd.child);
-    stack.push_back(nd.child + 1);
-  }
-}
-
-void KdPartition::compute_stats() {
+void KdPartition::compute_stats(std::size_t objects) {
+  State& s = *state_;
   const auto cells = static_cast<std::uint32_t>(leaf_nodes_.size());
   stats_.cells = cells;
   stats_.oversized_cells = 0;
-  std::vector<std::uint32_t> sizes(cells);
+  s.sizes.resize(cells);
   std::uint64_t entries = 0;
   for (std::uint32_t c = 0; c < cells; ++c) {
-    sizes[c] = cell_size(c);
-    entries += sizes[c];
-    if (sizes[c] > cell_limit_) ++stats_.oversized_cells;
+    s.sizes[c] = cell_size(c);
+    entries += s.sizes[c];
+    if (s.sizes[c] > cell_limit_) ++stats_.oversized_cells;
   }
   stats_.entries = entries;
   if (cells) {
-    std::sort(sizes.begin(), sizes.end());
-    stats_.min_cell = sizes.front();
-    stats_.max_cell = sizes.back();
-    stats_.median_cell = sizes[cells / 2];
+    const auto [lo, hi] = std::minmax_element(s.sizes.begin(), s.sizes.end());
+    stats_.min_cell = *lo;
+    stats_.max_cell = *hi;
+    std::nth_element(s.sizes.begin(), s.sizes.begin() + cells / 2, s.sizes.end());
+    stats_.median_cell = s.sizes[cells / 2];
   }
-  const auto n = static_cast<double>(boxes_->size());
-  stats_.duplication = n > 0 ? static_cast<double>(entries) / n : 1.0;
+  stats_.duplication = objects > 0 ? static_cast<double>(entries) / static_cast<double>(objects) : 1.0;
 }
 
-void KdPartition::update(const BoxArray& boxes) {
-  if (boxes.size() >= std::numeric_limits<std::uint32_t>::max())
-    throw CapacityExceeded("k-d partition: at most 2^32 - 1 objects per frame");
-  boxes_ = &boxes;
-  if (home_.size() != boxes.size()) home_.assign(boxes.size(), kNoHome);
-  stats_.rebuilt = false;
-  stats_.merges = 0;
-  stats_.splits = 0;
-  if (!nodes_.empty()) {
-    merge_sparse();
-    number_leaves();
-    route_all();
-    if (split_oversized()) number_leaves();
-    compute_stats();
-    // Quality check against the tree as it was right after the last rebuild.
-    std::size_t live = 1;
-    for (const Node& nd : nodes_) live += (nd.axis >= 0 && nd.epoch == epoch_) ? 2 : 0;
-    const bool degraded = stats_.duplication > 1.2 * rebuild_duplication_ + 0.01 ||
-                          leaf_nodes_.size() > 2 * std::size_t{rebuild_cells_} + 8 || nodes_.size() > 2 * live + 64;
-    if (degraded) nodes_.clear();
-  }
-  if (nodes_.empty()) {
-    std::vector<std::uint32_t> all(boxes.size());
-    for (std::uint32_t i = 0; i < all.size(); ++i) all[i] = i;
-    build(all);
-    number_leaves();
-    route_all();
-    compute_stats();
-    stats_.rebuilt = true;
-    rebuild_duplication_ = stats_.duplication;
-    rebuild_cells_ = static_cast<std::uint32_t>(leaf_nodes_.size());
-  }
+bool KdPartition::degraded() const {
+  const State& s = *state_;
+  return stats_.duplication > kDuplicationGrowth * s.rebuild_duplication + kDuplicationSlack ||
+         leaf_nodes_.size() > kCellGrowth * s.rebuild_cells + kCellSlack ||
+         nodes_.size() > kDeadNodeFactor * s.live_nodes + kDeadNodeSlack;
 }
 
 }  // namespace hbp

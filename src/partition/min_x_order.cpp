@@ -6,16 +6,12 @@
 
 namespace hbp {
 
-namespace {
-
-// Order-preserving map from float to unsigned (negatives flipped, -0 < +0,
-// which is harmless: equal values may come in either order).
-inline std::uint32_t float_key(float f) {
-  const auto u = std::bit_cast<std::uint32_t>(f);
-  return (u & 0x80000000u) ? ~u : (u | 0x80000000u);
+bool in_min_x_order(const float* min_x, std::uint32_t n) {
+  bool sorted = true;
+  // No early exit: a branch-free pass vectorises and the cells are small.
+  for (std::uint32_t i = 1; i < n; ++i) sorted &= min_x_key(min_x[i - 1]) <= min_x_key(min_x[i]);
+  return sorted;
 }
-
-}  // namespace
 
 void min_x_order(const float* min_x, std::uint32_t n, std::vector<std::uint32_t>& order,
                  std::vector<std::uint64_t>& scratch) {
@@ -24,10 +20,10 @@ void min_x_order(const float* min_x, std::uint32_t n, std::vector<std::uint32_t>
   std::uint64_t* a = scratch.data();
   std::uint64_t* b = scratch.data() + n;
   // Bits in which any key differs from the first: bytes without one need no pass.
-  const std::uint32_t first = n ? float_key(min_x[0]) : 0;
+  const std::uint32_t first = n ? min_x_key(min_x[0]) : 0;
   std::uint32_t differ = 0;
   for (std::uint32_t i = 0; i < n; ++i) {
-    const std::uint32_t k = float_key(min_x[i]);
+    const std::uint32_t k = min_x_key(min_x[i]);
     differ |= k ^ first;
     a[i] = (std::uint64_t{k} << 32) | i;
   }

@@ -194,10 +194,16 @@ void TwoLevelHierarchy::update(const BoxArray& boxes) {
       CellTree& tree = t.trees[c];
       const auto found = t.index.find(key_of(partition_.region(c)));
       Outcome outcome = Outcome::Rebuild;
+      bool reordered = false;
       if (found != t.index.end()) {
         tree = std::move(t.previous[found->second]);
         if (ids_equal(entries, tree.ids)) {
           outcome = Outcome::Refit;
+        } else if (bvh::edit(entries, tree.ids, tree.nodes, 0, scratch)) {
+          // Same objects, min-x order changed (the partition delivers cells
+          // in min-x order): only the leaves' entry indices move.
+          outcome = Outcome::Refit;
+          reordered = true;
         } else {
           const auto max_changes = static_cast<std::uint32_t>(edit_fraction * static_cast<float>(entries.size()));
           if (bvh::edit(entries, tree.ids, tree.nodes, max_changes, scratch)) outcome = Outcome::Edit;
@@ -211,7 +217,7 @@ void TwoLevelHierarchy::update(const BoxArray& boxes) {
         bvh::build(entries, tree.nodes, scratch);
         tree.cost = tree.built_cost = bvh::sah_cost(tree.nodes);
       }
-      if (outcome != Outcome::Refit) {
+      if (outcome != Outcome::Refit || reordered) {
         tree.ids.resize(entries.size());
         for (std::size_t i = 0; i < entries.size(); ++i) tree.ids[i] = entries[i].id;
       }

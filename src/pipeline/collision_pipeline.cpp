@@ -42,17 +42,29 @@ const std::vector<Contact>& CollisionPipeline::update(const BoxArray& boxes, con
       [&](std::uint32_t cell, const Pair* pairs, std::size_t count) {
         const double start = thread_cpu_ms();
         std::vector<Contact>* out;
+        std::vector<NarrowCacheEntry>* learned;
         {
           // cell_contacts_ grows only when the partition has more cells than
           // ever before; the vectors themselves are reused frame to frame.
           std::lock_guard lock(grow);
           if (cell_contacts_.size() <= cell) cell_contacts_.resize(cell + 1);
+          if (cell_learned_.size() <= cell) cell_learned_.resize(cell + 1);
           out = &cell_contacts_[cell];
+          learned = &cell_learned_[cell];
         }
         out->clear();
-        narrow_.process(shapes, pairs, count, *out);
+        learned->clear();
+        narrow_.process(shapes, pairs, count, *out, &cache_, learned);
         narrow_us += static_cast<std::uint64_t>((thread_cpu_ms() - start) * 1e3);
       });
+  // What the frame learned replaces the cache (cells beyond this frame's
+  // count are emptied so they add nothing).
+  const std::size_t cells = broad_.stats().cells;
+  for (std::size_t c = cells; c < cell_learned_.size(); ++c) cell_learned_[c].clear();
+  if (cell_learned_.size() > cells) cell_learned_.resize(cells);
+  learned_lists_.clear();
+  for (const auto& l : cell_learned_) learned_lists_.push_back(&l);
+  cache_.commit(learned_lists_, shapes.size());
   stats_.wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   stats_.candidates = broad_.stats().pairs;
   stats_.contacts = contacts_.size();

@@ -1,7 +1,6 @@
-#include <time.h>
-#include <cstdlib>
 #include "hbp/hybrid_broadphase.hpp"
 
+#include <sys/mman.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_pipeline.h>
@@ -11,18 +10,52 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
-#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <stdexcept>
 
 #include "hbp/error.hpp"
 #include "hbp/kd_partition.hpp"
-#include "partition/min_x_order.hpp"
+#include "hbp/software_engine.hpp"
+#include "pipeline/ordered_cell.hpp"
 
 namespace hbp {
 
 namespace {
 
-struct Clock { struct time_point { double ms; }; static time_point now() { timespec ts; clock_gettime(std::getenv("CPUCLK") ? CLOCK_THREAD_CPUTIME_ID : CLOCK_MONOTONIC, &ts); return {ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6}; } };
-double ms_since(Clock::time_point t) { return Clock::now().ms - t.ms; }
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
+
+// Frames whose cells hold fewer entries than this run the engine phase on the
+// calling thread: below it, handing cells to workers costs more than the
+// cells themselves.
+constexpr std::uint64_t kSerialEntries = 16384;
+// The kernel's output lands in a cache-resident stage before it moves on.
+constexpr std::size_t kStagePairs = 1 << 14;
+// Two-pass output: a cell with more than this many pairs per box is "dense":
+// the first pass only counts its pairs and the second writes them straight
+// into the frame's list (one write per pair instead of a store and a copy).
+constexpr std::size_t kStoredPairsPerBox = 4;
+// Pair buffers kept from frame to frame are released when their capacity
+// exceeds twice what the frame used plus this many pairs, so memory follows
+// the current frame, not every frame's peak (issue 17: a cluster visiting
+// cell after cell).
+constexpr std::size_t kKeepPairs = 1 << 15;
+constexpr std::size_t kKeepCellPairs = 1 << 10;  // per cell: there are thousands
+
+void advise_huge_pages(void* data, std::size_t bytes) {
+  constexpr std::uintptr_t kHuge = std::uintptr_t{2} << 20;
+  if (bytes < 4 * kHuge) return;
+  const auto begin = (reinterpret_cast<std::uintptr_t>(data) + kHuge - 1) & ~(kHuge - 1);
+  const auto end = (reinterpret_cast<std::uintptr_t>(data) + bytes) & ~(kHuge - 1);
+  // Advice only: where the kernel declines, pages stay 4 KiB.
+  if (end > begin) madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);
+}
+
+template <class T>
+void release_if_oversized(std::vector<T>& v, std::size_t used, std::size_t keep) {
+  if (v.capacity() > 2 * used + keep) std::vector<T>().swap(v);
+}
 
 // Cheap parallel screen; on failure the serial validate() names the object.
 void validate_boxes(const BoxArray& boxes) {
@@ -46,12 +79,42 @@ void validate_boxes(const BoxArray& boxes) {
 
 struct Worker {
   std::unique_ptr<CellEngine> engine;
-  BoxArray cell;                        // the cell's boxes in min-x order
-  std::vector<Pair> local;              // the engine's pairs (local indices)
-  std::vector<std::uint32_t> order;     // min-x order of the cell's entries
-  std::vector<std::uint64_t> sort_scratch;
-  std::vector<float> min_x;
+  const SoftwareEngine* direct = nullptr;  // the engine when it writes global ids itself
+  OrderedCell cell;                        // the cell being processed, in min-x order
+  std::vector<std::uint32_t> first, second;  // kernel hits before they move on (the stage)
+  std::vector<Pair> local;                 // other engines: pairs in local indices
+  BoxArray tile;                           // other engines: two blocks of an over-full cell
+  std::vector<Pair> stored;                // two-pass: this worker's sparse cells' pairs
 };
+
+// What one cell produced this frame.
+struct CellOutcome {
+  std::uint64_t pairs = 0;
+  std::uint64_t candidates = 0;  // before de-duplication (tiled cells: per engine call)
+  std::uint64_t cycles = 0;
+  // Two-pass output: where the cell's pairs wait for the second pass, or
+  // nullptr when the cell is dense and writes them in the second pass.
+  const std::vector<Pair>* stored = nullptr;
+  std::size_t offset = 0;
+};
+
+std::size_t stage_pairs(std::uint32_t n) {
+  return std::max(kStagePairs, 2 * (std::size_t{n} + SoftwareEngine::kOutputSlack));
+}
+
+void fit_stage(Worker& w, std::size_t hits) {
+  if (w.first.size() < hits || w.first.size() > 4 * hits + kKeepPairs) {
+    w.first.assign(hits, 0);
+    w.second.assign(hits, 0);
+  }
+}
+
+// Appends the stage's first `count` hits to out as canonical pairs.
+void drain_stage(const Worker& w, std::size_t count, std::vector<Pair>& out) {
+  const std::size_t base = out.size();
+  out.resize(base + count);
+  SoftwareEngine::write_pairs(w.first.data(), w.second.data(), count, out.data() + base);
+}
 
 }  // namespace
 
@@ -61,13 +124,14 @@ struct HybridBroadPhase::Impl {
   std::uint32_t cell_limit;
   tbb::task_arena arena;
   KdPartition own_partition;
+  bool partition_in_use = false;                  // own_partition holds a tree from an earlier frame
   const KdPartition* partition = &own_partition;  // this frame's cells
   tbb::enumerable_thread_specific<Worker> workers;
-  std::vector<std::vector<Pair>> cell_pairs;
-  std::vector<std::uint64_t> cell_cycles;
-  std::vector<std::uint64_t> candidates;
-  std::vector<std::size_t> offsets;
-  std::vector<Pair> pairs;
+  std::vector<CellOutcome> outcomes;       // per cell
+  std::vector<std::vector<Pair>> cell_pairs;  // per cell, when a sink or consumer streams them
+  std::vector<std::size_t> offsets;        // per cell: first pair in `pairs`
+  std::vector<Pair> pairs;                 // the frame's output
+  std::vector<Pair> sort_scratch;
   FrameStats stats;
   std::atomic<std::uint64_t> running_pairs{0};
 
@@ -91,8 +155,10 @@ struct HybridBroadPhase::Impl {
         arena(o.threads ? static_cast<int>(o.threads) : tbb::task_arena::automatic),
         own_partition(cell_limit, prototype->x_split_weight(), cell_cost(o, *prototype)),
         workers([this] {
-          Worker w{prototype->clone(), BoxArray{}, {}, {}, {}, {}};
+          Worker w;
+          w.engine = prototype->clone();
           if (options.max_pairs) w.engine->set_pair_limit(options.max_pairs);
+          w.direct = dynamic_cast<const SoftwareEngine*>(w.engine.get());
           return w;
         }) {}
 
@@ -104,152 +170,365 @@ struct HybridBroadPhase::Impl {
                              " overlapping pairs (stopped at " + std::to_string(total) + ")");
   }
 
-  // Copies entries [first, first + count) of the cell, in min-x order, to
-  // dst starting at `at`.
-  static void gather(const Worker& w, const CellEntry* cell, std::uint32_t first, std::uint32_t count, BoxArray& dst,
-                     std::uint32_t at) {
-    const std::uint32_t* order = w.order.data() + first;
-    float* d[6] = {dst.min(0) + at, dst.min(1) + at, dst.min(2) + at, dst.max(0) + at, dst.max(1) + at, dst.max(2) + at};
-    for (std::uint32_t i = 0; i < count; ++i) {
-      const CellEntry& e = cell[order[i]];
-      d[0][i] = e.min[0];
-      d[1][i] = e.min[1];
-      d[2][i] = e.min[2];
-      d[3][i] = e.max[0];
-      d[4][i] = e.max[1];
-      d[5][i] = e.max[2];
+  // ---- One cell through the engine ---------------------------------------
+
+  // Appends the owned pairs (global ids, canonical) of the loaded cell to out.
+  void emit_cell(Worker& w, const CellRegion& region, std::vector<Pair>& out, CellOutcome& r) {
+    if (w.direct)
+      emit_direct(w, region, out, r);
+    else if (w.cell.size() <= w.engine->capacity())
+      emit_whole(w, region, out, r);
+    else
+      emit_tiled(w, region, out, r);
+  }
+
+  // The software engine writes global ids into the stage; the stage drains
+  // into out whenever it fills.
+  void emit_direct(Worker& w, const CellRegion& region, std::vector<Pair>& out, CellOutcome& r) {
+    const std::uint32_t n = w.cell.size();
+    fit_stage(w, stage_pairs(n));
+    for (std::uint32_t row = 0; row < n;) {
+      std::size_t count = 0;
+      row = w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), region, row, w.first.data(), w.second.data(),
+                                w.first.size(), count);
+      charge(count);
+      drain_stage(w, count, out);
+      r.pairs += count;
+    }
+    r.candidates = r.pairs;
+  }
+
+  // Any other engine: local indices, mapped to ids.
+  void emit_whole(Worker& w, const CellRegion& region, std::vector<Pair>& out, CellOutcome& r) {
+    w.local.clear();
+    r.cycles += w.engine->find_owned_pairs(w.cell.boxes(), region, w.local).cycles;
+    charge(w.local.size());
+    const std::uint32_t* ids = w.cell.ids();
+    for (const Pair& p : w.local) out.push_back(make_pair(ids[p.a], ids[p.b]));
+    r.pairs += w.local.size();
+    r.candidates += w.local.size();
+  }
+
+  // More objects than the engine holds (identical or nested boxes): run
+  // every pair of blocks of cap/2 through the engine. Block i's own pairs
+  // are kept from the run (i, i+1); the last block's from (k-2, k-1). Two
+  // consecutive ranges of the min-x order are in min-x order together.
+  void emit_tiled(Worker& w, const CellRegion& region, std::vector<Pair>& out, CellOutcome& r) {
+    const std::uint32_t n = w.cell.size();
+    const std::uint32_t block = std::max<std::uint32_t>(1, w.engine->capacity() / 2);
+    const std::uint32_t k = (n + block - 1) / block;
+    const std::uint32_t* ids = w.cell.ids();
+    for (std::uint32_t bi = 0; bi < k; ++bi) {
+      for (std::uint32_t bj = bi + 1; bj < k; ++bj) {
+        const std::uint32_t oi = bi * block, ni = std::min(block, n - oi);
+        const std::uint32_t oj = bj * block, nj = std::min(block, n - oj);
+        copy_tile(w, oi, ni, oj, nj);
+        w.local.clear();
+        r.cycles += w.engine->find_owned_pairs(w.tile, region, w.local).cycles;
+        const std::size_t before = out.size();
+        const bool keep_i = bj == bi + 1;
+        const bool keep_j = bi + 2 == k && bj + 1 == k;
+        auto id = [&](std::uint32_t local) { return ids[local < ni ? oi + local : oj + (local - ni)]; };
+        for (const Pair& p : w.local) {
+          const bool a_in_i = p.a < ni, b_in_i = p.b < ni;
+          const bool keep = (a_in_i != b_in_i) || (a_in_i && keep_i) || (!a_in_i && keep_j);
+          if (keep) out.push_back(make_pair(id(p.a), id(p.b)));
+        }
+        charge(out.size() - before);
+        r.pairs += out.size() - before;
+        r.candidates += w.local.size();
+      }
     }
   }
 
-  void process_cell(std::uint32_t c) {
-    Worker& w = workers.local();
-    const CellEntry* cell = partition->cell(c).data();
-    const std::uint32_t n = partition->cell_size(c);
-    const CellRegion& region = partition->region(c);
-    w.min_x.resize(n);
-    for (std::uint32_t i = 0; i < n; ++i) w.min_x[i] = cell[i].min[0];
-    min_x_order(w.min_x.data(), n, w.order, w.sort_scratch);
-    std::vector<Pair>& out = cell_pairs[c];
-    out.clear();
-    std::uint64_t cycles = 0;
-    std::uint64_t found = 0;
-    const std::uint32_t cap = w.engine->capacity();
-    if (n <= cap) {
-      w.cell.resize(n);
-      gather(w, cell, 0, n, w.cell, 0);
-      w.local.clear();
-      cycles += w.engine->find_owned_pairs(w.cell, region, w.local).cycles;
-      found = w.local.size();
-      charge(found);
-      out.resize(w.local.size());
-      for (std::size_t i = 0; i < w.local.size(); ++i)
-        out[i] = make_pair(cell[w.order[w.local[i].a]].id, cell[w.order[w.local[i].b]].id);
-    } else {
-      // More objects than the engine holds (identical or nested boxes): run
-      // every pair of blocks of cap/2 through the engine. Block i's own pairs
-      // are kept from the run (i, i+1); the last block's from (k-2, k-1).
-      const std::uint32_t block = std::max<std::uint32_t>(1, cap / 2);
-      const std::uint32_t k = (n + block - 1) / block;
-      for (std::uint32_t bi = 0; bi < k; ++bi) {
-        for (std::uint32_t bj = bi + 1; bj < k; ++bj) {
-          const std::uint32_t oi = bi * block, ni = std::min(block, n - oi);
-          const std::uint32_t oj = bj * block, nj = std::min(block, n - oj);
-          w.cell.resize(ni + nj);
-          gather(w, cell, oi, ni, w.cell, 0);
-          gather(w, cell, oj, nj, w.cell, ni);
-          w.local.clear();
-          cycles += w.engine->find_owned_pairs(w.cell, region, w.local).cycles;
-          const std::size_t before = out.size();
-          const bool keep_i = bj == bi + 1;
-          const bool keep_j = bi + 2 == k && bj + 1 == k;
-          auto global = [&](std::uint32_t local) { return cell[w.order[local < ni ? oi + local : oj + (local - ni)]].id; };
-          for (const Pair& p : w.local) {
-            const bool a_in_i = p.a < ni, b_in_i = p.b < ni;
-            const bool keep = (a_in_i != b_in_i) || (a_in_i && keep_i) || (!a_in_i && keep_j);
-            if (keep) out.push_back(make_pair(global(p.a), global(p.b)));
-          }
-          charge(out.size() - before);
-          found += w.local.size();
-        }
-      }
+  static void copy_tile(Worker& w, std::uint32_t oi, std::uint32_t ni, std::uint32_t oj, std::uint32_t nj) {
+    const BoxArray& src = w.cell.boxes();
+    w.tile.resize(ni + nj);
+    for (int k = 0; k < 3; ++k) {
+      std::copy_n(src.min(k) + oi, ni, w.tile.min(k));
+      std::copy_n(src.min(k) + oj, nj, w.tile.min(k) + ni);
+      std::copy_n(src.max(k) + oi, ni, w.tile.max(k));
+      std::copy_n(src.max(k) + oj, nj, w.tile.max(k) + ni);
     }
-    cell_cycles[c] = cycles;
-    candidates[c] = found;
+  }
+
+  // ---- Scheduling the cells ---------------------------------------------
+
+  bool serial_engine_phase() const {
+    return arena.max_concurrency() == 1 || partition->stats().entries < kSerialEntries;
+  }
+
+  template <class F>
+  void for_each_cell(std::uint32_t cells, F&& f) {
+    if (serial_engine_phase()) {
+      for (std::uint32_t c = 0; c < cells; ++c) f(c);
+      return;
+    }
+    tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, cells, 1), [&](const auto& r) {
+      for (std::uint32_t c = r.begin(); c != r.end(); ++c) f(c);
+    });
+  }
+
+  // Streaming: each cell's pairs in its own list, handed to the consumer
+  // (any worker, right after the engine) and the sink (in cell order, while
+  // later cells are still in the engine).
+  void stream_cells(const PairSink& sink, const PairSink& consumer) {
+    const std::uint32_t cells = partition->cell_count();
+    cell_pairs.resize(cells);
+    auto cell_task = [&](std::uint32_t c) {
+      Worker& w = workers.local();
+      CellOutcome& r = outcomes[c];
+      std::vector<Pair>& out = cell_pairs[c];
+      out.clear();
+      w.cell.load(partition->cell(c));
+      emit_cell(w, partition->region(c), out, r);
+      if (consumer) consumer(c, out.data(), out.size());
+    };
+    if (!sink) {
+      for_each_cell(cells, cell_task);
+      return;
+    }
+    // Consumer (narrow phase) on cell k while the engine works on k+1...
+    std::uint32_t next = 0;
+    const auto tokens = static_cast<std::size_t>(2 * std::max(1, arena.max_concurrency()));
+    tbb::parallel_pipeline(
+        tokens,
+        tbb::make_filter<void, std::uint32_t>(tbb::filter_mode::serial_in_order,
+                                              [&](tbb::flow_control& fc) -> std::uint32_t {
+                                                if (next >= cells) {
+                                                  fc.stop();
+                                                  return 0;
+                                                }
+                                                return next++;
+                                              }) &
+            tbb::make_filter<std::uint32_t, std::uint32_t>(tbb::filter_mode::parallel,
+                                                           [&](std::uint32_t c) {
+                                                             cell_task(c);
+                                                             return c;
+                                                           }) &
+            tbb::make_filter<std::uint32_t, void>(tbb::filter_mode::serial_in_order, [&](std::uint32_t c) {
+              sink(c, cell_pairs[c].data(), cell_pairs[c].size());
+            }));
+  }
+
+  // Copies the streamed cells' lists into the frame's list, in cell order.
+  void gather_streamed() {
+    const std::uint32_t cells = partition->cell_count();
+    size_output(cells);
+    for_each_cell(cells, [&](std::uint32_t c) {
+      std::vector<Pair>& v = cell_pairs[c];
+      if (!v.empty()) std::memcpy(pairs.data() + offsets[c], v.data(), v.size() * sizeof(Pair));
+      release_if_oversized(v, v.size(), kKeepCellPairs);
+    });
+  }
+
+  // Two-pass output, first pass: every cell through the engine. Sparse
+  // cells' pairs go to the worker's store; dense cells are only counted.
+  void first_pass(std::uint32_t c) {
+    Worker& w = workers.local();
+    CellOutcome& r = outcomes[c];
+    w.cell.load(partition->cell(c));
+    const CellRegion& region = partition->region(c);
+    r.stored = &w.stored;
+    r.offset = w.stored.size();
+    if (!w.direct) {
+      emit_cell(w, region, w.stored, r);
+      return;
+    }
+    const std::uint32_t n = w.cell.size();
+    const std::size_t room = kStoredPairsPerBox * n + n + SoftwareEngine::kOutputSlack;
+    fit_stage(w, std::max(room, stage_pairs(n)));
+    std::size_t count = 0;
+    std::uint32_t row =
+        w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), region, 0, w.first.data(), w.second.data(), room, count);
+    if (row < n && !options.max_pairs) {
+      // Dense: count now, write in the second pass. (With max_pairs set, a
+      // pair explosion must stop as soon as the limit is passed, not after
+      // counting every pair: such cells keep storing, charged per drain.)
+      count += w.direct->count_pairs(w.cell.boxes(), w.cell.ids(), region, row);
+      r.stored = nullptr;
+      r.pairs = r.candidates = count;
+      return;
+    }
+    while (true) {
+      charge(count);
+      drain_stage(w, count, w.stored);
+      r.pairs += count;
+      if (row >= n) break;
+      count = 0;
+      row = w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), region, row, w.first.data(), w.second.data(),
+                                w.first.size(), count);
+    }
+    r.candidates = r.pairs;
+  }
+
+  // Second pass: stored pairs are copied to their place in the frame's
+  // list; dense cells run their kernel again, draining the stage there.
+  void second_pass(std::uint32_t c) {
+    const CellOutcome& r = outcomes[c];
+    Pair* dst = pairs.data() + offsets[c];
+    if (r.stored) {
+      if (r.pairs) std::memcpy(dst, r.stored->data() + r.offset, r.pairs * sizeof(Pair));
+      return;
+    }
+    Worker& w = workers.local();
+    w.cell.load(partition->cell(c));
+    const std::uint32_t n = w.cell.size();
+    fit_stage(w, stage_pairs(n));
+    std::size_t written = 0;
+    for (std::uint32_t row = 0; row < n;) {
+      std::size_t count = 0;
+      row = w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), partition->region(c), row, w.first.data(),
+                                w.second.data(), w.first.size(), count);
+      if (written + count > r.pairs) throw std::logic_error("hybrid broad phase: cell pair count changed");
+      SoftwareEngine::write_pairs(w.first.data(), w.second.data(), count, dst + written);
+      written += count;
+    }
+    if (written != r.pairs) throw std::logic_error("hybrid broad phase: cell pair count changed");
+  }
+
+  // Offsets of each cell's pairs in the frame's list, and the list sized.
+  void size_output(std::uint32_t cells) {
+    offsets.resize(std::size_t{cells} + 1);
+    offsets[0] = 0;
+    for (std::uint32_t c = 0; c < cells; ++c) offsets[c + 1] = offsets[c] + outcomes[c].pairs;
+    const std::size_t total = offsets[cells];
+    if (options.max_pairs && total > options.max_pairs)
+      throw CapacityExceeded("frame has " + std::to_string(total) + " overlapping pairs, above max_pairs = " +
+                             std::to_string(options.max_pairs));
+    reserve_output(total);
+    pairs.resize(total);
+  }
+
+  // Room for this frame's pairs. Growing reallocates without copying (the
+  // old pairs are overwritten anyway) and leaves headroom, so a pair count
+  // creeping up frame after frame does not reallocate every frame; large
+  // lists ask for transparent huge pages (a pair-dense frame's list is
+  // hundreds of megabytes: 512 times fewer page faults on the first frame).
+  void reserve_output(std::size_t total) {
+    release_if_oversized(pairs, total, kKeepPairs);
+    if (total <= pairs.capacity()) return;
+    std::vector<Pair>().swap(pairs);
+    pairs.reserve(total + total / 8);
+    advise_huge_pages(pairs.data(), pairs.capacity() * sizeof(Pair));
+  }
+
+  // ---- The frame -----------------------------------------------------------
+
+  void partition_frame(const BoxArray* boxes, const KdPartition* shared) {
+    if (shared) {
+      partition = shared;  // cells maintained elsewhere (the ray tracer's hierarchy)
+      return;
+    }
+    partition = &own_partition;
+    validate_boxes(*boxes);
+    own_partition.update(*boxes);
+    partition_in_use = true;
+  }
+
+  // Frames the partition would leave as one cell: no partition, no workers.
+  bool is_one_cell_frame(const BoxArray* boxes) const { return boxes && boxes->size() <= cell_limit; }
+
+  void run_one_cell(const BoxArray& boxes, const PairSink& sink, const PairSink& consumer) {
+    boxes.validate("frame");
+    if (partition_in_use) own_partition.reset();  // its tree is stale by the next large frame
+    partition_in_use = false;
+    Worker& w = workers.local();
+    w.cell.load(boxes);
+    outcomes.assign(1, CellOutcome{});
+    pairs.clear();
+    release_if_oversized(pairs, 0, kKeepPairs);
+    emit_cell(w, CellRegion::everything(), pairs, outcomes[0]);
+    if (consumer) consumer(0, pairs.data(), pairs.size());
+    if (sink) sink(0, pairs.data(), pairs.size());
+  }
+
+  void run_cells(const PairSink& sink, const PairSink& consumer, double& engine_ms, double& merge_ms) {
+    const std::uint32_t cells = partition->cell_count();
+    outcomes.assign(cells, CellOutcome{});
+    const auto t_engine = Clock::now();
+    if (sink || consumer) {
+      stream_cells(sink, consumer);
+      engine_ms = ms_since(t_engine);
+      const auto t_merge = Clock::now();
+      gather_streamed();
+      merge_ms = ms_since(t_merge);
+    } else {
+      cell_pairs.clear();
+      for (Worker& w : workers) w.stored.clear();
+      for_each_cell(cells, [&](std::uint32_t c) { first_pass(c); });
+      engine_ms = ms_since(t_engine);
+      const auto t_merge = Clock::now();
+      size_output(cells);
+      for_each_cell(cells, [&](std::uint32_t c) { second_pass(c); });
+      merge_ms = ms_since(t_merge);
+    }
+  }
+
+  void sort_output() {
+    if (options.sorted) sort_pairs(pairs, sort_scratch);
+    release_if_oversized(sort_scratch, options.sorted ? pairs.size() : 0, kKeepPairs);
+  }
+
+  // Per-worker buffers follow this frame's needs.
+  void release_worker_buffers() {
+    for (Worker& w : workers) {
+      release_if_oversized(w.stored, w.stored.size(), kKeepPairs);
+      release_if_oversized(w.local, w.local.size(), kKeepPairs);
+    }
   }
 
   void run(const BoxArray* boxes, const KdPartition* shared, const PairSink& sink, const PairSink& consumer) {
     running_pairs = 0;
     const auto t0 = Clock::now();
-    if (shared) {
-      partition = shared;  // cells maintained elsewhere (the ray tracer's hierarchy)
+    double partition_ms = 0, engine_ms = 0, merge_ms = 0;
+    const bool one_cell = !shared && is_one_cell_frame(boxes);
+    if (one_cell) {
+      const auto t_engine = Clock::now();
+      run_one_cell(*boxes, sink, consumer);
+      engine_ms = ms_since(t_engine);
     } else {
-      partition = &own_partition;
-      validate_boxes(*boxes);
-      own_partition.update(*boxes);
+      const auto t_partition = Clock::now();
+      partition_frame(boxes, shared);
+      partition_ms = ms_since(t_partition);
+      run_cells(sink, consumer, engine_ms, merge_ms);
     }
-    const double partition_ms = ms_since(t0);
+    const auto t_sort = Clock::now();
+    sort_output();
+    const double sort_ms = ms_since(t_sort);
+    release_worker_buffers();
+    record_stats(one_cell, boxes ? boxes->size() : 0);
+    stats.partition_ms = partition_ms;
+    stats.engine_ms = engine_ms;
+    stats.merge_ms = merge_ms;
+    stats.sort_ms = sort_ms;
+    stats.dedup_ms = merge_ms + sort_ms;
+    stats.wall_ms = ms_since(t0);
+  }
 
-    const auto t1 = Clock::now();
-    const std::uint32_t cells = partition->cell_count();
-    if (cell_pairs.size() < cells) cell_pairs.resize(cells);
-    cell_cycles.assign(cells, 0);
-    candidates.assign(cells, 0);
-    auto cell_task = [&](std::uint32_t c) {
-      process_cell(c);
-      if (consumer) consumer(c, cell_pairs[c].data(), cell_pairs[c].size());
-    };
-    if (sink) {
-      // Consumer (narrow phase) on cell k while the engine works on k+1...
-      std::uint32_t next = 0;
-      const auto tokens = static_cast<std::size_t>(2 * std::max(1, arena.max_concurrency()));
-      tbb::parallel_pipeline(
-          tokens,
-          tbb::make_filter<void, std::uint32_t>(tbb::filter_mode::serial_in_order,
-                                                [&](tbb::flow_control& fc) -> std::uint32_t {
-                                                  if (next >= cells) {
-                                                    fc.stop();
-                                                    return 0;
-                                                  }
-                                                  return next++;
-                                                }) &
-              tbb::make_filter<std::uint32_t, std::uint32_t>(tbb::filter_mode::parallel,
-                                                             [&](std::uint32_t c) {
-                                                               cell_task(c);
-                                                               return c;
-                                                             }) &
-              tbb::make_filter<std::uint32_t, void>(tbb::filter_mode::serial_in_order, [&](std::uint32_t c) {
-                sink(c, cell_pairs[c].data(), cell_pairs[c].size());
-              }));
-    } else {
-      tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, cells, 1), [&](const auto& r) {
-        for (std::uint32_t c = r.begin(); c != r.end(); ++c) cell_task(c);
-      });
-    }
-    const double engine_ms = ms_since(t1);
-
-    const auto t2 = Clock::now();
-    offsets.assign(cells + 1, 0);
+  void record_stats(bool one_cell, std::size_t objects) {
     std::uint64_t cycles = 0, cand = 0;
-    for (std::uint32_t c = 0; c < cells; ++c) {
-      offsets[c + 1] = offsets[c] + cell_pairs[c].size();
-      cycles += cell_cycles[c];
-      cand += candidates[c];
+    for (const CellOutcome& r : outcomes) {
+      cycles += r.cycles;
+      cand += r.candidates;
     }
-    const std::size_t total = offsets[cells];
-    if (options.max_pairs && total > options.max_pairs)
-      throw CapacityExceeded("frame has " + std::to_string(total) + " overlapping pairs, above max_pairs = " +
-                             std::to_string(options.max_pairs));
-    pairs.resize(total);
-    tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, cells, 16), [&](const auto& r) {
-      for (std::uint32_t c = r.begin(); c != r.end(); ++c)
-        std::copy(cell_pairs[c].begin(), cell_pairs[c].end(), pairs.begin() + static_cast<std::ptrdiff_t>(offsets[c]));
-    });
-    if (options.sorted) sort_pairs(pairs);
-    const double merge_ms = ms_since(t2);
-
-    const PartitionStats& ps = partition->stats();
-    stats.pairs = total;
+    stats.pairs = pairs.size();
     stats.candidate_pairs = cand;
+    stats.modelled_cycles = cycles;
+    const double hz = prototype->clock_hz();
+    stats.modelled_ms = hz > 0 ? 1e3 * static_cast<double>(cycles) / hz : 0.0;
+    stats.one_cell = one_cell;
+    if (one_cell) {
+      const auto n = static_cast<std::uint32_t>(objects);
+      stats.cells = 1;
+      stats.min_cell = stats.median_cell = stats.max_cell = n;
+      stats.duplication = 1.0;
+      stats.oversized_cells = 0;
+      stats.rebuilt = false;
+      stats.splits = stats.merges = 0;
+      return;
+    }
+    const PartitionStats& ps = partition->stats();
     stats.cells = ps.cells;
     stats.min_cell = ps.min_cell;
     stats.median_cell = ps.median_cell;
@@ -259,13 +538,6 @@ struct HybridBroadPhase::Impl {
     stats.rebuilt = ps.rebuilt;
     stats.splits = ps.splits;
     stats.merges = ps.merges;
-    stats.partition_ms = partition_ms;
-    stats.engine_ms = engine_ms;
-    stats.dedup_ms = merge_ms;
-    stats.wall_ms = ms_since(t0);
-    stats.modelled_cycles = cycles;
-    const double hz = prototype->clock_hz();
-    stats.modelled_ms = hz > 0 ? 1e3 * static_cast<double>(cycles) / hz : 0.0;
   }
 };
 
@@ -276,7 +548,12 @@ HybridBroadPhase& HybridBroadPhase::operator=(HybridBroadPhase&&) noexcept = def
 
 const std::vector<Pair>& HybridBroadPhase::update(const BoxArray& boxes, const PairSink& sink,
                                                   const PairSink& parallel_consumer) {
-  impl_->arena.execute([&] { impl_->run(&boxes, nullptr, sink, parallel_consumer); });
+  // Small frames stay on the calling thread: entering the arena would wake
+  // its workers for nothing.
+  if (boxes.size() <= impl_->cell_limit)
+    impl_->run(&boxes, nullptr, sink, parallel_consumer);
+  else
+    impl_->arena.execute([&] { impl_->run(&boxes, nullptr, sink, parallel_consumer); });
   return impl_->pairs;
 }
 

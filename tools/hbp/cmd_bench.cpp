@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "bench_machine.hpp"
+#include "bench_narrow_bullet.hpp"
 #include "bench_report.hpp"
 #include "bench_runner.hpp"
 #include "bench_sources.hpp"
@@ -354,6 +355,8 @@ const RegisterCommand reg([](CLI::App& app) {
   scene->add_option("file", sa->file, "Scene file")->required();
   add_common(scene, *sa);
   scene->callback([sa] { run_bench(*sa, BenchSource::Scene); });
+
+  add_bench_narrow(bench);
 });
 
 }  // namespace

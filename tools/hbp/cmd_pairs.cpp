@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "cmd_distributed.hpp"
 #include "command_registry.hpp"
 #include "hbp/brute_force.hpp"
 #include "hbp/error.hpp"
@@ -27,6 +28,7 @@ struct PairsOptions {
   std::uint32_t cell_limit = 0;
   unsigned threads = 0;
   std::string out;  // empty: stdout
+  bool distributed = false;
 };
 
 // Writes "a b\n" lines through a large buffer: tens of millions of pairs are
@@ -62,7 +64,9 @@ void run_pairs(const PairsOptions& o) {
 
   const auto start = std::chrono::steady_clock::now();
   std::vector<Pair> pairs;
-  if (o.engine == "brute") {
+  if (o.distributed) {  // over MPI ranks; rank 0 gathers and writes
+    if (!distributed_pairs(boxes, o.engine, o.cell_limit, o.threads, pairs)) return;
+  } else if (o.engine == "brute") {
     pairs = brute_force_pairs(boxes);  // the oracle: already sorted and canonical
   } else {
     BroadPhaseOptions options;
@@ -108,6 +112,8 @@ void setup_pairs(CLI::App& app) {
   cmd->add_option("--threads", opts->threads, "Worker threads of the hybrid system (0: all cores)")
       ->capture_default_str();
   cmd->add_option("-o,--out", opts->out, "Write the pairs to this file instead of stdout");
+  cmd->add_flag("--distributed", opts->distributed,
+                "Over MPI ranks (start under mpirun); the engine runs on each rank, rank 0 writes");
   cmd->callback([opts] { run_pairs(*opts); });
 }
 

@@ -14,6 +14,7 @@
 #include <thread>
 #include <vector>
 
+#include "cmd_distributed.hpp"
 #include "command_registry.hpp"
 #include "hbp/collision_pipeline.hpp"
 #include "hbp/error.hpp"
@@ -38,6 +39,7 @@ struct RunArgs {
   bool quiet = false;
   bool narrow = false;
   bool cost_splits = false;
+  bool distributed = false;
 };
 
 double percentile(std::vector<double> v, double q) {
@@ -114,6 +116,10 @@ NarrowFrame run_narrow(CollisionPipeline& cp, HybridBroadPhase& reference, const
 }
 
 void run(const RunArgs& a) {
+  if (a.distributed) {
+    if (a.narrow || a.cost_splits) throw InvalidInput("--distributed does not take --narrow or --cost-splits");
+    return run_distributed({a.scene, a.in, a.n, a.frames, a.seed, a.engine, a.cell_limit, a.threads, a.json, a.quiet});
+  }
   FrameSource source(a);
   if (a.narrow && !source.shapes())
     throw InvalidInput("--narrow needs shapes: use --scene (scene files hold boxes only)");
@@ -136,13 +142,13 @@ void run(const RunArgs& a) {
                       .cost_splits = a.cost_splits});
   const unsigned threads = a.threads ? a.threads : std::max(1u, std::thread::hardware_concurrency());
   nlohmann::json frames = nlohmann::json::array();
-  std::vector<double> wall, modelled;
+  std::vector<double> wall, modelled, partition, engine, merge, sort, pairs_per_s;
   BoxArray boxes;
   if (!a.json && !a.quiet) {
     std::printf("engine %s (simd %s), cell limit %u, threads %u, %zu objects, %u frames\n", a.engine.c_str(),
                 SoftwareEngine::isa(), bp.cell_limit(), threads, source.objects(), source.frames());
-    std::printf("%6s %10s %9s %9s %9s %9s %12s %7s %6s %s\n", "frame", "pairs", "wall_ms", "part_ms", "engine_ms",
-                "merge_ms", "modelled_ms", "cells", "dup", "maintenance");
+    std::printf("%6s %10s %9s %9s %9s %9s %9s %12s %7s %6s %s\n", "frame", "pairs", "wall_ms", "part_ms",
+                "engine_ms", "merge_ms", "sort_ms", "modelled_ms", "cells", "dup", "maintenance");
   }
   for (std::uint32_t k = 0; k < source.frames(); ++k) {
     source.frame(k, boxes);
@@ -157,13 +163,21 @@ void run(const RunArgs& a) {
     const bool modelled_engine = s.modelled_cycles > 0 || a.engine.rfind("ae", 0) == 0 ||
                                  a.engine.rfind("mo", 0) == 0 || a.engine.rfind("rtl", 0) == 0;
     wall.push_back(s.wall_ms);
+    partition.push_back(s.partition_ms);
+    engine.push_back(s.engine_ms);
+    merge.push_back(s.merge_ms);
+    sort.push_back(s.sort_ms);
+    pairs_per_s.push_back(s.wall_ms > 0 ? static_cast<double>(s.pairs) / (s.wall_ms * 1e-3) : 0.0);
     if (modelled_engine) modelled.push_back(s.modelled_ms);
     nlohmann::json f = {{"frame", k},
                         {"pairs", s.pairs},
                         {"wall_ms", s.wall_ms},
                         {"partition_ms", s.partition_ms},
                         {"engine_ms", s.engine_ms},
-                        {"dedup_ms", s.dedup_ms},
+                        {"merge_ms", s.merge_ms},
+                        {"sort_ms", s.sort_ms},
+                        {"dedup_ms", s.dedup_ms},  // older name: merge_ms + sort_ms
+                        {"one_cell", s.one_cell},
                         {"cells", s.cells},
                         {"median_cell", s.median_cell},
                         {"max_cell", s.max_cell},
@@ -183,9 +197,10 @@ void run(const RunArgs& a) {
     if (!a.json && !a.quiet) {
       char model[32] = "-";
       if (modelled_engine) std::snprintf(model, sizeof model, "%.4f", s.modelled_ms);
-      std::printf("%6u %10llu %9.3f %9.3f %9.3f %9.3f %12s %7u %6.3f %s+%us-%um\n", k,
-                  static_cast<unsigned long long>(s.pairs), s.wall_ms, s.partition_ms, s.engine_ms, s.dedup_ms, model,
-                  s.cells, s.duplication, s.rebuilt ? "rebuild" : "keep", s.splits, s.merges);
+      std::printf("%6u %10llu %9.3f %9.3f %9.3f %9.3f %9.3f %12s %7u %6.3f %s+%us-%um\n", k,
+                  static_cast<unsigned long long>(s.pairs), s.wall_ms, s.partition_ms, s.engine_ms, s.merge_ms,
+                  s.sort_ms, model, s.cells, s.duplication,
+                  s.one_cell ? "one-cell" : (s.rebuilt ? "rebuild" : "keep"), s.splits, s.merges);
       if (a.narrow)
         std::printf("       narrow: %llu contacts of %llu candidates; pipelined %.3f ms (narrow CPU %.3f ms) vs "
                     "broad %.3f + narrow %.3f ms one after the other\n",
@@ -193,7 +208,10 @@ void run(const RunArgs& a) {
                     nf.pipelined_ms, nf.narrow_cpu_ms, nf.sequential_broad_ms, nf.sequential_narrow_ms);
     }
   }
-  const double med = percentile(wall, 0.5), p95 = percentile(wall, 0.95);
+  const double med = percentile(wall, 0.5), p95 = percentile(wall, 0.95), p99 = percentile(wall, 0.99);
+  const double first = wall.empty() ? 0.0 : wall.front();
+  const auto worst_at = static_cast<std::size_t>(std::max_element(wall.begin(), wall.end()) - wall.begin());
+  const double worst = wall.empty() ? 0.0 : wall[worst_at];
   if (a.json) {
     nlohmann::json params = {{"scene", a.in.empty() ? a.scene : std::string("file")},
                              {"in", a.in},
@@ -207,6 +225,15 @@ void run(const RunArgs& a) {
                              {"simd", SoftwareEngine::isa()}};
     nlohmann::json summary = {{"median_wall_ms", med},
                               {"p95_wall_ms", p95},
+                              {"p99_wall_ms", p99},
+                              {"first_wall_ms", first},
+                              {"max_wall_ms", worst},
+                              {"max_wall_frame", worst_at},
+                              {"median_partition_ms", percentile(partition, 0.5)},
+                              {"median_engine_ms", percentile(engine, 0.5)},
+                              {"median_merge_ms", percentile(merge, 0.5)},
+                              {"median_sort_ms", percentile(sort, 0.5)},
+                              {"median_pairs_per_s", percentile(pairs_per_s, 0.5)},
                               {"median_modelled_ms", modelled.empty() ? nlohmann::json(nullptr)
                                                                       : nlohmann::json(percentile(modelled, 0.5))}};
     if (a.narrow) {
@@ -215,7 +242,11 @@ void run(const RunArgs& a) {
     }
     std::printf("%s\n", nlohmann::json{{"params", params}, {"frames", frames}, {"summary", summary}}.dump(1).c_str());
   } else {
-    std::printf("summary: wall (measured) median %.3f ms, p95 %.3f ms", med, p95);
+    std::printf("summary: wall (measured) median %.3f ms, first %.3f ms, worst %.3f ms (frame %zu), p95 %.3f ms, "
+                "p99 %.3f ms; %.3g pairs/s (median)\n",
+                med, first, worst, worst_at, p95, p99, percentile(pairs_per_s, 0.5));
+    std::printf("stages (medians, measured): partition %.3f ms, engine %.3f ms, merge %.3f ms, sort %.3f ms",
+                percentile(partition, 0.5), percentile(engine, 0.5), percentile(merge, 0.5), percentile(sort, 0.5));
     if (!modelled.empty()) std::printf("; accelerator (modelled) median %.4f ms", percentile(modelled, 0.5));
     std::printf("\n");
     if (a.narrow)
@@ -241,6 +272,8 @@ const RegisterCommand reg([](CLI::App& app) {
   cmd->add_flag("--cost-splits", args->cost_splits,
                 "Hardware engines: split cells below the limit while that lowers the modelled cycles");
   cmd->add_flag("--quiet", args->quiet, "Only the summary");
+  cmd->add_flag("--distributed", args->distributed,
+                "Over MPI ranks (start under mpirun; docs/distributed.md); JSON adds per-rank counts and times");
   cmd->add_flag("--narrow", args->narrow,
                 "Also run the narrow phase, overlapped with the broad phase (and, for comparison, after it)");
   cmd->callback([args] { run(*args); });

@@ -24,6 +24,8 @@ struct Convex {
 };
 
 Convex make_convex(const Shape& shape);
+// Convex::radius without preparing the shape.
+double bounding_radius(const Shape& shape);
 
 // Tolerance scale of a pair: sum of the bounding radii.
 inline double pair_scale(const Convex& a, const Convex& b) { return a.radius + b.radius; }

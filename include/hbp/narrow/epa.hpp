@@ -8,8 +8,10 @@ namespace hbp::narrow {
 
 struct EpaResult {
   // False only when no polytope could be built; the fields then hold the
-  // best estimate available (depth 0, normal from the centres).
+  // support function's bound along the centre line refined by descent, and
+  // `separated` says whether that bound proves the shapes apart.
   bool ok = false;
+  bool separated = false;
   bool converged = false;  // gap below tolerance (else capacity or degeneracy)
   double depth = 0;        // >= 0 (if not converged: the best upper bound)
   double lower_bound = 0;  // the closest polytope face: depth >= lower_bound

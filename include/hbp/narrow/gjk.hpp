@@ -33,6 +33,7 @@ struct GjkResult {
   double distance = 0;
   V3 closest_a, closest_b;
   Simplex simplex;  // final simplex; encloses (or touches) the origin if intersecting
+  V3 v;             // last search vector (separated: -v is a separating direction)
   int iterations = 0;
 };
 
@@ -40,6 +41,9 @@ struct GjkOptions {
   bool boolean_only = false;     // stop at the first separating plane
   double rel_tolerance = 1e-10;  // on the distance
   int max_iterations = 128;
+  // First search direction (the cached one of the last frame: from a
+  // towards b); zero: the centre line.
+  V3 initial_direction;
 };
 
 GjkResult gjk(const Convex& a, const Convex& b, const GjkOptions& options = {});

@@ -36,8 +36,20 @@ bool intersect(const Shape& a, const Shape& b, Contact* contact = nullptr,
 double signed_distance(const Shape& a, const Shape& b);
 
 namespace narrow {
+// Contacts from GJK + EPA stop when the depth is bracketed within this
+// relative tolerance, and report the upper end (a translation that
+// separates): inside the agreement band with Bullet (1e-3 relative + 5e-4 m,
+// docs/narrow-phase.md). signed_distance() keeps EPA's 1e-6.
+inline constexpr double kContactDepthTolerance = 1e-4;
+
 // The same on prepared shapes (what NarrowPhase calls).
 bool intersect(const Convex& a, const Convex& b, Hit* hit, NarrowMethod method);
+// With frame-to-frame coherence: `warm` (may be null) is the direction the
+// last frame learned for this pair (unit, a -> b); *learned receives this
+// frame's (the separating axis or the contact normal), or zero if nothing
+// worth keeping was learned. The verdict never depends on `warm`: a cached
+// axis is used only where one support query proves separation.
+bool intersect(const Convex& a, const Convex& b, Hit* hit, NarrowMethod method, const V3* warm, V3* learned);
 }  // namespace narrow
 
 }  // namespace hbp

@@ -13,6 +13,7 @@
 
 #include "hbp/narrow/contact.hpp"
 #include "hbp/narrow/intersect.hpp"
+#include "hbp/narrow/narrow_cache.hpp"
 #include "hbp/pair.hpp"
 #include "hbp/shape.hpp"
 
@@ -35,6 +36,13 @@ class NarrowPhase {
   // range.
   std::size_t process(const std::vector<Shape>& shapes, const Pair* pairs, std::size_t count,
                       std::vector<Contact>& out) const;
+  // The same with frame-to-frame coherence: `cache` (read only, may be
+  // shared by threads) holds the last frame's directions; what this call
+  // learns is appended to `learned`, to be committed to the cache after the
+  // frame (NarrowCache::commit). Same verdicts as without a cache.
+  std::size_t process(const std::vector<Shape>& shapes, const Pair* pairs, std::size_t count,
+                      std::vector<Contact>& out, const NarrowCache* cache,
+                      std::vector<NarrowCacheEntry>* learned) const;
 
   const NarrowOptions& options() const { return options_; }
 

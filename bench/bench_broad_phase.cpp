@@ -1,0 +1,410 @@
+// hbp::BroadPhase measured beside btDbvtBroadphase and the whole-frame
+// HybridBroadPhase, each pair of systems on the same boxes in the same run
+// (issue 15):
+//
+//   MostlyStatic/<statics>/<moving>/<threads>: a world of the paper's density,
+//     `statics` static boxes plus `moving` boxes moving as in the paper
+//     scenario. Per frame: move() + update() beside DBVT's setAabb of the
+//     moving proxies + calculateOverlappingPairs (statics in DBVT's
+//     StaticFilter group, so neither side reports static/static pairs). Every
+//     timed frame both report the same exact pairs (Bullet's cache filtered
+//     by the closed-box test), or the benchmark fails.
+//   AllMoving/<n>/<threads>: the paper scene, every object moving through
+//     move() + update(), beside HybridBroadPhase::update(BoxArray) on the
+//     same frames (same pairs checked each frame).
+//   BoxQueries/<n>, RayQueries/<n>: one thread, the paper frame of n objects
+//     as static objects; boxes of the objects' sizes, rays of 500 m; beside
+//     btDbvtBroadphase::aabbTest / rayTest on the same boxes (answers checked
+//     against a brute-force scan on a sample, and contained in DBVT's).
+//
+// Times are wall clock (the manual time is ours; counters give both sides'
+// medians and worst frames and the ratio).
+#include <benchmark/benchmark.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <random>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "baselines/bullet_headers.hpp"
+#include "baselines/bullet_pairs.hpp"
+#include "hbp/broad_phase.hpp"
+#include "hbp/scenario.hpp"
+#include "pipeline/ray_segment.hpp"
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using hbp::Aabb;
+using hbp::BoxArray;
+using hbp::Handle;
+using hbp::Pair;
+
+double ms_since(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.empty() ? 0 : v[v.size() / 2];
+}
+double worst(const std::vector<double>& v) { return v.empty() ? 0 : *std::max_element(v.begin(), v.end()); }
+
+void to_aabbs(const BoxArray& b, std::vector<Aabb>& out) {
+  out.resize(b.size());
+  for (std::size_t i = 0; i < b.size(); ++i) out[i] = b.get(i);
+}
+
+// The paper's frame of n objects (density: 5 * 50^3 m^3 per object).
+BoxArray paper_frame(std::uint32_t n, std::uint64_t seed) {
+  hbp::ScenarioParams p;
+  p.n = n;
+  p.seed = seed;
+  hbp::Scenario s(p);
+  BoxArray boxes;
+  s.compute_boxes(boxes);
+  return boxes;
+}
+
+// `moving` objects of the paper scenario in the world of statics + moving
+// objects at the paper's density.
+hbp::Scenario moving_scenario(std::uint32_t statics, std::uint32_t moving) {
+  hbp::ScenarioParams p;
+  p.n = moving;
+  p.seed = 7;
+  p.volume_per_object *= static_cast<double>(statics + moving) / moving;  // same world side
+  return hbp::Scenario(p);
+}
+
+void MostlyStatic(benchmark::State& state) {
+  const auto statics = static_cast<std::uint32_t>(state.range(0));
+  const auto moving = static_cast<std::uint32_t>(state.range(1));
+  const auto threads = static_cast<unsigned>(state.range(2));
+  hbp::ScenarioParams world;
+  world.n = statics + moving;
+  BoxArray all = paper_frame(statics + moving, 0);  // first `statics` boxes are the statics
+  hbp::Scenario mover = moving_scenario(statics, moving);
+  BoxArray moving_boxes;
+  mover.compute_boxes(moving_boxes);
+  for (std::uint32_t i = 0; i < moving; ++i) all.set(statics + i, moving_boxes.get(i));
+
+  // Ours: statics first, so handle == object index.
+  hbp::BroadPhase bp({.threads = threads});
+  std::vector<Aabb> aabbs;
+  to_aabbs(all, aabbs);
+  const auto hs = bp.add(std::span<const Aabb>(aabbs).first(statics), {.is_static = true});
+  const auto hm = bp.add(std::span<const Aabb>(aabbs).subspan(statics));
+  if (hs.back() != statics - 1 || hm.back() != statics + moving - 1) throw std::logic_error("handle != index");
+  bp.update();
+
+  // DBVT: statics in the static group (never paired with each other).
+  btDbvtBroadphase dbvt;
+  std::vector<btBroadphaseProxy*> proxies(statics + moving);
+  for (std::uint32_t i = 0; i < statics + moving; ++i) {
+    const bool is_static = i < statics;
+    proxies[i] = dbvt.createProxy(hbp::baselines::bullet_min(all, i), hbp::baselines::bullet_max(all, i),
+                                  BOX_SHAPE_PROXYTYPE, hbp::baselines::bullet_user_pointer(i),
+                                  is_static ? btBroadphaseProxy::StaticFilter : btBroadphaseProxy::DefaultFilter,
+                                  is_static ? btBroadphaseProxy::AllFilter ^ btBroadphaseProxy::StaticFilter
+                                            : btBroadphaseProxy::AllFilter,
+                                  nullptr);
+  }
+  // Warm-up: DBVT moves the unmoved proxies to its fixed tree over 2 frames.
+  std::vector<Pair> bullet_exact;
+  std::vector<Aabb> moved(moving);
+  std::vector<double> ours_ms, dbvt_ms;
+  std::uint64_t pairs = 0;
+  int frame = 0;
+  auto step = [&] {
+    mover.step();
+    mover.compute_boxes(moving_boxes);
+    for (std::uint32_t i = 0; i < moving; ++i) {
+      moved[i] = moving_boxes.get(i);
+      all.set(statics + i, moved[i]);
+    }
+  };
+  auto run_frame = [&](bool timed) {
+    step();
+    auto t0 = Clock::now();
+    bp.move(hm, moved);
+    const hbp::BroadPhaseUpdate& u = bp.update();
+    const double ours = ms_since(t0);
+    t0 = Clock::now();
+    for (std::uint32_t i = 0; i < moving; ++i)
+      dbvt.setAabb(proxies[statics + i], hbp::baselines::bullet_min(all, statics + i),
+                   hbp::baselines::bullet_max(all, statics + i), nullptr);
+    dbvt.calculateOverlappingPairs(nullptr);
+    const double theirs = ms_since(t0);
+    hbp::baselines::exact_bullet_pairs(*dbvt.getOverlappingPairCache(), all, bullet_exact);
+    if (bullet_exact != u.pairs)
+      throw std::runtime_error("frame " + std::to_string(frame) + ": BroadPhase " + std::to_string(u.pairs.size()) +
+                               " pairs, DBVT exact " + std::to_string(bullet_exact.size()));
+    ++frame;
+    if (timed) {
+      ours_ms.push_back(ours);
+      dbvt_ms.push_back(theirs);
+      pairs = u.pairs.size();
+    }
+    return ours;
+  };
+  for (int w = 0; w < 3; ++w) run_frame(false);
+  for (auto _ : state) state.SetIterationTime(run_frame(true) / 1000.0);
+  state.counters["ours_median_ms"] = median(ours_ms);
+  state.counters["ours_worst_ms"] = worst(ours_ms);
+  state.counters["dbvt_median_ms"] = median(dbvt_ms);
+  state.counters["dbvt_worst_ms"] = worst(dbvt_ms);
+  state.counters["speedup_vs_dbvt"] = median(dbvt_ms) / median(ours_ms);
+  state.counters["pairs"] = static_cast<double>(pairs);
+  for (btBroadphaseProxy* p : proxies) dbvt.destroyProxy(p, nullptr);
+}
+
+void AllMoving(benchmark::State& state) {
+  const auto n = static_cast<std::uint32_t>(state.range(0));
+  const auto threads = static_cast<unsigned>(state.range(1));
+  hbp::ScenarioParams p;
+  p.n = n;
+  hbp::Scenario scenario(p);
+  BoxArray boxes;
+  scenario.compute_boxes(boxes);
+  std::vector<Aabb> aabbs;
+  to_aabbs(boxes, aabbs);
+  hbp::BroadPhase bp({.threads = threads});
+  hbp::HybridBroadPhase whole({.threads = threads});
+  const auto h = bp.add(aabbs);
+  bp.update();
+  whole.update(boxes);
+  std::vector<double> ours_ms, whole_ms;
+  std::uint64_t pairs = 0;
+  auto run_frame = [&](bool timed) {
+    scenario.step();
+    scenario.compute_boxes(boxes);
+    to_aabbs(boxes, aabbs);
+    // Alternate which runs first, so neither always gets the warm cache.
+    const bool ours_first = ours_ms.size() % 2 == 0;
+    double ours = 0, theirs = 0;
+    for (int k = 0; k < 2; ++k) {
+      if ((k == 0) == ours_first) {
+        const auto t0 = Clock::now();
+        bp.move(h, aabbs);
+        bp.update();
+        ours = ms_since(t0);
+      } else {
+        const auto t0 = Clock::now();
+        whole.update(boxes);
+        theirs = ms_since(t0);
+      }
+    }
+    if (bp.last_update().pairs != whole.pairs()) throw std::runtime_error("BroadPhase and HybridBroadPhase differ");
+    if (timed) {
+      ours_ms.push_back(ours);
+      whole_ms.push_back(theirs);
+      pairs = whole.pairs().size();
+    }
+    return ours;
+  };
+  run_frame(false);
+  for (auto _ : state) state.SetIterationTime(run_frame(true) / 1000.0);
+  state.counters["ours_median_ms"] = median(ours_ms);
+  state.counters["ours_worst_ms"] = worst(ours_ms);
+  state.counters["whole_frame_median_ms"] = median(whole_ms);
+  state.counters["whole_frame_worst_ms"] = worst(whole_ms);
+  state.counters["ours_over_whole_frame"] = median(ours_ms) / median(whole_ms);
+  state.counters["pairs"] = static_cast<double>(pairs);
+}
+
+// A paper frame loaded into both systems, for queries.
+struct QueryWorld {
+  BoxArray boxes;
+  hbp::BroadPhase bp{{.threads = 1}};
+  btDbvtBroadphase dbvt;
+  std::vector<btBroadphaseProxy*> proxies;
+  float side = 0;
+
+  explicit QueryWorld(std::uint32_t n) : boxes(paper_frame(n, 0)) {
+    hbp::ScenarioParams p;
+    p.n = n;
+    side = static_cast<float>(p.world_side());
+    std::vector<Aabb> aabbs;
+    to_aabbs(boxes, aabbs);
+    bp.add(aabbs, {.is_static = true});
+    proxies.resize(n);
+    for (std::uint32_t i = 0; i < n; ++i)
+      proxies[i] = dbvt.createProxy(hbp::baselines::bullet_min(boxes, i), hbp::baselines::bullet_max(boxes, i),
+                                    BOX_SHAPE_PROXYTYPE, hbp::baselines::bullet_user_pointer(i),
+                                    btBroadphaseProxy::StaticFilter,
+                                    btBroadphaseProxy::AllFilter ^ btBroadphaseProxy::StaticFilter, nullptr);
+    for (int f = 0; f < 3; ++f) dbvt.calculateOverlappingPairs(nullptr);
+  }
+  ~QueryWorld() {
+    for (btBroadphaseProxy* p : proxies) dbvt.destroyProxy(p, nullptr);
+  }
+};
+
+struct Collect : btBroadphaseAabbCallback {
+  std::vector<std::uint32_t> ids;
+  bool process(const btBroadphaseProxy* p) override {
+    ids.push_back(hbp::baselines::bullet_object_index(p->m_clientObject));
+    return true;
+  }
+};
+
+struct RayCollect : btBroadphaseRayCallback {
+  std::vector<std::uint32_t> ids;
+  RayCollect(const btVector3& from, const btVector3& to) {
+    btVector3 dir = to - from;
+    dir.normalize();
+    for (int k = 0; k < 3; ++k) m_rayDirectionInverse[k] = dir[k] == 0 ? btScalar(BT_LARGE_FLOAT) : 1 / dir[k];
+    m_signs[0] = m_rayDirectionInverse[0] < 0;
+    m_signs[1] = m_rayDirectionInverse[1] < 0;
+    m_signs[2] = m_rayDirectionInverse[2] < 0;
+    m_lambda_max = dir.dot(to - from);
+  }
+  bool process(const btBroadphaseProxy* p) override {
+    ids.push_back(hbp::baselines::bullet_object_index(p->m_clientObject));
+    return true;
+  }
+};
+
+constexpr int kQueries = 20000;
+constexpr int kChecked = 100;  // brute-force checked per run
+
+void BoxQueries(benchmark::State& state) {
+  static QueryWorld* world = nullptr;
+  const auto n = static_cast<std::uint32_t>(state.range(0));
+  if (!world || world->boxes.size() != n) {
+    delete world;
+    world = new QueryWorld(n);
+  }
+  QueryWorld& w = *world;
+  // Boxes of the objects' sizes: object boxes moved to random places.
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> pos(0, w.side);
+  std::vector<Aabb> queries(kQueries);
+  for (Aabb& q : queries) {
+    const Aabb o = w.boxes.get(rng() % n);
+    for (int k = 0; k < 3; ++k) {
+      const float c = pos(rng), half = 0.5f * (o.max[k] - o.min[k]);
+      q.min[k] = c - half;
+      q.max[k] = c + half;
+    }
+  }
+  std::uint64_t hits = 0, dbvt_hits = 0;
+  double ours_s = 0, dbvt_s = 0;
+  for (auto _ : state) {
+    auto t0 = Clock::now();
+    hits = 0;
+    for (const Aabb& q : queries) hits += w.bp.query_box(q).size();
+    ours_s = ms_since(t0) / 1000;
+    t0 = Clock::now();
+    Collect c;
+    for (const Aabb& q : queries) {
+      c.ids.clear();
+      w.dbvt.aabbTest(btVector3(q.min[0], q.min[1], q.min[2]), btVector3(q.max[0], q.max[1], q.max[2]), c);
+      dbvt_hits += c.ids.size();
+    }
+    dbvt_s = ms_since(t0) / 1000;
+    state.SetIterationTime(ours_s);
+  }
+  // Checked against a scan and against DBVT's (superset) answer.
+  for (int i = 0; i < kChecked; ++i) {
+    const Aabb& q = queries[static_cast<std::size_t>(i)];
+    std::vector<Handle> want;
+    for (std::uint32_t k = 0; k < n; ++k)
+      if (hbp::overlaps(w.boxes.get(k), q)) want.push_back(k);
+    if (w.bp.query_box(q) != want) throw std::runtime_error("box query " + std::to_string(i) + " differs from brute force");
+    Collect c;
+    w.dbvt.aabbTest(btVector3(q.min[0], q.min[1], q.min[2]), btVector3(q.max[0], q.max[1], q.max[2]), c);
+    std::sort(c.ids.begin(), c.ids.end());
+    if (!std::includes(c.ids.begin(), c.ids.end(), want.begin(), want.end()))
+      throw std::runtime_error("DBVT misses a box hit");
+  }
+  state.counters["ours_queries_per_s"] = kQueries / ours_s;
+  state.counters["dbvt_queries_per_s"] = kQueries / dbvt_s;
+  state.counters["hits_per_query"] = static_cast<double>(hits) / kQueries;
+  state.SetItemsProcessed(state.iterations() * kQueries);
+}
+
+void RayQueries(benchmark::State& state) {
+  static QueryWorld* world = nullptr;
+  const auto n = static_cast<std::uint32_t>(state.range(0));
+  if (!world || world->boxes.size() != n) {
+    delete world;
+    world = new QueryWorld(n);
+  }
+  QueryWorld& w = *world;
+  // Random rays of 500 m inside the world: unit direction, max_t = 500.
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<float> pos(0, w.side), gauss(-1, 1);
+  struct Ray {
+    float o[3], d[3];
+  };
+  std::vector<Ray> rays(kQueries);
+  for (Ray& r : rays) {
+    float len = 0;
+    do {
+      for (int k = 0; k < 3; ++k) r.d[k] = gauss(rng);
+      len = std::sqrt(r.d[0] * r.d[0] + r.d[1] * r.d[1] + r.d[2] * r.d[2]);
+    } while (len < 0.1f || len > 1);
+    for (int k = 0; k < 3; ++k) {
+      r.d[k] /= len;
+      r.o[k] = pos(rng);
+    }
+  }
+  constexpr float kLength = 500;
+  std::uint64_t hits = 0;
+  double ours_s = 0, dbvt_s = 0;
+  for (auto _ : state) {
+    auto t0 = Clock::now();
+    hits = 0;
+    for (const Ray& r : rays) hits += w.bp.query_ray(r.o, r.d, kLength).size();
+    ours_s = ms_since(t0) / 1000;
+    t0 = Clock::now();
+    for (const Ray& r : rays) {
+      const btVector3 from(r.o[0], r.o[1], r.o[2]);
+      const btVector3 to = from + kLength * btVector3(r.d[0], r.d[1], r.d[2]);
+      RayCollect c(from, to);
+      w.dbvt.rayTest(from, to, c);
+    }
+    dbvt_s = ms_since(t0) / 1000;
+    state.SetIterationTime(ours_s);
+  }
+  // Checked against a scan (same slab test) and against DBVT's answer.
+  std::uint64_t dbvt_missed = 0;
+  for (int i = 0; i < kChecked; ++i) {
+    const Ray& r = rays[static_cast<std::size_t>(i)];
+    const hbp::detail::RaySegment seg(r.o, r.d, kLength);
+    std::vector<std::pair<float, Handle>> want;
+    for (std::uint32_t k = 0; k < n; ++k) {
+      const Aabb b = w.boxes.get(k);
+      float t;
+      if (seg.hits(b.min, b.max, t)) want.emplace_back(t, k);
+    }
+    std::sort(want.begin(), want.end());
+    std::vector<Handle> want_h;
+    for (const auto& x : want) want_h.push_back(x.second);
+    if (w.bp.query_ray(r.o, r.d, kLength) != want_h)
+      throw std::runtime_error("ray " + std::to_string(i) + " differs from brute force");
+    const btVector3 from(r.o[0], r.o[1], r.o[2]);
+    const btVector3 to = from + kLength * btVector3(r.d[0], r.d[1], r.d[2]);
+    RayCollect c(from, to);
+    w.dbvt.rayTest(from, to, c);
+    std::sort(c.ids.begin(), c.ids.end());
+    std::sort(want_h.begin(), want_h.end());
+    for (Handle h : want_h) dbvt_missed += std::binary_search(c.ids.begin(), c.ids.end(), h) ? 0 : 1;
+  }
+  state.counters["dbvt_missed_in_check"] = static_cast<double>(dbvt_missed);
+  state.counters["ours_rays_per_s"] = kQueries / ours_s;
+  state.counters["dbvt_rays_per_s"] = kQueries / dbvt_s;
+  state.counters["hits_per_ray"] = static_cast<double>(hits) / kQueries;
+  state.SetItemsProcessed(state.iterations() * kQueries);
+}
+
+BENCHMARK(MostlyStatic)->Args({1000000, 10000, 2})->Args({1000000, 10000, 1})->UseManualTime()
+    ->Unit(benchmark::kMillisecond)->Iterations(30);
+BENCHMARK(AllMoving)->Args({128000, 2})->Args({1024000, 2})->UseManualTime()->Unit(benchmark::kMillisecond)
+    ->Iterations(5);
+BENCHMARK(BoxQueries)->Arg(1000000)->UseManualTime()->Unit(benchmark::kMillisecond)->Iterations(3);
+BENCHMARK(RayQueries)->Arg(1000000)->UseManualTime()->Unit(benchmark::kMillisecond)->Iterations(3);
+
+}  // namespace

@@ -1,0 +1,437 @@
+// The Python module hybrid_broadphase (issue 15): find_pairs on one frame and
+// BroadPhase, the handle-based broad phase, on numpy arrays. docs/python.md.
+//
+// Threads: every call releases the GIL while C++ works and takes the
+// object's mutex after releasing it (never the other way round, so a pair
+// filter that needs the GIL on a worker thread cannot deadlock against
+// another Python thread waiting for the mutex).
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+
+#include <cmath>
+#include <cstring>
+#include <exception>
+#include <limits>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "array_views.hpp"
+#include "hbp/box_array.hpp"
+#include "hbp/broad_phase.hpp"
+#include "hbp/error.hpp"
+#include "hbp/hybrid_broadphase.hpp"
+
+#ifndef HBP_VERSION
+#define HBP_VERSION "unknown"
+#endif
+
+namespace hbp::python {
+namespace {
+
+BroadPhaseOptions make_options(const std::string& engine, long long threads, long long cell_limit,
+                               long long max_pairs) {
+  if (threads < 0) throw ArgumentError("threads: must be >= 0 (0: all cores), got " + std::to_string(threads));
+  if (cell_limit < 0 || cell_limit == 1 || cell_limit > 0xFFFFFFFFll) {
+    throw ArgumentError("cell_limit: must be 0 (engine default) or >= 2, got " + std::to_string(cell_limit));
+  }
+  if (max_pairs < 0) throw ArgumentError("max_pairs: must be >= 0 (0: unlimited), got " + std::to_string(max_pairs));
+  BroadPhaseOptions o;
+  o.engine = engine;
+  o.threads = static_cast<unsigned>(threads);
+  o.cell_limit = static_cast<std::uint32_t>(cell_limit);
+  o.max_pairs = static_cast<std::uint64_t>(max_pairs);
+  o.sorted = true;
+  return o;
+}
+
+py::array_t<std::uint32_t> find_pairs(py::handle boxes_obj, const std::string& engine, long long threads,
+                                      long long cell_limit, long long max_pairs) {
+  const BoxesView view = boxes_view(boxes_obj, "boxes");
+  const BroadPhaseOptions options = make_options(engine, threads, cell_limit, max_pairs);
+  std::vector<Pair> pairs;
+  {
+    py::gil_scoped_release release;
+    // The engine's input is structure-of-arrays: one copy is unavoidable here.
+    BoxArray soa(view.boxes.size());
+    for (std::size_t i = 0; i < view.boxes.size(); ++i) soa.set(i, view.boxes[i]);
+    HybridBroadPhase bp(options);  // also validates the engine name and options
+    pairs = bp.update(soa);
+  }
+  return pairs_array(pairs);
+}
+
+// Exclusive access to one BroadPhase: releases the GIL first, then takes the
+// mutex (and gives them back in reverse order).
+// A pair filter runs inside update(), which holds the mutex: a filter calling
+// back into its BroadPhase would wait for itself. Refused instead.
+thread_local bool t_in_pair_filter = false;
+
+class Exclusive {
+ public:
+  explicit Exclusive(std::mutex& m) : lock_(m) {}
+
+ private:
+  static bool refuse_reentry() {
+    if (t_in_pair_filter) {
+      throw std::runtime_error("a pair filter cannot call its BroadPhase (update() is running)");
+    }
+    return true;
+  }
+  bool not_reentrant_ = refuse_reentry();  // first: before anything is released or locked
+  py::gil_scoped_release release_;         // then the GIL, before locking
+  std::lock_guard<std::mutex> lock_;
+};
+
+// Result of BroadPhase.update(): copies, so they stay valid after the next update.
+struct UpdateResult {
+  py::array_t<std::uint32_t> pairs, created, removed;
+};
+
+// A Python callable as a BroadPhase::PairFilter. Called from worker threads:
+// it takes the GIL per call. The first exception it raises is kept, the pair
+// rejected, and the exception re-raised by update() once the frame is done.
+struct PythonPairFilter {
+  std::shared_ptr<py::function> fn;  // destroyed under the GIL (deleter)
+  std::shared_ptr<std::mutex> error_mutex;
+  std::shared_ptr<std::exception_ptr> error;
+
+  bool operator()(Handle a, Handle b) const {
+    py::gil_scoped_acquire gil;
+    {
+      std::lock_guard lock(*error_mutex);
+      if (*error) return false;
+    }
+    try {
+      t_in_pair_filter = true;
+      const bool keep = (*fn)(a, b).cast<bool>();
+      t_in_pair_filter = false;
+      return keep;
+    } catch (...) {
+      t_in_pair_filter = false;
+      std::lock_guard lock(*error_mutex);
+      if (!*error) *error = std::current_exception();
+      return false;
+    }
+  }
+};
+
+class PyBroadPhase {
+ public:
+  PyBroadPhase(const std::string& engine, long long threads, long long cell_limit, long long max_pairs)
+      : bp_(make_options(engine, threads, cell_limit, max_pairs)) {}
+
+  py::array_t<std::uint32_t> add(py::handle boxes_obj, bool is_static, const py::object& layer) {
+    const BoxesView view = boxes_view(boxes_obj, "boxes");
+    const AddOptions options{.is_static = is_static, .layer = layer_arg(layer)};
+    std::vector<Handle> handles;
+    {
+      Exclusive lock(mutex_);
+      if (size_without_lock() + view.boxes.size() > kMaxObjects) {
+        throw ArgumentError("boxes: adding " + std::to_string(view.boxes.size()) + " objects to " +
+                            std::to_string(bp_.size()) + " exceeds the limit of " + std::to_string(kMaxObjects) +
+                            " live objects");
+      }
+      handles = bp_.add(view.boxes, options);
+    }
+    return handles_array(std::move(handles));
+  }
+
+  void move(py::handle handles_obj, py::handle boxes_obj) {
+    const HandlesView h = handles_view(handles_obj);
+    const BoxesView b = boxes_view(boxes_obj, "boxes");
+    if (h.handles.size() != b.boxes.size()) {
+      throw ArgumentError("move: " + std::to_string(h.handles.size()) + " handles but " +
+                          std::to_string(b.boxes.size()) + " boxes (must be equal)");
+    }
+    Exclusive lock(mutex_);
+    check_live(h.handles);  // duplicates in the batch: the C++ side names both rows
+    bp_.move(h.handles, b.boxes);
+  }
+
+  void remove(py::handle handles_obj) {
+    const HandlesView h = handles_view(handles_obj);
+    Exclusive lock(mutex_);
+    check_live(h.handles);  // duplicates in the batch: the C++ side names both rows
+    bp_.remove(h.handles);
+  }
+
+  void set_layer(py::handle handles_obj, const py::object& layer) {
+    const HandlesView h = handles_view(handles_obj);
+    const std::uint8_t l = layer_arg(layer);
+    Exclusive lock(mutex_);
+    check_live(h.handles);
+    bp_.set_layer(h.handles, l);
+  }
+
+  void set_collides(const py::object& a, const py::object& b, bool collides) {
+    const std::uint8_t la = layer_arg(a, "layer_a"), lb = layer_arg(b, "layer_b");
+    Exclusive lock(mutex_);
+    bp_.set_collides(la, lb, collides);
+  }
+
+  bool collides(const py::object& a, const py::object& b) {
+    const std::uint8_t la = layer_arg(a, "layer_a"), lb = layer_arg(b, "layer_b");
+    Exclusive lock(mutex_);
+    return bp_.collides(la, lb);
+  }
+
+  void set_pair_filter(const py::object& fn) {
+    BroadPhase::PairFilter filter;
+    if (!fn.is_none()) {
+      if (!PyCallable_Check(fn.ptr())) {
+        throw ArgumentError("set_pair_filter: expected a callable f(a, b) -> bool or None, got " +
+                            py::str(py::type::of(fn).attr("__name__")).cast<std::string>());
+      }
+      auto* held = new py::function(py::reinterpret_borrow<py::function>(fn));
+      filter = PythonPairFilter{
+          std::shared_ptr<py::function>(held,
+                                        [](py::function* f) {
+                                          py::gil_scoped_acquire gil;
+                                          delete f;
+                                        }),
+          filter_error_mutex_, filter_error_};
+    }
+    Exclusive lock(mutex_);
+    bp_.set_pair_filter(std::move(filter));
+  }
+
+  UpdateResult update() {
+    std::vector<Pair> pairs, created, removed;
+    std::exception_ptr filter_error;
+    {
+      Exclusive lock(mutex_);
+      const BroadPhaseUpdate& u = bp_.update();
+      {
+        std::lock_guard error_lock(*filter_error_mutex_);
+        filter_error = std::exchange(*filter_error_, nullptr);
+      }
+      pairs = u.pairs;
+      created = u.created;
+      removed = u.removed;
+    }
+    if (filter_error) std::rethrow_exception(filter_error);
+    return {pairs_array(pairs), pairs_array(created), pairs_array(removed)};
+  }
+
+  py::array_t<std::uint32_t> query_box(py::handle box_obj) {
+    const BoxesView view = boxes_view(box_obj, "box", /*single=*/true);
+    std::vector<Handle> hits;
+    {
+      Exclusive lock(mutex_);
+      hits = bp_.query_box(view.boxes[0]);
+    }
+    return handles_array(std::move(hits));
+  }
+
+  // Many box queries in one call: row i's hits are handles[offsets[i]:offsets[i + 1]].
+  py::tuple query_boxes(py::handle boxes_obj) {
+    const BoxesView view = boxes_view(boxes_obj, "boxes");
+    py::array_t<std::int64_t> offsets(static_cast<py::ssize_t>(view.boxes.size() + 1));
+    std::int64_t* off = offsets.mutable_data();
+    std::vector<Handle> all;
+    {
+      Exclusive lock(mutex_);
+      off[0] = 0;
+      for (std::size_t i = 0; i < view.boxes.size(); ++i) {
+        const std::vector<Handle> hits = bp_.query_box(view.boxes[i]);
+        all.insert(all.end(), hits.begin(), hits.end());
+        off[i + 1] = static_cast<std::int64_t>(all.size());
+      }
+    }
+    return py::make_tuple(std::move(offsets), handles_array(std::move(all)));
+  }
+
+  py::array_t<std::uint32_t> query_ray(py::handle origin_obj, py::handle direction_obj, double max_t) {
+    float origin[3], direction[3];
+    vec3(origin_obj, "origin", origin);
+    vec3(direction_obj, "direction", direction);
+    if (!(max_t >= 0)) {  // NaN too; infinity: the whole ray
+      throw ArgumentError("max_t: must be >= 0 (infinity allowed), got " + py::repr(py::float_(max_t)).cast<std::string>());
+    }
+    std::vector<Handle> hits;
+    {
+      Exclusive lock(mutex_);
+      const float t = max_t > std::numeric_limits<float>::max() ? std::numeric_limits<float>::infinity()
+                                                                : static_cast<float>(max_t);
+      hits = bp_.query_ray(origin, direction, t);
+    }
+    return handles_array(std::move(hits));
+  }
+
+  std::size_t size() {
+    Exclusive lock(mutex_);
+    return bp_.size();
+  }
+  bool contains(const py::object& h) {
+    PyObject* index = PyNumber_Index(h.ptr());
+    if (!index) {
+      PyErr_Clear();
+      return false;
+    }
+    int overflow = 0;
+    const long long v = PyLong_AsLongLongAndOverflow(index, &overflow);
+    Py_DECREF(index);
+    if (overflow || v < 0 || v > 0xFFFFFFFFll) return false;
+    Exclusive lock(mutex_);
+    return bp_.contains(static_cast<Handle>(v));
+  }
+  py::array_t<float> box(const py::object& h) {
+    const Handle handle = handle_arg(h);
+    Aabb b;
+    {
+      Exclusive lock(mutex_);
+      check_live(std::span<const Handle>(&handle, 1), "handle");
+      b = bp_.box(handle);
+    }
+    py::array_t<float> out(6);
+    std::memcpy(out.mutable_data(), &b, sizeof b);
+    return out;
+  }
+  bool is_static(const py::object& h) {
+    const Handle handle = handle_arg(h);
+    Exclusive lock(mutex_);
+    check_live(std::span<const Handle>(&handle, 1), "handle");
+    return bp_.is_static(handle);
+  }
+  int layer(const py::object& h) {
+    const Handle handle = handle_arg(h);
+    Exclusive lock(mutex_);
+    check_live(std::span<const Handle>(&handle, 1), "handle");
+    return bp_.layer(handle);
+  }
+  py::dict stats() {
+    BroadPhaseUpdateStats s;
+    {
+      Exclusive lock(mutex_);
+      s = bp_.stats();
+    }
+    py::dict d;
+    d["moving"] = s.moving;
+    d["statics"] = s.statics;
+    d["moved"] = s.moved;
+    d["static_changes"] = s.static_changes;
+    d["wall_ms"] = s.wall_ms;
+    return d;
+  }
+  const BroadPhaseOptions& options() const { return bp_.options(); }
+
+ private:
+  std::size_t size_without_lock() const { return bp_.size(); }
+
+  // Names the first unknown or stale handle by row (mutex held).
+  void check_live(std::span<const Handle> handles, const char* what = "handles") const {
+    for (std::size_t i = 0; i < handles.size(); ++i) {
+      if (!bp_.contains(handles[i])) {
+        const std::string where = handles.size() == 1 && std::string(what) == "handle"
+                                      ? std::string(what)
+                                      : std::string(what) + " row " + std::to_string(i);
+        throw ArgumentError(where + ": handle " + std::to_string(handles[i]) +
+                            " is unknown or stale (removed)");
+      }
+    }
+  }
+
+  BroadPhase bp_;
+  std::mutex mutex_;
+  std::shared_ptr<std::mutex> filter_error_mutex_ = std::make_shared<std::mutex>();
+  std::shared_ptr<std::exception_ptr> filter_error_ = std::make_shared<std::exception_ptr>();
+};
+
+// Private: the address the module would hand to C++ for `boxes` (the
+// zero-copy test compares it with boxes.ctypes.data).
+std::uintptr_t boxes_address(py::handle boxes) {
+  const BoxesView view = boxes_view(boxes, "boxes");
+  return reinterpret_cast<std::uintptr_t>(view.boxes.data());
+}
+
+}  // namespace
+}  // namespace hbp::python
+
+PYBIND11_MODULE(hybrid_broadphase, m) {
+  using namespace hbp::python;
+  using hbp::python::PyBroadPhase;
+  m.doc() =
+      "Hybrid broad-phase collision detection on numpy arrays: find_pairs(boxes) for one frame, "
+      "BroadPhase for persistent handles, static objects, pair events, layers and queries. "
+      "Boxes are (n, 6) float32 [minx, miny, minz, maxx, maxy, maxz], closed (touching faces overlap).";
+  m.attr("__version__") = HBP_VERSION;
+  m.attr("LAYER_COUNT") = hbp::kLayerCount;
+  m.attr("MAX_OBJECTS") = hbp::kMaxObjects;
+
+  static py::exception<hbp::CapacityExceeded> capacity_exceeded(m, "CapacityExceeded", PyExc_RuntimeError);
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const ArgumentError& e) {
+      PyErr_SetString(PyExc_ValueError, e.what());
+    } catch (const hbp::InvalidInput& e) {
+      PyErr_SetString(PyExc_ValueError, e.what());
+    } catch (const hbp::CapacityExceeded& e) {
+      capacity_exceeded(e.what());
+    } catch (const hbp::Error& e) {
+      PyErr_SetString(PyExc_RuntimeError, e.what());
+    }
+  });
+
+  m.def("find_pairs", &find_pairs, py::arg("boxes"), py::kw_only(), py::arg("engine") = "sw",
+        py::arg("threads") = 0, py::arg("cell_limit") = 0, py::arg("max_pairs") = 0,
+        "Every overlapping pair of rows of boxes ((n, 6) float32), as a (k, 2) uint32 array, "
+        "a < b, sorted. engine: a cell engine name ('sw' default); threads: 0 = all cores; "
+        "max_pairs: 0 = unlimited, else CapacityExceeded beyond.");
+  m.def("_boxes_address", &boxes_address, py::arg("boxes"));
+
+  py::class_<UpdateResult>(m, "UpdateResult", "Pairs of one BroadPhase.update(): (k, 2) uint32 handle pairs, a < b, sorted.")
+      .def_readonly("pairs", &UpdateResult::pairs, "every reported pair now")
+      .def_readonly("created", &UpdateResult::created, "in pairs now, not at the previous update")
+      .def_readonly("removed", &UpdateResult::removed, "at the previous update, not now")
+      .def("__iter__", [](const UpdateResult& r) {  // pairs, created, removed = bp.update()
+        return py::iter(py::make_tuple(r.pairs, r.created, r.removed));
+      })
+      .def("__repr__", [](const UpdateResult& r) {
+        return "UpdateResult(pairs=" + std::to_string(r.pairs.shape(0)) + ", created=" +
+               std::to_string(r.created.shape(0)) + ", removed=" + std::to_string(r.removed.shape(0)) + ")";
+      });
+
+  py::class_<PyBroadPhase>(m, "BroadPhase",
+                           "Persistent handles, static and moving objects, pair events, layer filtering and "
+                           "queries. Edits take effect at the next update(); a call that raises changes nothing.")
+      .def(py::init<const std::string&, long long, long long, long long>(), py::kw_only(),
+           py::arg("engine") = "sw", py::arg("threads") = 0, py::arg("cell_limit") = 0, py::arg("max_pairs") = 0)
+      .def("add", &PyBroadPhase::add, py::arg("boxes"), py::kw_only(), py::arg("static") = false,
+           py::arg("layer") = 0, "Adds (n, 6) float32 boxes; returns their (n,) uint32 handles in order.")
+      .def("move", &PyBroadPhase::move, py::arg("handles"), py::arg("boxes"),
+           "Replaces the boxes of handles ((m,) integers) with boxes ((m, 6) float32).")
+      .def("remove", &PyBroadPhase::remove, py::arg("handles"))
+      .def("set_layer", &PyBroadPhase::set_layer, py::arg("handles"), py::arg("layer"))
+      .def("set_collides", &PyBroadPhase::set_collides, py::arg("layer_a"), py::arg("layer_b"),
+           py::arg("collides"), "Symmetric; every pair of layers collides by default.")
+      .def("collides", &PyBroadPhase::collides, py::arg("layer_a"), py::arg("layer_b"))
+      .def("set_pair_filter", &PyBroadPhase::set_pair_filter, py::arg("filter"),
+           "f(a, b) -> bool called for pairs passing the box and layer tests (a < b); None removes it. "
+           "Runs under the GIL from worker threads (serialised).")
+      .def("update", &PyBroadPhase::update)
+      .def("query_box", &PyBroadPhase::query_box, py::arg("box"),
+           "Handles whose box overlaps the closed (6,) float32 box, sorted.")
+      .def("query_boxes", &PyBroadPhase::query_boxes, py::arg("boxes"),
+           "query_box for each row of (m, 6) float32 boxes: (offsets (m + 1,) int64, handles); row i's hits "
+           "are handles[offsets[i]:offsets[i + 1]], sorted.")
+      .def("query_ray", &PyBroadPhase::query_ray, py::arg("origin"), py::arg("direction"), py::arg("max_t"),
+           "Handles whose box the segment origin + t * direction, 0 <= t <= max_t, touches, by entry t.")
+      .def("__len__", &PyBroadPhase::size)
+      .def("__contains__", &PyBroadPhase::contains)
+      .def("contains", &PyBroadPhase::contains, py::arg("handle"))
+      .def("box", &PyBroadPhase::box, py::arg("handle"))
+      .def("is_static", &PyBroadPhase::is_static, py::arg("handle"))
+      .def("layer", &PyBroadPhase::layer, py::arg("handle"))
+      .def_property_readonly("stats", &PyBroadPhase::stats)
+      .def_property_readonly("engine", [](const PyBroadPhase& b) { return b.options().engine; })
+      .def_property_readonly("threads", [](const PyBroadPhase& b) { return b.options().threads; })
+      .def_property_readonly("cell_limit", [](const PyBroadPhase& b) { return b.options().cell_limit; })
+      .def_property_readonly("max_pairs", [](const PyBroadPhase& b) { return b.options().max_pairs; })
+      .def("__repr__", [](PyBroadPhase& b) {
+        return "BroadPhase(engine='" + b.options().engine + "', objects=" + std::to_string(b.size()) + ")";
+      });
+}

@@ -1,0 +1,32 @@
+#pragma once
+// hbp shapes as Bullet convex shapes (mapping in bullet_shape_pair_test.hpp),
+// shared by the pair test and the narrow-phase baseline.
+#include <memory>
+
+#include "hbp/shape.hpp"
+
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wunused-parameter"
+#pragma GCC diagnostic ignored "-Wdeprecated-copy"
+#pragma GCC diagnostic ignored "-Wunused-variable"
+#pragma GCC diagnostic ignored "-Wunused-but-set-variable"
+#pragma GCC diagnostic ignored "-Wclass-memaccess"
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#include <BulletCollision/CollisionShapes/btConvexShape.h>
+#include <LinearMath/btTransform.h>
+#pragma GCC diagnostic pop
+
+namespace hbp::baselines {
+
+// Owns the Bullet objects that make up one hbp shape (zero margins).
+struct BulletShape {
+  std::unique_ptr<btConvexShape> child;
+  std::unique_ptr<btConvexShape> outer;  // per-axis scale wrapper, if any
+  const btConvexShape* shape() const { return outer ? outer.get() : child.get(); }
+  btConvexShape* shape() { return outer ? outer.get() : child.get(); }
+};
+
+BulletShape make_bullet_shape(const Shape& s);
+btTransform make_transform(const Shape& s);
+
+}  // namespace hbp::baselines

@@ -1,0 +1,49 @@
+#include "hbp/narrow/narrow_cache.hpp"
+
+#include <string>
+
+#include "hbp/error.hpp"
+
+namespace hbp {
+
+void NarrowCache::commit(const std::vector<NarrowCacheEntry>* lists, std::size_t count, std::size_t objects) {
+  commit_lists([lists](std::size_t l) -> const std::vector<NarrowCacheEntry>& { return lists[l]; }, count, objects);
+}
+
+void NarrowCache::commit(const std::vector<const std::vector<NarrowCacheEntry>*>& lists, std::size_t objects) {
+  commit_lists([&lists](std::size_t l) -> const std::vector<NarrowCacheEntry>& { return *lists[l]; }, lists.size(),
+               objects);
+}
+
+template <class List>
+void NarrowCache::commit_lists(const List& list_at, std::size_t count, std::size_t objects) {
+  std::size_t total = 0;
+  for (std::size_t l = 0; l < count; ++l) total += list_at(l).size();
+  // Buffers shrink with the frame: bounded by this frame's needs.
+  if (row_.capacity() > 2 * (objects + 1)) row_ = {};
+  if (entries_.capacity() > 2 * total) entries_ = {};
+  row_.assign(objects + 1, 0);
+  for (std::size_t l = 0; l < count; ++l) {
+    for (const NarrowCacheEntry& e : list_at(l)) {
+      if (e.pair.a >= objects || e.pair.b >= objects)
+        throw InvalidInput("narrow cache: pair " + std::to_string(e.pair.a) + "-" + std::to_string(e.pair.b) +
+                           " names an object beyond " + std::to_string(objects));
+      ++row_[e.pair.a + 1];
+    }
+  }
+  for (std::size_t i = 0; i < objects; ++i) row_[i + 1] += row_[i];
+  entries_.resize(total);
+  // Scatter by first object (row_[a] counts up to the row's end, then is
+  // shifted back).
+  for (std::size_t l = 0; l < count; ++l)
+    for (const NarrowCacheEntry& e : list_at(l)) entries_[row_[e.pair.a]++] = e;
+  for (std::size_t i = objects; i > 0; --i) row_[i] = row_[i - 1];
+  row_[0] = 0;
+}
+
+void NarrowCache::clear() {
+  row_.clear();
+  entries_.clear();
+}
+
+}  // namespace hbp

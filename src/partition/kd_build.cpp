@@ -1,0 +1,333 @@
+#include "partition/kd_build.hpp"
+
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <string>
+
+#include "hbp/error.hpp"
+
+namespace hbp::kd {
+
+namespace {
+
+// Nodes with more entries than this choose their split from a fixed strided
+// sample of kSplitSamples entries (the median of the sample, a fraction of a
+// percent from the true median); smaller ones use every entry.
+constexpr std::uint32_t kExactSplitMax = 1u << 16;
+constexpr std::uint32_t kSplitSamples = 1u << 13;
+// The parallel build splits level by level until every node has at most this
+// many entries (about 1 MB: it fits the cache), then builds each such subtree
+// as one serial task.
+constexpr std::uint32_t kTaskEntries = 1u << 15;
+// The engine-cost rule splits a node under the limit only when the children
+// cost below this fraction of the parent.
+constexpr double kCostSplitGain = 0.95;
+
+float centre(const CellEntry& e, int a) { return 0.5f * e.min[a] + 0.5f * e.max[a]; }
+
+// Order-preserving map from float to unsigned; -0 is folded onto +0 first so
+// equal values tie and fall back to the id, as entry_less does.
+std::uint32_t float_key(float f) {
+  const auto u = std::bit_cast<std::uint32_t>(f + 0.0f);
+  return (u & 0x80000000u) ? ~u : (u | 0x80000000u);
+}
+
+// Sorts (key << 32 | id) words by key; LSD radix on the key's bytes, skipping
+// bytes in which no key differs. Keys with the id are unique, so the order is
+// fully determined.
+void radix_sort_by_key(RawBuffer<std::uint64_t>& a, RawBuffer<std::uint64_t>& b) {
+  const std::size_t n = a.size();
+  b.resize(n);
+  std::uint32_t all_and = 0xFFFFFFFFu, all_or = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto k = static_cast<std::uint32_t>(a[i] >> 32);
+    all_and &= k;
+    all_or |= k;
+  }
+  const std::uint32_t differ = all_and ^ all_or;
+  std::uint64_t* src = a.data();
+  std::uint64_t* dst = b.data();
+  for (int byte = 0; byte < 4; ++byte) {
+    if (((differ >> (8 * byte)) & 0xFF) == 0) continue;
+    const int shift = 32 + 8 * byte;
+    std::size_t count[256] = {};
+    for (std::size_t i = 0; i < n; ++i) ++count[(src[i] >> shift) & 0xFF];
+    std::size_t sum = 0;
+    for (auto& c : count) {
+      const std::size_t t = c;
+      c = sum;
+      sum += t;
+    }
+    for (std::size_t i = 0; i < n; ++i) dst[count[(src[i] >> shift) & 0xFF]++] = src[i];
+    std::swap(src, dst);
+  }
+  if (src != a.data()) a.swap(b);
+}
+
+}  // namespace
+
+bool choose_split(const CellEntry* e, std::uint32_t n, std::uint32_t depth, const SplitRule& rule,
+                  std::vector<float>& scratch, Split& out) {
+  const bool over_limit = n > rule.cell_limit;
+  const bool by_cost = rule.cell_cost && *rule.cell_cost;
+  if ((!over_limit && !by_cost) || n < 4 || depth >= KdPartition::kMaxDepth) return false;
+
+  // The entries the split is chosen from: all, or a fixed strided sample.
+  const std::uint32_t samples = n > kExactSplitMax ? kSplitSamples : n;
+  auto sample = [&](std::uint32_t k) -> const CellEntry& {
+    return samples == n ? e[k] : e[static_cast<std::uint64_t>(k) * n / samples];
+  };
+
+  // Axes ordered by the (weighted) spread of box centres, widest first.
+  float lo[3], hi[3];
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = std::numeric_limits<float>::infinity();
+    hi[a] = -std::numeric_limits<float>::infinity();
+  }
+  for (std::uint32_t k = 0; k < samples; ++k) {
+    const CellEntry& s = sample(k);
+    for (int a = 0; a < 3; ++a) {
+      const float c = centre(s, a);
+      lo[a] = std::min(lo[a], c);
+      hi[a] = std::max(hi[a], c);
+    }
+  }
+  int axes[3] = {0, 1, 2};
+  auto spread = [&](int a) { return (hi[a] - lo[a]) * (a == 0 ? rule.x_split_weight : 1.0f); };
+  std::stable_sort(axes, axes + 3, [&](int x, int y) { return spread(x) > spread(y); });
+
+  for (int a : axes) {
+    if (!(hi[a] > lo[a])) continue;
+    scratch.resize(samples);
+    for (std::uint32_t k = 0; k < samples; ++k) scratch[k] = centre(sample(k), a);
+    auto mid = scratch.begin() + samples / 2;
+    std::nth_element(scratch.begin(), mid, scratch.end());
+    float split = *mid;
+    if (!(split > lo[a])) split = std::nextafter(lo[a], hi[a]);  // keep the left side non-empty
+    std::uint32_t left = 0, right = 0;
+    for (std::uint32_t i = 0; i < n; ++i) {
+      left += e[i].min[a] < split;
+      right += e[i].max[a] >= split;
+    }
+    bool accept = left < n && right < n;
+    if (accept && !over_limit) {
+      // Under the limit: split only if the engine's summed cost drops.
+      const KdPartition::CellCost& cost = *rule.cell_cost;
+      accept = cost(left) + cost(right) < kCostSplitGain * cost(n);
+    }
+    if (accept) {
+      out = {a, split, left, right};
+      return true;
+    }
+  }
+  return false;  // no axis shrinks both halves: an over-full leaf, processed in tiles
+}
+
+void partition_entries(const CellEntry* e, std::uint32_t n, const Split& s, std::uint32_t fork_tag, CellEntry* left,
+                       CellEntry* right) {
+  // Branch-free: every entry is written to both cursors and each advances
+  // only when the entry belongs there (hence the one scratch slot after each
+  // output), except for the rarer copies that go both ways.
+  const int a = s.axis;
+  const float split = s.split;
+  for (std::uint32_t i = 0; i < n; ++i) {
+    CellEntry c = e[i];
+    const bool l = c.min[a] < split;
+    const bool r = c.max[a] >= split;
+    if (l & r) {
+      if ((c.unused & kForkMask) == kNoFork) c.unused = (c.unused & kNotOwner) | fork_tag;
+      *left++ = c;
+      c.unused |= kNotOwner;
+      *right++ = c;
+      continue;
+    }
+    *left = c;
+    left += l;
+    *right = c;
+    right += r;
+  }
+}
+
+void SubtreeBuilder::build(const CellEntry* items, std::uint32_t n, std::uint32_t depth, const SplitRule& rule,
+                           bool reset_tags, BuildScratch& scratch) {
+  rule_ = &rule;
+  scratch_ = &scratch;
+  nodes.assign(1, KdTreeNode{});
+  entries.resize(n + n / 4);  // about the final size (grows with duplicates); shrinks a past peak
+  entries.clear();
+  RawBuffer<CellEntry>& arena = scratch.arena;
+  arena.resize(4 * std::size_t{n});  // the deepest stack of segments, about; shrinks a past peak
+  arena.truncate(n);
+  if (n) std::memcpy(arena.data(), items, std::size_t{n} * sizeof(CellEntry));
+  if (reset_tags)
+    for (std::uint32_t i = 0; i < n; ++i) arena[i].unused = kNoFork;
+  node(0, 0, n, depth);
+}
+
+void SubtreeBuilder::node(std::uint32_t at, std::size_t begin, std::uint32_t n, std::uint32_t depth) {
+  RawBuffer<CellEntry>& arena_ = scratch_->arena;
+  Split s;
+  if (!choose_split(arena_.data() + begin, n, depth, *rule_, scratch_->centres, s)) {
+    KdTreeNode& leaf = nodes[at];
+    leaf.axis = -1;
+    leaf.first = static_cast<std::uint32_t>(entries.size());
+    leaf.size = n;
+    entries.append(arena_.data() + begin, n);
+    return;
+  }
+  const auto child = static_cast<std::uint32_t>(nodes.size());
+  nodes[at].axis = s.axis;
+  nodes[at].split = s.split;
+  nodes[at].child = child;
+  nodes.emplace_back();
+  nodes.emplace_back();
+  // Children's segments go on top of the arena stack, dropped when done.
+  const std::size_t children = arena_.size();
+  arena_.grow(children + s.left + s.right + 2);  // + partition_entries' scratch slots
+  partition_entries(arena_.data() + begin, n, s, at | kLocalNode, arena_.data() + children,
+                    arena_.data() + children + s.left + 1);
+  node(child, children, s.left, depth + 1);
+  node(child + 1, children + s.left + 1, s.right, depth + 1);
+  arena_.truncate(children);
+}
+
+void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buffers, std::vector<KdTreeNode>& nodes,
+                RawBuffer<CellEntry>& entries, std::uint32_t* home, StoredBox* prev) {
+  const auto n = static_cast<std::uint32_t>(boxes.size());
+  const float* src[6] = {boxes.min(0), boxes.min(1), boxes.min(2), boxes.max(0), boxes.max(1), boxes.max(2)};
+
+  // 1. The objects as entries, sorted by min x (ties by id).
+  RawBuffer<std::uint64_t>& keys = buffers.keys;
+  RawBuffer<std::uint64_t>& keys_scratch = buffers.keys_scratch;
+  keys.resize(n);
+  tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, n, 1u << 16), [&](const auto& r) {
+    for (std::uint32_t i = r.begin(); i != r.end(); ++i) keys[i] = (std::uint64_t{float_key(src[0][i])} << 32) | i;
+  });
+  radix_sort_by_key(keys, keys_scratch);
+  RawBuffer<CellEntry>& a = *buffers.a;
+  RawBuffer<CellEntry>& b = *buffers.b;
+  a.resize(n);
+  tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, n, 1u << 14), [&](const auto& r) {
+    for (std::uint32_t k = r.begin(); k != r.end(); ++k) {
+      const auto id = static_cast<std::uint32_t>(keys[k]);
+      a[k] = {{src[0][id], src[1][id], src[2][id]}, {src[3][id], src[4][id], src[5][id]}, id, kNoFork};
+    }
+  });
+
+  // 2. Top levels, breadth first: every node larger than a task is split
+  // (in parallel across the level's nodes) from buffer a into buffer b.
+  struct Item {
+    std::uint32_t node, depth;
+    std::size_t begin;
+    std::uint32_t n;
+    bool task;  // split no further here: built as one serial subtree
+  };
+  nodes.assign(1, KdTreeNode{});
+  std::vector<Item> frontier{{0, 0, 0, n, n <= kTaskEntries}}, next;
+  std::vector<Split> splits;
+  std::vector<unsigned char> split_ok;
+  while (true) {
+    bool large = false;
+    for (const Item& it : frontier) large |= !it.task;
+    if (!large) break;
+    splits.assign(frontier.size(), Split{});
+    split_ok.assign(frontier.size(), 0);
+    tbb::parallel_for(std::size_t{0}, frontier.size(), [&](std::size_t i) {
+      const Item& it = frontier[i];
+      if (!it.task)
+        split_ok[i] = choose_split(a.data() + it.begin, it.n, it.depth, rule, buffers.scratch.local().centres, splits[i]);
+    });
+    next.clear();
+    std::size_t offset = 0;
+    for (std::size_t i = 0; i < frontier.size(); ++i) {
+      const Item& it = frontier[i];
+      if (!split_ok[i]) {  // a task already (small or unsplittable): carried over
+        next.push_back({it.node, it.depth, offset, it.n, true});
+        offset += it.n;
+        continue;
+      }
+      const Split& s = splits[i];
+      const auto child = static_cast<std::uint32_t>(nodes.size());
+      nodes[it.node].axis = s.axis;
+      nodes[it.node].split = s.split;
+      nodes[it.node].child = child;
+      nodes.emplace_back();
+      nodes.emplace_back();
+      next.push_back({child, it.depth + 1, offset, s.left, s.left <= kTaskEntries});
+      next.push_back({child + 1, it.depth + 1, offset + s.left + 1, s.right, s.right <= kTaskEntries});
+      offset += std::size_t{s.left} + s.right + 2;  // + partition_entries' scratch slots
+    }
+    if (offset > std::numeric_limits<std::uint32_t>::max() / 2)
+      throw CapacityExceeded("k-d partition: more than 2^31 cell entries (" + std::to_string(offset) + ")");
+    b.resize(offset);
+    // Where each frontier item's output starts in b (next is in frontier order).
+    std::vector<std::size_t> out_at(frontier.size());
+    for (std::size_t i = 0, j = 0; i < frontier.size(); ++i) {
+      out_at[i] = next[j].begin;
+      j += split_ok[i] ? 2 : 1;
+    }
+    tbb::parallel_for(std::size_t{0}, frontier.size(), [&](std::size_t i) {
+      const Item& it = frontier[i];
+      CellEntry* dst = b.data() + out_at[i];
+      if (!split_ok[i]) {
+        if (it.n) std::memcpy(dst, a.data() + it.begin, std::size_t{it.n} * sizeof(CellEntry));
+        return;
+      }
+      partition_entries(a.data() + it.begin, it.n, splits[i], it.node, dst, dst + splits[i].left + 1);
+    });
+    a.swap(b);
+    frontier.swap(next);
+  }
+  // 3. One serial subtree per task, in parallel; then stitched in task order.
+  std::vector<SubtreeBuilder>& tasks = buffers.tasks;
+  tasks.resize(frontier.size());
+  tbb::parallel_for(std::size_t{0}, frontier.size(), [&](std::size_t t) {
+    const Item& it = frontier[t];
+    tasks[t].build(a.data() + it.begin, it.n, it.depth, rule, false, buffers.scratch.local());
+  });
+  std::vector<std::uint32_t> node_base(tasks.size());
+  std::vector<std::size_t> entry_base(tasks.size() + 1, 0);
+  for (std::size_t t = 0; t < tasks.size(); ++t) {
+    node_base[t] = static_cast<std::uint32_t>(nodes.size());
+    const std::uint32_t root = frontier[t].node;
+    const std::vector<KdTreeNode>& local = tasks[t].nodes;
+    if (nodes.size() + local.size() > kMaxNodes) throw CapacityExceeded("k-d partition: too many tree nodes");
+    auto remap = [&](KdTreeNode nd) {
+      if (nd.axis >= 0) nd.child = node_base[t] + nd.child - 1;
+      else nd.first += static_cast<std::uint32_t>(entry_base[t]);
+      return nd;
+    };
+    nodes[root] = remap(local[0]);
+    for (std::size_t k = 1; k < local.size(); ++k) nodes.push_back(remap(local[k]));
+    entry_base[t + 1] = entry_base[t] + tasks[t].entries.size();
+  }
+  entries.resize(entry_base.back());
+  tbb::parallel_for(std::size_t{0}, tasks.size(), [&](std::size_t t) {
+    const std::uint32_t root = frontier[t].node;
+    const std::vector<KdTreeNode>& local = tasks[t].nodes;
+    const CellEntry* from = tasks[t].entries.data();
+    CellEntry* to = entries.data() + entry_base[t];
+    for (std::size_t k = 0; k < local.size(); ++k) {
+      if (local[k].axis >= 0) continue;
+      const std::uint32_t leaf = k == 0 ? root : node_base[t] + static_cast<std::uint32_t>(k) - 1;
+      for (std::uint32_t i = local[k].first, end = local[k].first + local[k].size; i < end; ++i) {
+        CellEntry e = from[i];
+        if (!(e.unused & kNotOwner)) {  // the object's one owner copy sets its home
+          const std::uint32_t fork = (e.unused & kForkMask) == kNoFork ? kNoFork : fork_node(e.unused, root, node_base[t]);
+          home[e.id] = fork == kNoFork ? leaf : fork;
+          if (fork != kNoFork) prev[e.id] = {{e.min[0], e.min[1], e.min[2]}, {e.max[0], e.max[1], e.max[2]}};
+        }
+        e.unused = 0;
+        to[i] = e;
+      }
+    }
+  });
+}
+
+}  // namespace hbp::kd

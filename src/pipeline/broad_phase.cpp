@@ -1,0 +1,543 @@
+// hbp::BroadPhase: handles over the hybrid system (moving objects), a flat
+// BVH (static objects) and fat-box candidate caches (moving vs static).
+//
+// Layout. Every object has a slot (handle_table.hpp) and its box in
+// slot_box_. Moving objects also live in dense SoA arrays (moving_boxes_,
+// moving_handle_) ordered by handle, so the hybrid system's sorted id pairs
+// map to sorted handle pairs; static objects in static_boxes_/static_handle_
+// and a BoxTree built when the statics change.
+//
+// A frame: the hybrid system finds the moving/moving pairs; each moving
+// object re-tests the static candidates cached for its fat box (its box grown
+// by a quarter of its largest side) and re-queries the static tree only when
+// its box left the fat box or the statics changed. Layer table and pair
+// filter apply before a pair is kept; the sorted lists are merged, and
+// created/removed come from a merge with the previous frame's pairs.
+#include "hbp/broad_phase.hpp"
+
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <mutex>
+#include <numeric>
+#include <string>
+
+#include "hbp/error.hpp"
+#include "pipeline/box_tree.hpp"
+#include "pipeline/handle_table.hpp"
+#include "pipeline/pair_events.hpp"
+
+namespace hbp {
+
+using detail::BoxTree;
+using detail::HandleTable;
+
+namespace {
+
+constexpr std::uint32_t kNoIndex = HandleTable::kNoIndex;
+constexpr std::size_t kChunk = 4096;  // items per parallel task (fixed: deterministic output)
+
+// Fat box margin: a quarter of the box's largest side on every axis (scale
+// free; a zero-size box gets no margin and re-queries whenever it moves).
+Aabb fatten(const Aabb& b) {
+  const float side = std::max({b.max[0] - b.min[0], b.max[1] - b.min[1], b.max[2] - b.min[2]});
+  const float m = 0.25f * side;
+  return {{b.min[0] - m, b.min[1] - m, b.min[2] - m}, {b.max[0] + m, b.max[1] + m, b.max[2] + m}};
+}
+
+bool inside(const Aabb& in, const Aabb& out) {
+  return in.min[0] >= out.min[0] && in.min[1] >= out.min[1] && in.min[2] >= out.min[2] &&
+         in.max[0] <= out.max[0] && in.max[1] <= out.max[1] && in.max[2] <= out.max[2];
+}
+
+// Releases a buffer's memory when it holds far more than it needs now.
+template <class T>
+void fit(std::vector<T>& v) {
+  if (v.capacity() > 4 * v.size() + 4096) v.shrink_to_fit();
+}
+
+// Runs body(begin, end, out) over fixed chunks of [0, n) in parallel and
+// concatenates the chunks' outputs in chunk order.
+template <class Body>
+void parallel_collect(std::size_t n, std::vector<Pair>& out, Body&& body) {
+  out.clear();
+  const std::size_t chunks = (n + kChunk - 1) / kChunk;
+  if (chunks <= 1) {
+    body(std::size_t(0), n, out);
+    return;
+  }
+  std::vector<std::vector<Pair>> parts(chunks);
+  tbb::parallel_for(std::size_t(0), chunks,
+                    [&](std::size_t c) { body(c * kChunk, std::min(n, (c + 1) * kChunk), parts[c]); });
+  std::size_t total = 0;
+  for (const auto& p : parts) total += p.size();
+  out.reserve(total);
+  for (const auto& p : parts) out.insert(out.end(), p.begin(), p.end());
+}
+
+std::string row_text(const char* call, std::size_t row) {
+  return std::string("BroadPhase::") + call + ": row " + std::to_string(row) + ": ";
+}
+
+}  // namespace
+
+struct BroadPhase::Impl {
+  explicit Impl(const BroadPhaseOptions& o)
+      : options(o),
+        arena(o.threads ? static_cast<int>(o.threads) : tbb::task_arena::automatic),
+        hybrid(hybrid_options(o)) {
+    collide_mask.fill(0xFFFFFFFFu);
+  }
+
+  static BroadPhaseOptions hybrid_options(BroadPhaseOptions o) {
+    o.sorted = true;
+    return o;
+  }
+
+  BroadPhaseOptions options;
+  tbb::task_arena arena;
+  HybridBroadPhase hybrid;
+
+  HandleTable table;
+  std::vector<Aabb> slot_box;  // by slot
+
+  // Moving objects, dense, ordered by handle.
+  BoxArray moving_boxes;
+  std::vector<Handle> moving_handle;
+  bool moving_membership_dirty = false;
+
+  // Static objects, dense, ordered by handle, and their tree.
+  BoxArray static_boxes;
+  std::vector<Handle> static_handle;
+  BoxTree static_tree;
+  bool statics_dirty = false;
+  std::uint32_t static_epoch = 1;  // advanced at each static rebuild
+
+  // Moving vs static candidate cache, by slot: valid while cache_epoch ==
+  // static_epoch and the object's box stays inside its fat box.
+  std::vector<Aabb> fat_box;
+  std::vector<std::uint32_t> cache_epoch;
+  std::vector<std::vector<std::uint32_t>> candidates;  // static dense indices
+
+  // Moving objects' tree, for queries only.
+  BoxTree moving_tree;
+  enum class TreeState { Valid, Refit, Rebuild };
+  TreeState moving_tree_state = TreeState::Rebuild;
+  std::atomic<bool> queries_ready{false};
+  std::mutex query_sync;
+
+  std::array<std::uint32_t, kLayerCount> collide_mask{};
+  PairFilter filter;
+
+  // Results.
+  BroadPhaseUpdate result;
+  BroadPhaseUpdateStats stats;
+  std::vector<Pair> moving_pairs, static_pairs, next;
+  std::uint32_t moved = 0, static_changes = 0;
+
+  // Duplicate detection within a batch.
+  std::vector<std::uint32_t> stamp;
+  std::uint32_t stamp_value = 0;
+
+  // ---- edits -------------------------------------------------------------
+
+  void touched_moving() {
+    queries_ready = false;
+    if (moving_tree_state == TreeState::Valid) moving_tree_state = TreeState::Refit;
+  }
+  void moving_membership_changed() {
+    moving_membership_dirty = true;
+    moving_tree_state = TreeState::Rebuild;
+    queries_ready = false;
+  }
+  void statics_changed(std::uint32_t count) {
+    statics_dirty = true;
+    static_changes += count;
+    queries_ready = false;
+  }
+
+  // Checks a batch of handles: live, no duplicates. Throws naming the row.
+  void check_handles(const char* call, std::span<const Handle> handles) {
+    if (stamp.size() < table.slots()) stamp.resize(table.slots(), 0);
+    if (++stamp_value == 0) {
+      std::fill(stamp.begin(), stamp.end(), 0);
+      stamp_value = 1;
+    }
+    for (std::size_t i = 0; i < handles.size(); ++i) {
+      const std::string why = table.defect(handles[i]);
+      if (!why.empty()) throw InvalidInput(row_text(call, i) + why);
+      const std::uint32_t s = HandleTable::slot_of(handles[i]);
+      if (stamp[s] == stamp_value) {
+        const auto first = std::find(handles.begin(), handles.end(), handles[i]) - handles.begin();
+        throw InvalidInput(row_text(call, i) + "handle " + std::to_string(handles[i]) + " repeats row " +
+                           std::to_string(first));
+      }
+      stamp[s] = stamp_value;
+    }
+  }
+
+  static void check_boxes(const char* call, std::span<const Aabb> boxes) {
+    for (std::size_t i = 0; i < boxes.size(); ++i)
+      if (const char* d = box_defect(boxes[i])) throw InvalidInput(row_text(call, i) + d);
+  }
+
+  std::vector<Handle> add(std::span<const Aabb> boxes, const AddOptions& o) {
+    if (o.layer >= kLayerCount)
+      throw InvalidInput("BroadPhase::add: layer " + std::to_string(o.layer) + " out of range (0.." +
+                         std::to_string(kLayerCount - 1) + ")");
+    if (boxes.size() > kMaxObjects - table.live())
+      throw InvalidInput("BroadPhase::add: " + std::to_string(boxes.size()) + " objects on top of " +
+                         std::to_string(table.live()) + " would pass the limit of " + std::to_string(kMaxObjects) +
+                         " objects");
+    check_boxes("add", boxes);
+    std::vector<Handle> handles(boxes.size());
+    const auto kind = o.is_static ? HandleTable::kStatic : HandleTable::kMoving;
+    for (std::size_t i = 0; i < boxes.size(); ++i) {
+      const std::uint32_t s = table.allocate(kind, o.layer);
+      if (s >= slot_box.size()) {
+        slot_box.resize(s + 1);
+        fat_box.resize(s + 1);
+        cache_epoch.resize(s + 1, 0);
+        candidates.resize(s + 1);
+      }
+      slot_box[s] = boxes[i];
+      cache_epoch[s] = 0;
+      handles[i] = table.handle_of(s);
+    }
+    if (boxes.empty()) return handles;
+    if (o.is_static) {
+      statics_changed(static_cast<std::uint32_t>(boxes.size()));
+    } else {
+      moving_membership_changed();
+      moved += static_cast<std::uint32_t>(boxes.size());
+    }
+    return handles;
+  }
+
+  void move(std::span<const Handle> handles, std::span<const Aabb> boxes) {
+    if (handles.size() != boxes.size())
+      throw InvalidInput("BroadPhase::move: " + std::to_string(handles.size()) + " handles but " +
+                         std::to_string(boxes.size()) + " boxes");
+    check_handles("move", handles);
+    check_boxes("move", boxes);
+    std::uint32_t statics = 0, moving = 0;
+    for (std::size_t i = 0; i < handles.size(); ++i) {
+      const std::uint32_t s = HandleTable::slot_of(handles[i]);
+      slot_box[s] = boxes[i];
+      if (table.kind(s) == HandleTable::kStatic) {
+        ++statics;
+      } else {
+        ++moving;
+        const std::uint32_t d = table.index(s);
+        if (d != kNoIndex) moving_boxes.set(d, boxes[i]);
+      }
+    }
+    if (statics) statics_changed(statics);
+    if (moving) {
+      moved += moving;
+      touched_moving();
+    }
+  }
+
+  void remove(std::span<const Handle> handles) {
+    check_handles("remove", handles);
+    std::uint32_t statics = 0, moving = 0;
+    for (const Handle h : handles) {
+      const std::uint32_t s = HandleTable::slot_of(h);
+      (table.kind(s) == HandleTable::kStatic ? statics : moving) += 1;
+      std::vector<std::uint32_t>().swap(candidates[s]);
+      table.release(s);
+    }
+    if (statics) statics_changed(statics);
+    if (moving) moving_membership_changed();
+    if (table.live() == 0) release_memory();
+  }
+
+  void set_layer(std::span<const Handle> handles, std::uint8_t layer) {
+    if (layer >= kLayerCount)
+      throw InvalidInput("BroadPhase::set_layer: layer " + std::to_string(layer) + " out of range (0.." +
+                         std::to_string(kLayerCount - 1) + ")");
+    check_handles("set_layer", handles);
+    for (const Handle h : handles) table.set_layer(HandleTable::slot_of(h), layer);
+  }
+
+  // With no objects left, nothing the next frames need is kept (the slot
+  // table stays: its generations keep old handles stale).
+  void release_memory() {
+    moving_boxes = BoxArray();
+    static_boxes = BoxArray();
+    std::vector<Handle>().swap(moving_handle);
+    std::vector<Handle>().swap(static_handle);
+    static_tree.clear();
+    moving_tree.clear();
+    std::vector<Aabb>().swap(fat_box);
+    std::vector<std::uint32_t>().swap(cache_epoch);
+    std::vector<std::vector<std::uint32_t>>().swap(candidates);
+    fat_box.resize(slot_box.size());
+    cache_epoch.resize(slot_box.size(), 0);
+    candidates.resize(slot_box.size());
+  }
+
+  // ---- structures ----------------------------------------------------------
+
+  // Dense arrays of one kind, ordered by handle.
+  void gather(HandleTable::Kind kind, BoxArray& boxes, std::vector<Handle>& handles) {
+    handles.clear();
+    for (std::uint32_t s = 0; s < table.slots(); ++s)
+      if (table.kind(s) == kind) handles.push_back(table.handle_of(s));
+    std::sort(handles.begin(), handles.end());
+    fit(handles);
+    if (boxes.capacity() > 4 * handles.size() + 4096) boxes = BoxArray();
+    boxes.resize(handles.size());
+    for (std::uint32_t d = 0; d < handles.size(); ++d) {
+      const std::uint32_t s = HandleTable::slot_of(handles[d]);
+      boxes.set(d, slot_box[s]);
+      table.set_index(s, d);
+    }
+  }
+
+  void sync_statics() {
+    if (!statics_dirty) return;
+    gather(HandleTable::kStatic, static_boxes, static_handle);
+    if (static_handle.empty()) {
+      static_tree.clear();
+    } else {
+      static_tree.build(static_boxes);
+    }
+    ++static_epoch;
+    statics_dirty = false;
+  }
+
+  void sync_moving() {
+    if (!moving_membership_dirty) return;
+    gather(HandleTable::kMoving, moving_boxes, moving_handle);
+    moving_membership_dirty = false;
+  }
+
+  void sync_queries() {
+    if (queries_ready.load(std::memory_order_acquire)) return;
+    std::lock_guard<std::mutex> lock(query_sync);
+    if (queries_ready.load(std::memory_order_relaxed)) return;
+    arena.execute([&] {
+      sync_statics();
+      sync_moving();
+      if (moving_handle.empty()) {
+        moving_tree.clear();
+      } else if (moving_tree_state == TreeState::Rebuild) {
+        moving_tree.build(moving_boxes);
+      } else if (moving_tree_state == TreeState::Refit) {
+        moving_tree.refit(moving_boxes);
+      }
+      moving_tree_state = TreeState::Valid;
+    });
+    queries_ready.store(true, std::memory_order_release);
+  }
+
+  // ---- a frame ------------------------------------------------------------
+
+  bool layers_collide(Handle a, Handle b) const {
+    const std::uint8_t la = table.layer(HandleTable::slot_of(a));
+    const std::uint8_t lb = table.layer(HandleTable::slot_of(b));
+    return (collide_mask[la] >> lb) & 1u;
+  }
+
+  bool all_layers_collide() const {
+    for (const std::uint32_t m : collide_mask)
+      if (m != 0xFFFFFFFFu) return false;
+    return true;
+  }
+
+  void find_moving_pairs() {
+    moving_pairs.clear();
+    if (moving_handle.size() < 2) return;
+    const std::vector<Pair>& raw = hybrid.update(moving_boxes);
+    const Handle* h = moving_handle.data();
+    if (all_layers_collide() && !filter) {
+      moving_pairs.resize(raw.size());
+      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, raw.size(), kChunk), [&](const auto& r) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) moving_pairs[i] = Pair{h[raw[i].a], h[raw[i].b]};
+      });
+      return;
+    }
+    parallel_collect(raw.size(), moving_pairs, [&](std::size_t begin, std::size_t end, std::vector<Pair>& out) {
+      for (std::size_t i = begin; i < end; ++i) {
+        const Pair p{h[raw[i].a], h[raw[i].b]};
+        if (layers_collide(p.a, p.b) && (!filter || filter(p.a, p.b))) out.push_back(p);
+      }
+    });
+  }
+
+  void find_static_pairs() {
+    static_pairs.clear();
+    if (moving_handle.empty() || static_handle.empty()) return;
+    const bool all = all_layers_collide();
+    const std::uint32_t epoch = static_epoch;
+    parallel_collect(moving_handle.size(), static_pairs,
+                     [&](std::size_t begin, std::size_t end, std::vector<Pair>& out) {
+                       for (std::size_t d = begin; d < end; ++d) {
+                         const Handle hm = moving_handle[d];
+                         const std::uint32_t s = HandleTable::slot_of(hm);
+                         const Aabb& box = slot_box[s];
+                         std::vector<std::uint32_t>& cand = candidates[s];
+                         if (cache_epoch[s] != epoch || !inside(box, fat_box[s])) {
+                           fat_box[s] = fatten(box);
+                           cache_epoch[s] = epoch;
+                           cand.clear();
+                           static_tree.for_each_overlap(fat_box[s], [&](std::uint32_t i) { cand.push_back(i); });
+                           fit(cand);
+                         }
+                         for (const std::uint32_t c : cand) {
+                           const bool hit = static_boxes.max(0)[c] >= box.min[0] &&
+                                            static_boxes.min(0)[c] <= box.max[0] &&
+                                            static_boxes.max(1)[c] >= box.min[1] &&
+                                            static_boxes.min(1)[c] <= box.max[1] &&
+                                            static_boxes.max(2)[c] >= box.min[2] &&
+                                            static_boxes.min(2)[c] <= box.max[2];
+                           if (!hit) continue;
+                           const Pair p = make_pair(hm, static_handle[c]);
+                           if (!all && !layers_collide(p.a, p.b)) continue;
+                           if (filter && !filter(p.a, p.b)) continue;
+                           out.push_back(p);
+                         }
+                       }
+                     });
+    sort_pairs(static_pairs);
+  }
+
+  const BroadPhaseUpdate& update() {
+    const auto start = std::chrono::steady_clock::now();
+    arena.execute([&] {
+      sync_statics();
+      sync_moving();
+      find_moving_pairs();
+      find_static_pairs();
+      next.resize(moving_pairs.size() + static_pairs.size());
+      std::merge(moving_pairs.begin(), moving_pairs.end(), static_pairs.begin(), static_pairs.end(), next.begin());
+      if (options.max_pairs && next.size() > options.max_pairs)
+        throw CapacityExceeded("BroadPhase::update: " + std::to_string(next.size()) + " pairs, more than max_pairs " +
+                               std::to_string(options.max_pairs));
+      detail::diff_sorted_pairs(result.pairs, next, result.created, result.removed);
+      result.pairs.swap(next);
+    });
+    fit(next);
+    fit(moving_pairs);
+    fit(static_pairs);
+    fit(result.pairs);
+    fit(result.created);
+    fit(result.removed);
+    stats.moving = static_cast<std::uint32_t>(moving_handle.size());
+    stats.statics = static_cast<std::uint32_t>(static_handle.size());
+    stats.moved = moved;
+    stats.static_changes = static_changes;
+    moved = static_changes = 0;
+    stats.wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    return result;
+  }
+
+  // ---- queries -------------------------------------------------------------
+
+  std::vector<Handle> query_box(const Aabb& q) {
+    if (const char* d = box_defect(q)) throw InvalidInput(std::string("BroadPhase::query_box: ") + d);
+    sync_queries();
+    std::vector<Handle> out;
+    static_tree.for_each_overlap(q, [&](std::uint32_t i) { out.push_back(static_handle[i]); });
+    moving_tree.for_each_overlap(q, [&](std::uint32_t i) { out.push_back(moving_handle[i]); });
+    std::sort(out.begin(), out.end());
+    return out;
+  }
+
+  std::vector<Handle> query_ray(const float origin[3], const float direction[3], float max_t) {
+    for (int k = 0; k < 3; ++k) {
+      if (!std::isfinite(origin[k]))
+        throw InvalidInput("BroadPhase::query_ray: origin[" + std::to_string(k) + "] is not finite");
+      if (!std::isfinite(direction[k]))
+        throw InvalidInput("BroadPhase::query_ray: direction[" + std::to_string(k) + "] is not finite");
+    }
+    if (!(max_t >= 0)) throw InvalidInput("BroadPhase::query_ray: max_t must be >= 0 (infinity allowed)");
+    sync_queries();
+    const detail::RaySegment ray(origin, direction, max_t);
+    struct Hit {
+      float t;
+      Handle h;
+    };
+    thread_local std::vector<Hit> hits;
+    hits.clear();
+    static_tree.for_each_ray_hit(ray, [&](std::uint32_t i, float t) { hits.push_back({t, static_handle[i]}); });
+    moving_tree.for_each_ray_hit(ray, [&](std::uint32_t i, float t) { hits.push_back({t, moving_handle[i]}); });
+    std::sort(hits.begin(), hits.end(), [](const Hit& a, const Hit& b) { return a.t < b.t || (a.t == b.t && a.h < b.h); });
+    std::vector<Handle> out(hits.size());
+    for (std::size_t i = 0; i < hits.size(); ++i) out[i] = hits[i].h;
+    fit(hits);
+    return out;
+  }
+
+  Handle checked(const char* call, Handle h) const {
+    const std::string why = table.defect(h);
+    if (!why.empty()) throw InvalidInput(std::string("BroadPhase::") + call + ": " + why);
+    return h;
+  }
+};
+
+BroadPhase::BroadPhase(const BroadPhaseOptions& options) : impl_(std::make_unique<Impl>(options)) {}
+BroadPhase::~BroadPhase() = default;
+BroadPhase::BroadPhase(BroadPhase&&) noexcept = default;
+BroadPhase& BroadPhase::operator=(BroadPhase&&) noexcept = default;
+
+std::vector<Handle> BroadPhase::add(std::span<const Aabb> boxes, const AddOptions& options) {
+  return impl_->add(boxes, options);
+}
+void BroadPhase::move(std::span<const Handle> handles, std::span<const Aabb> boxes) { impl_->move(handles, boxes); }
+void BroadPhase::remove(std::span<const Handle> handles) { impl_->remove(handles); }
+void BroadPhase::set_layer(std::span<const Handle> handles, std::uint8_t layer) {
+  impl_->set_layer(handles, layer);
+}
+
+void BroadPhase::set_collides(std::uint32_t layer_a, std::uint32_t layer_b, bool collides) {
+  if (layer_a >= kLayerCount || layer_b >= kLayerCount)
+    throw InvalidInput("BroadPhase::set_collides: layer " + std::to_string(std::max(layer_a, layer_b)) +
+                       " out of range (0.." + std::to_string(kLayerCount - 1) + ")");
+  auto& m = impl_->collide_mask;
+  if (collides) {
+    m[layer_a] |= 1u << layer_b;
+    m[layer_b] |= 1u << layer_a;
+  } else {
+    m[layer_a] &= ~(1u << layer_b);
+    m[layer_b] &= ~(1u << layer_a);
+  }
+}
+
+bool BroadPhase::collides(std::uint32_t layer_a, std::uint32_t layer_b) const {
+  if (layer_a >= kLayerCount || layer_b >= kLayerCount)
+    throw InvalidInput("BroadPhase::collides: layer " + std::to_string(std::max(layer_a, layer_b)) +
+                       " out of range (0.." + std::to_string(kLayerCount - 1) + ")");
+  return (impl_->collide_mask[layer_a] >> layer_b) & 1u;
+}
+
+void BroadPhase::set_pair_filter(PairFilter filter) { impl_->filter = std::move(filter); }
+
+const BroadPhaseUpdate& BroadPhase::update() { return impl_->update(); }
+const BroadPhaseUpdate& BroadPhase::last_update() const { return impl_->result; }
+const BroadPhaseUpdateStats& BroadPhase::stats() const { return impl_->stats; }
+
+std::vector<Handle> BroadPhase::query_box(const Aabb& box) const { return impl_->query_box(box); }
+std::vector<Handle> BroadPhase::query_ray(const float origin[3], const float direction[3], float max_t) const {
+  return impl_->query_ray(origin, direction, max_t);
+}
+
+std::size_t BroadPhase::size() const { return impl_->table.live(); }
+bool BroadPhase::contains(Handle h) const { return impl_->table.live(h); }
+Aabb BroadPhase::box(Handle h) const {
+  return impl_->slot_box[HandleTable::slot_of(impl_->checked("box", h))];
+}
+bool BroadPhase::is_static(Handle h) const {
+  return impl_->table.kind(HandleTable::slot_of(impl_->checked("is_static", h))) == HandleTable::kStatic;
+}
+std::uint8_t BroadPhase::layer(Handle h) const {
+  return impl_->table.layer(HandleTable::slot_of(impl_->checked("layer", h)));
+}
+const BroadPhaseOptions& BroadPhase::options() const { return impl_->options; }
+
+}  // namespace hbp

@@ -1,0 +1,492 @@
+// hbp::BroadPhase against a brute-force reference written here: every live
+// pair, minus static/static pairs, minus pairs whose layers do not collide or
+// the pair filter rejects, on every frame of randomized edit sequences; events
+// as the set difference with the previous frame; queries against a scan of
+// every object. Plus stale handles, errors that change nothing, and 1 vs 2
+// threads.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <map>
+#include <random>
+#include <span>
+#include <vector>
+
+#include "hbp/broad_phase.hpp"
+#include "hbp/error.hpp"
+
+namespace {
+
+using hbp::Aabb;
+using hbp::BroadPhase;
+using hbp::Handle;
+using hbp::Pair;
+
+struct RefObject {
+  Aabb box;
+  bool is_static;
+  std::uint8_t layer;
+};
+
+// The reference world: what the broad phase should report.
+struct Reference {
+  std::map<Handle, RefObject> objects;
+  std::uint32_t mask[32];
+  BroadPhase::PairFilter filter;
+  std::vector<Pair> previous;
+
+  Reference() { std::fill(std::begin(mask), std::end(mask), 0xFFFFFFFFu); }
+
+  std::vector<Pair> pairs() const {
+    std::vector<std::pair<Handle, const RefObject*>> v;
+    for (const auto& [h, o] : objects) v.emplace_back(h, &o);
+    std::vector<Pair> out;
+    for (std::size_t i = 0; i < v.size(); ++i)
+      for (std::size_t j = i + 1; j < v.size(); ++j) {
+        const RefObject& a = *v[i].second;
+        const RefObject& b = *v[j].second;
+        if (a.is_static && b.is_static) continue;
+        if (!hbp::overlaps(a.box, b.box)) continue;
+        if (!((mask[a.layer] >> b.layer) & 1u)) continue;
+        const Pair p{v[i].first, v[j].first};  // map order: a < b
+        if (filter && !filter(p.a, p.b)) continue;
+        out.push_back(p);
+      }
+    return out;
+  }
+};
+
+std::vector<Pair> minus(const std::vector<Pair>& a, const std::vector<Pair>& b) {
+  std::vector<Pair> out;
+  std::set_difference(a.begin(), a.end(), b.begin(), b.end(), std::back_inserter(out));
+  return out;
+}
+
+// Boxes on a half-metre grid in a small world: many overlaps and exactly
+// touching faces.
+Aabb random_box(std::mt19937& rng, float world) {
+  std::uniform_int_distribution<int> pos(0, static_cast<int>(world * 2));
+  std::uniform_int_distribution<int> size(0, 6);
+  Aabb b;
+  for (int k = 0; k < 3; ++k) {
+    b.min[k] = 0.5f * static_cast<float>(pos(rng));
+    b.max[k] = b.min[k] + 0.5f * static_cast<float>(size(rng));
+  }
+  return b;
+}
+
+Aabb nudged(std::mt19937& rng, Aabb b) {
+  std::uniform_int_distribution<int> step(-2, 2);
+  for (int k = 0; k < 3; ++k) {
+    const float d = 0.5f * static_cast<float>(step(rng));
+    b.min[k] += d;
+    b.max[k] += d;
+  }
+  return b;
+}
+
+// One randomized session applied to a BroadPhase and the reference alike.
+struct Session {
+  std::mt19937 rng;
+  float world;
+  Reference ref;
+  std::vector<BroadPhase*> systems;  // identical edits to each
+  std::vector<Handle> live;
+
+  Session(unsigned seed, float w, std::vector<BroadPhase*> s) : rng(seed), world(w), systems(std::move(s)) {}
+
+  std::size_t pick() { return std::uniform_int_distribution<std::size_t>(0, live.size() - 1)(rng); }
+
+  void add(std::size_t n, bool is_static, std::uint8_t layer) {
+    std::vector<Aabb> boxes(n);
+    for (Aabb& b : boxes) b = random_box(rng, world);
+    std::vector<Handle> h;
+    for (BroadPhase* s : systems) {
+      auto got = s->add(boxes, {.is_static = is_static, .layer = layer});
+      if (h.empty()) h = got;
+      ASSERT_EQ(got, h) << "same edits, same handles";
+    }
+    for (std::size_t i = 0; i < n; ++i) {
+      ASSERT_FALSE(ref.objects.count(h[i])) << "a live handle handed out twice";
+      ref.objects[h[i]] = {boxes[i], is_static, layer};
+      live.push_back(h[i]);
+    }
+  }
+
+  // Moves a random subset (distinct handles): nudges and teleports; static
+  // objects only when asked (the fat-box caches live while statics stay).
+  void move(std::size_t n, bool statics_too) {
+    std::vector<Handle> h;
+    for (Handle x : live)
+      if (statics_too || !ref.objects[x].is_static) h.push_back(x);
+    if (h.empty()) return;
+    std::shuffle(h.begin(), h.end(), rng);
+    h.resize(std::min(n, h.size()));
+    std::vector<Aabb> boxes;
+    for (Handle x : h) {
+      const bool teleport = rng() % 10 == 0;
+      boxes.push_back(teleport ? random_box(rng, world) : nudged(rng, ref.objects[x].box));
+    }
+    for (BroadPhase* s : systems) s->move(h, boxes);
+    for (std::size_t i = 0; i < h.size(); ++i) ref.objects[h[i]].box = boxes[i];
+  }
+
+  void remove(std::size_t n) {
+    std::shuffle(live.begin(), live.end(), rng);
+    n = std::min(n, live.size());
+    std::vector<Handle> h(live.end() - static_cast<std::ptrdiff_t>(n), live.end());
+    live.resize(live.size() - n);
+    for (BroadPhase* s : systems) s->remove(h);
+    for (Handle x : h) ref.objects.erase(x);
+  }
+
+  void set_layer(std::size_t n, std::uint8_t layer) {
+    if (live.empty()) return;
+    std::vector<Handle> h = live;
+    std::shuffle(h.begin(), h.end(), rng);
+    h.resize(std::min(n, h.size()));
+    for (BroadPhase* s : systems) s->set_layer(h, layer);
+    for (Handle x : h) ref.objects[x].layer = layer;
+  }
+
+  void set_collides(std::uint32_t a, std::uint32_t b, bool c) {
+    for (BroadPhase* s : systems) s->set_collides(a, b, c);
+    if (c) {
+      ref.mask[a] |= 1u << b;
+      ref.mask[b] |= 1u << a;
+    } else {
+      ref.mask[a] &= ~(1u << b);
+      ref.mask[b] &= ~(1u << a);
+    }
+  }
+
+  void set_filter(BroadPhase::PairFilter f) {
+    for (BroadPhase* s : systems) s->set_pair_filter(f);
+    ref.filter = f;
+  }
+
+  // Updates every system and checks each against the reference.
+  void check_frame(int frame) {
+    const std::vector<Pair> want = ref.pairs();
+    const std::vector<Pair> created = minus(want, ref.previous);
+    const std::vector<Pair> removed = minus(ref.previous, want);
+    for (std::size_t i = 0; i < systems.size(); ++i) {
+      const hbp::BroadPhaseUpdate& u = systems[i]->update();
+      ASSERT_EQ(u.pairs, want) << "system " << i << " frame " << frame;
+      ASSERT_EQ(u.created, created) << "system " << i << " frame " << frame;
+      ASSERT_EQ(u.removed, removed) << "system " << i << " frame " << frame;
+      ASSERT_EQ(systems[i]->size(), ref.objects.size());
+    }
+    ref.previous = want;
+  }
+};
+
+void run_sequence(unsigned seed, int frames, std::size_t scale, float world) {
+  BroadPhase one({.threads = 1});
+  BroadPhase two({.threads = 2});
+  Session s(seed, world, {&one, &two});
+  std::uint64_t pairs = 0, created = 0, removed = 0;
+  s.add(scale, false, 0);
+  s.add(scale, true, 1);
+  for (int f = 0; f < frames; ++f) {
+    const int op = f % 8;
+    s.move(scale / 3, op == 7);
+    if (op == 1) s.add(scale / 10 + 1, s.rng() % 2 == 0, static_cast<std::uint8_t>(s.rng() % 4));
+    if (op == 2) s.remove(scale / 10 + 1);
+    if (op == 3) s.set_layer(scale / 8, static_cast<std::uint8_t>(s.rng() % 4));
+    if (op == 4) s.set_collides(s.rng() % 4, s.rng() % 4, false);
+    if (op == 5) s.set_collides(s.rng() % 4, s.rng() % 4, true);
+    if (op == 6) s.set_filter([](Handle a, Handle b) { return ((a ^ b) % 5) != 0; });
+    if (op == 7 && f % 16 == 7) s.set_filter({});
+    if (op == 0 && f % 16 == 8) {  // remove and re-add in one frame: slots reused
+      s.remove(scale / 4);
+      s.add(scale / 4, false, 2);
+    }
+    s.check_frame(f);
+    if (testing::Test::HasFatalFailure()) return;
+    pairs += s.ref.previous.size();
+    created += one.last_update().created.size();
+    removed += one.last_update().removed.size();
+  }
+  // Not a vacuous run.
+  EXPECT_GT(pairs, static_cast<std::uint64_t>(frames) * scale / 4);
+  EXPECT_GT(created, 0u);
+  EXPECT_GT(removed, 0u);
+}
+
+TEST(BroadPhase, RandomSequencesMatchBruteForce) {
+  for (unsigned seed = 1; seed <= 4; ++seed) {
+    SCOPED_TRACE(seed);
+    run_sequence(seed, 40, 150, 20);
+    if (HasFatalFailure()) return;
+  }
+}
+
+// Enough objects for the parallel paths (several chunks of moving objects and
+// of pairs) and a multi-cell partition.
+TEST(BroadPhase, LargerSequenceMatchesBruteForce) { run_sequence(99, 6, 2500, 60); }
+
+TEST(BroadPhase, StaticStaticNeverReportedAndStaticsMove) {
+  BroadPhase bp;
+  const Aabb unit{{0, 0, 0}, {1, 1, 1}};
+  const auto st = bp.add(std::vector<Aabb>{unit, unit}, {.is_static = true});
+  EXPECT_TRUE(bp.update().pairs.empty());
+  const auto mv = bp.add(std::vector<Aabb>{Aabb{{1, 1, 1}, {2, 2, 2}}});  // touches both at a corner
+  auto u = bp.update();
+  EXPECT_EQ(u.pairs, (std::vector<Pair>{{st[0], mv[0]}, {st[1], mv[0]}}));
+  EXPECT_EQ(u.created, u.pairs);
+  // A static object moves away: its pair is removed.
+  bp.move(std::span<const Handle>(&st[1], 1), std::vector<Aabb>{Aabb{{5, 5, 5}, {6, 6, 6}}});
+  u = bp.update();
+  EXPECT_EQ(u.pairs, (std::vector<Pair>{{st[0], mv[0]}}));
+  EXPECT_EQ(u.removed, (std::vector<Pair>{{st[1], mv[0]}}));
+  EXPECT_TRUE(u.created.empty());
+  EXPECT_TRUE(bp.is_static(st[0]));
+  EXPECT_FALSE(bp.is_static(mv[0]));
+  EXPECT_EQ(bp.stats().statics, 2u);
+  EXPECT_EQ(bp.stats().moving, 1u);
+  // Removing an object removes its pairs.
+  bp.remove(mv);
+  u = bp.update();
+  EXPECT_TRUE(u.pairs.empty());
+  EXPECT_EQ(u.removed, (std::vector<Pair>{{st[0], mv[0]}}));
+}
+
+TEST(BroadPhase, StaleHandlesRejected) {
+  BroadPhase bp;
+  const Aabb b{{0, 0, 0}, {1, 1, 1}};
+  const auto first = bp.add(std::vector<Aabb>{b, b});
+  bp.remove(std::span<const Handle>(&first[0], 1));
+  const auto second = bp.add(std::vector<Aabb>{b});  // reuses the slot
+  EXPECT_EQ(second[0] & 0xFFFFFFu, first[0] & 0xFFFFFFu) << "slot reused";
+  EXPECT_NE(second[0], first[0]) << "with a new generation";
+  EXPECT_FALSE(bp.contains(first[0]));
+  EXPECT_TRUE(bp.contains(second[0]));
+  const Handle stale = first[0];
+  const Aabb far{{9, 9, 9}, {10, 10, 10}};
+  EXPECT_THROW(bp.move(std::span<const Handle>(&stale, 1), std::span<const Aabb>(&far, 1)), hbp::InvalidInput);
+  EXPECT_THROW(bp.remove(std::span<const Handle>(&stale, 1)), hbp::InvalidInput);
+  EXPECT_THROW(bp.set_layer(std::span<const Handle>(&stale, 1), 3), hbp::InvalidInput);
+  EXPECT_THROW(bp.box(stale), hbp::InvalidInput);
+  EXPECT_THROW(bp.layer(stale), hbp::InvalidInput);
+  EXPECT_THROW(bp.is_static(stale), hbp::InvalidInput);
+  try {
+    bp.move(std::span<const Handle>(&stale, 1), std::span<const Aabb>(&far, 1));
+  } catch (const hbp::InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("stale"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("row 0"), std::string::npos) << e.what();
+  }
+  // The live object in that slot was not touched.
+  EXPECT_EQ(bp.box(second[0]).max[0], 1.0f);
+  EXPECT_EQ(bp.update().pairs, (std::vector<Pair>{hbp::make_pair(first[1], second[0])}));
+  // Unknown handles too.
+  const Handle unknown = 12345;
+  EXPECT_THROW(bp.remove(std::span<const Handle>(&unknown, 1)), hbp::InvalidInput);
+  EXPECT_THROW(bp.box(hbp::kInvalidHandle), hbp::InvalidInput);
+}
+
+// Every error leaves the broad phase exactly as a twin that never saw the call.
+TEST(BroadPhase, ErrorsChangeNothing) {
+  BroadPhase bp, twin;
+  std::mt19937 rng(5);
+  std::vector<Aabb> boxes(40);
+  for (Aabb& b : boxes) b = random_box(rng, 8);
+  const auto h = bp.add(boxes);
+  twin.add(boxes);
+  const auto hs = bp.add(std::span<const Aabb>(boxes).first(10), {.is_static = true, .layer = 1});
+  twin.add(std::span<const Aabb>(boxes).first(10), {.is_static = true, .layer = 1});
+  bp.update();
+  twin.update();
+  bp.remove(std::span<const Handle>(&h[39], 1));
+  twin.remove(std::span<const Handle>(&h[39], 1));
+  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+
+  std::vector<Aabb> bad = {boxes[0], boxes[1], boxes[2]};
+  auto expect_row = [](auto&& call, const char* text) {
+    try {
+      call();
+      ADD_FAILURE() << "no throw, expected " << text;
+    } catch (const hbp::InvalidInput& e) {
+      EXPECT_NE(std::string(e.what()).find(text), std::string::npos) << e.what();
+    }
+  };
+  bad[2].min[1] = nan;
+  expect_row([&] { bp.add(bad); }, "row 2");
+  expect_row([&] { bp.move(std::span<const Handle>(h).first(3), bad); }, "row 2");
+  bad[2] = boxes[2];
+  bad[1].max[0] = inf;
+  expect_row([&] { bp.add(bad); }, "row 1");
+  bad[1] = boxes[1];
+  bad[0].min[2] = bad[0].max[2] + 1;
+  expect_row([&] { bp.add(bad, {.is_static = true}); }, "row 0");
+  expect_row([&] { bp.add(boxes, {.layer = 32}); }, "layer 32");
+  const std::vector<Handle> dup = {h[0], h[1], h[0]};
+  expect_row([&] { bp.move(dup, std::span<const Aabb>(boxes).first(3)); }, "row 2");
+  expect_row([&] { bp.remove(dup); }, "repeats row 0");
+  expect_row([&] { bp.set_layer(dup, 2); }, "row 2");
+  const std::vector<Handle> stale = {h[0], h[39]};
+  expect_row([&] { bp.remove(stale); }, "row 1");
+  expect_row([&] { bp.move(stale, std::span<const Aabb>(boxes).first(2)); }, "stale");
+  expect_row([&] { bp.move(stale, std::span<const Aabb>(boxes).first(3)); }, "2 handles but 3 boxes");
+  expect_row([&] { bp.set_layer(std::span<const Handle>(h).first(2), 32); }, "layer 32");
+  expect_row([&] { bp.set_collides(0, 32, false); }, "layer 32");
+  // Past the object limit: refused before a box is read.
+  expect_row([&] { bp.add(std::span<const Aabb>(boxes.data(), hbp::kMaxObjects)); }, "limit");
+  const float o[3] = {0, 0, 0}, d[3] = {1, 0, 0}, dn[3] = {nan, 0, 0};
+  expect_row([&] { bp.query_ray(o, dn, 1); }, "direction[0]");
+  expect_row([&] { bp.query_ray(o, d, -1); }, "max_t");
+  expect_row([&] { bp.query_ray(o, d, nan); }, "max_t");
+  Aabb inverted{{1, 0, 0}, {0, 1, 1}};
+  expect_row([&] { bp.query_box(inverted); }, "min > max");
+
+  EXPECT_EQ(bp.size(), twin.size());
+  const auto& a = bp.update();
+  const auto& b = twin.update();
+  EXPECT_EQ(a.pairs, b.pairs);
+  EXPECT_EQ(a.created, b.created);
+  EXPECT_EQ(a.removed, b.removed);
+  EXPECT_FALSE(a.pairs.empty());
+  for (Handle x : h)
+    if (x != h[39]) {
+      EXPECT_EQ(bp.layer(x), 0);
+      const Aabb ba = bp.box(x), bb = twin.box(x);
+      EXPECT_EQ(std::memcmp(&ba, &bb, sizeof(Aabb)), 0);
+    }
+  for (Handle x : hs) EXPECT_EQ(bp.layer(x), 1);
+  EXPECT_TRUE(bp.collides(0, 31));
+}
+
+// The reference slab test: the segment o + t d, 0 <= t <= max_t, against the
+// closed box; axes with d = 0 (or 1/d infinite) need o inside the slab.
+bool ref_ray(const float o[3], const float d[3], float max_t, const Aabb& b, float& entry) {
+  float t0 = 0, t1 = max_t;
+  for (int k = 0; k < 3; ++k) {
+    const float inv = 1.0f / d[k];
+    if (d[k] == 0 || std::isinf(inv)) {
+      if (o[k] < b.min[k] || o[k] > b.max[k]) return false;
+      continue;
+    }
+    float a = (b.min[k] - o[k]) * inv, c = (b.max[k] - o[k]) * inv;
+    if (a > c) std::swap(a, c);
+    t0 = std::max(t0, a);
+    t1 = std::min(t1, c);
+  }
+  if (!(t0 <= t1)) return false;
+  entry = t0;
+  return true;
+}
+
+TEST(BroadPhase, QueriesMatchBruteForce) {
+  std::mt19937 rng(17);
+  BroadPhase bp({.threads = 2});
+  std::vector<Aabb> boxes(900);
+  for (Aabb& b : boxes) b = random_box(rng, 30);
+  const auto hm = bp.add(std::span<const Aabb>(boxes).first(300));
+  const auto hs = bp.add(std::span<const Aabb>(boxes).subspan(300), {.is_static = true, .layer = 3});
+  std::vector<Handle> handles = hm;
+  handles.insert(handles.end(), hs.begin(), hs.end());
+  std::vector<Aabb> now = boxes;
+
+  std::uint64_t box_hits = 0, ray_hits = 0, inside_hits = 0;
+  for (int round = 0; round < 3; ++round) {
+    // Queries between edits see the edits (no update needed).
+    if (round > 0) {
+      std::vector<Aabb> moved;
+      for (std::size_t i = 0; i < 300; ++i) moved.push_back(now[i] = nudged(rng, now[i]));
+      bp.move(hm, moved);
+    }
+    if (round == 2) bp.update();
+    for (int q = 0; q < 150; ++q) {
+      Aabb query = random_box(rng, 30);
+      if (q % 3 == 0) {  // exactly touching an object's max corner
+        const Aabb& o = now[rng() % now.size()];
+        query = {{o.max[0], o.max[1], o.max[2]}, {o.max[0] + 1, o.max[1] + 1, o.max[2] + 1}};
+      }
+      std::vector<Handle> want;
+      for (std::size_t i = 0; i < now.size(); ++i)
+        if (hbp::overlaps(now[i], query)) want.push_back(handles[i]);
+      std::sort(want.begin(), want.end());
+      ASSERT_EQ(bp.query_box(query), want) << "box query " << q;
+      box_hits += want.size();
+      if (q % 3 == 0) {
+        ASSERT_FALSE(want.empty());
+      }
+
+      // Rays of every kind.
+      std::uniform_real_distribution<float> u(-2, 32);
+      float o[3] = {u(rng), u(rng), u(rng)}, d[3] = {u(rng) - 15, u(rng) - 15, u(rng) - 15};
+      float max_t = std::uniform_real_distribution<float>(0, 3)(rng);
+      switch (q % 6) {
+        case 1:  // axis-parallel
+          d[0] = d[1] = 0;
+          break;
+        case 2:  // from inside a box
+        {
+          const Aabb& b = now[rng() % now.size()];
+          for (int k = 0; k < 3; ++k) o[k] = 0.5f * (b.min[k] + b.max[k]);
+          break;
+        }
+        case 3:  // grazing: along a face plane, axis-parallel
+        {
+          const Aabb& b = now[rng() % now.size()];
+          o[0] = b.min[0] - 5;
+          o[1] = b.max[1];
+          o[2] = b.min[2];
+          d[0] = 1;
+          d[1] = d[2] = 0;
+          max_t = 40;
+          break;
+        }
+        case 4:
+          max_t = 0;
+          break;
+        case 5:
+          max_t = std::numeric_limits<float>::infinity();
+          break;
+        default:
+          break;
+      }
+      struct Hit {
+        float t;
+        Handle h;
+      };
+      std::vector<Hit> hits;
+      for (std::size_t i = 0; i < now.size(); ++i) {
+        float t;
+        if (ref_ray(o, d, max_t, now[i], t)) hits.push_back({t, handles[i]});
+      }
+      std::sort(hits.begin(), hits.end(),
+                [](const Hit& a, const Hit& b) { return a.t < b.t || (a.t == b.t && a.h < b.h); });
+      std::vector<Handle> want_ray;
+      for (const Hit& h : hits) want_ray.push_back(h.h);
+      ASSERT_EQ(bp.query_ray(o, d, max_t), want_ray) << "ray " << q;
+      ray_hits += want_ray.size();
+      if (q % 6 == 2 || q % 6 == 3) {
+        ASSERT_FALSE(want_ray.empty()) << "ray " << q;
+        inside_hits += want_ray.size();
+      }
+    }
+  }
+  EXPECT_GT(box_hits, 450u);
+  EXPECT_GT(ray_hits, 450u);
+  EXPECT_GT(inside_hits, 0u);
+}
+
+TEST(BroadPhase, EmptyAndSingle) {
+  BroadPhase bp;
+  EXPECT_TRUE(bp.update().pairs.empty());
+  const float o[3] = {0, 0, 0}, d[3] = {1, 1, 1};
+  EXPECT_TRUE(bp.query_ray(o, d, 10).empty());
+  EXPECT_TRUE(bp.query_box(Aabb{{0, 0, 0}, {1, 1, 1}}).empty());
+  const auto h = bp.add(std::vector<Aabb>{Aabb{{0, 0, 0}, {1, 1, 1}}});
+  EXPECT_TRUE(bp.update().pairs.empty());
+  EXPECT_EQ(bp.query_ray(o, d, 10), h);
+  bp.remove(h);
+  EXPECT_TRUE(bp.query_ray(o, d, 10).empty());
+  EXPECT_EQ(bp.size(), 0u);
+}
+
+}  // namespace

@@ -1,0 +1,319 @@
+// The k-d partition kept across frames: membership, min-x order, depth bound
+// (issue 17: a tree past 64 levels used to overflow the traversal stack), the
+// x split weight, determinism, and exact pairs through the hybrid system on
+// scenes that stress the incremental maintenance (crossing planes every
+// frame, teleporting, piling into one cell, objects appended and removed).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "hbp/brute_force.hpp"
+#include "hbp/error.hpp"
+#include "hbp/hybrid_broadphase.hpp"
+#include "hbp/kd_partition.hpp"
+#include "hbp/scenario.hpp"
+
+namespace {
+
+using hbp::Aabb;
+using hbp::BoxArray;
+using hbp::CellRegion;
+using hbp::HybridBroadPhase;
+using hbp::KdPartition;
+using hbp::Pair;
+
+// Every cell holds exactly the objects whose closed box reaches its half-open
+// region, each once, with this frame's box, in (min x, id) order.
+void expect_valid_cells(const KdPartition& p, const BoxArray& boxes, const std::string& where) {
+  std::vector<std::uint32_t> count(boxes.size(), 0);
+  std::uint64_t entries = 0;
+  for (std::uint32_t c = 0; c < p.cell_count(); ++c) {
+    const CellRegion& r = p.region(c);
+    const auto cell = p.cell(c);
+    entries += cell.size();
+    for (std::size_t k = 0; k < cell.size(); ++k) {
+      const hbp::CellEntry& e = cell[k];
+      ASSERT_LT(e.id, boxes.size()) << where;
+      const Aabb b = boxes.get(e.id);
+      for (int a = 0; a < 3; ++a) {
+        ASSERT_EQ(e.min[a], b.min[a]) << where << " cell " << c << " id " << e.id;
+        ASSERT_EQ(e.max[a], b.max[a]) << where << " cell " << c << " id " << e.id;
+        ASSERT_TRUE(b.min[a] < r.hi[a] && b.max[a] >= r.lo[a]) << where << " cell " << c << " id " << e.id;
+      }
+      if (k > 0) {
+        const hbp::CellEntry& d = cell[k - 1];
+        ASSERT_TRUE(d.min[0] < e.min[0] || (d.min[0] == e.min[0] && d.id < e.id))
+            << where << ": cell " << c << " not in min-x order at " << k;
+      }
+      ++count[e.id];
+    }
+  }
+  // Each object is in as many cells as its box reaches (and at least one).
+  std::uint64_t want = 0;
+  for (std::uint32_t i = 0; i < boxes.size(); ++i) {
+    const Aabb b = boxes.get(i);
+    std::uint32_t reach = 0;
+    for (std::uint32_t c = 0; c < p.cell_count(); ++c) {
+      const CellRegion& r = p.region(c);
+      bool in = true;
+      for (int a = 0; a < 3; ++a) in &= b.min[a] < r.hi[a] && b.max[a] >= r.lo[a];
+      reach += in;
+    }
+    ASSERT_GE(reach, 1u) << where << " id " << i;
+    ASSERT_EQ(count[i], reach) << where << " id " << i;
+    want += reach;
+  }
+  EXPECT_EQ(entries, want) << where;
+  EXPECT_EQ(p.stats().entries, entries) << where;
+  EXPECT_LE(p.stats().depth, KdPartition::kMaxDepth) << where;
+}
+
+// The oracle for large frames: the brute-force test on the candidates of a
+// plain sweep along x (every pair whose x intervals overlap is tested).
+std::vector<Pair> sweep_oracle(const BoxArray& boxes) {
+  std::vector<std::uint32_t> order(boxes.size());
+  for (std::uint32_t i = 0; i < order.size(); ++i) order[i] = i;
+  const float* mnx = boxes.min(0);
+  std::sort(order.begin(), order.end(), [&](auto a, auto b) { return mnx[a] < mnx[b] || (mnx[a] == mnx[b] && a < b); });
+  std::vector<Pair> out;
+  for (std::size_t i = 0; i < order.size(); ++i) {
+    const Aabb a = boxes.get(order[i]);
+    for (std::size_t j = i + 1; j < order.size() && mnx[order[j]] <= a.max[0]; ++j) {
+      const Aabb b = boxes.get(order[j]);
+      bool hit = true;
+      for (int k = 0; k < 3; ++k) hit &= a.min[k] <= b.max[k] && b.min[k] <= a.max[k];
+      if (hit) out.push_back(hbp::make_pair(order[i], order[j]));
+    }
+  }
+  std::sort(out.begin(), out.end(), [](Pair x, Pair y) { return x.a < y.a || (x.a == y.a && x.b < y.b); });
+  return out;
+}
+
+void expect_oracle(HybridBroadPhase& bp, const BoxArray& boxes, const std::string& where) {
+  const std::vector<Pair>& got = bp.update(boxes);
+  const std::vector<Pair> want = boxes.size() > 5000 ? sweep_oracle(boxes) : hbp::brute_force_pairs(boxes);
+  ASSERT_EQ(got.size(), want.size()) << where;
+  ASSERT_TRUE(got == want) << where;
+}
+
+// A few objects converging on one point, halving their distance (and size)
+// every frame, among a few hundred static boxes: each frame the leaf holding
+// them splits again, deeper than the last.
+struct Converging {
+  std::vector<Aabb> fixed;
+  std::vector<std::array<float, 3>> dirs;
+  // At the origin the cloud shrinks exactly (powers of two) for over a
+  // hundred frames before floats run out.
+  float point[3] = {0, 0, 0};
+
+  float half;  // half-size of a mover, relative to its distance
+
+  Converging(std::uint32_t statics, std::uint32_t movers, std::uint32_t seed, float half_size = 0.02f)
+      : half(half_size) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> pos(-1000, 1000), size(2, 30), dir(-1, 1);
+    for (std::uint32_t i = 0; i < statics; ++i) {
+      const float x = pos(rng), y = pos(rng), z = pos(rng), s = size(rng);
+      fixed.push_back({{x, y, z}, {x + s, y + s, z + s}});
+    }
+    for (std::uint32_t i = 0; i < movers; ++i) dirs.push_back({dir(rng), dir(rng), dir(rng)});
+  }
+  BoxArray frame(int f) const {
+    BoxArray b;
+    b.reserve(fixed.size() + dirs.size());
+    for (const Aabb& a : fixed) b.push_back(a);
+    const float d = 200.0f * std::ldexp(1.0f, -f);
+    for (const auto& v : dirs) {
+      Aabb a;
+      for (int k = 0; k < 3; ++k) {
+        const float c = point[k] + d * v[k];
+        a.min[k] = c - half * d;
+        a.max[k] = c + half * d;
+      }
+      b.push_back(a);
+    }
+    return b;
+  }
+};
+
+TEST(KdPartitionDepth, ConvergingObjectsAtCellLimitTwoMatchTheOracleEveryFrame) {
+  const Converging scene(300, 6, 1);
+  {
+    KdPartition p(2);
+    std::uint32_t deepest = 0;
+    for (int f = 0; f < 100; ++f) {
+      const BoxArray boxes = scene.frame(f);
+      p.update(boxes);
+      deepest = std::max(deepest, p.stats().depth);
+      if (f % 10 == 0 || f == 99) expect_valid_cells(p, boxes, "frame " + std::to_string(f));
+    }
+    // The scene does drive the tree to the bound (it used to pass 64 and crash).
+    EXPECT_EQ(deepest, KdPartition::kMaxDepth);
+  }
+  for (const char* engine : {"sw", "sw-allpairs", "brute", "ae", "mo"}) {
+    HybridBroadPhase bp({.engine = engine, .cell_limit = 2, .threads = 2});
+    for (int f = 0; f < 100; ++f) expect_oracle(bp, scene.frame(f), std::string(engine) + " frame " + std::to_string(f));
+  }
+}
+
+TEST(KdPartitionDepth, EightyThousandConvergingObjectsAtTheDefaultLimit) {
+  // The same self-similar cloud at the default cell limit: ~80,000 objects
+  // shrinking around one point, 1,000 static boxes around them.
+  const Converging scene(1000, 80000, 2, 0.004f);
+  HybridBroadPhase bp({.engine = "sw", .threads = 2});
+  KdPartition p(1024);
+  for (int f = 0; f < 12; ++f) {
+    const BoxArray boxes = scene.frame(f);
+    expect_oracle(bp, boxes, "frame " + std::to_string(f));
+    p.update(boxes);
+    EXPECT_LE(p.stats().depth, KdPartition::kMaxDepth);
+    if (f == 11) expect_valid_cells(p, boxes, "frame " + std::to_string(f));
+  }
+}
+
+// Cells measured from the regions, clipped to the scene's bounds: mean of
+// x extent over the mean of the y and z extents.
+double mean_x_elongation(const KdPartition& p, const Aabb& world) {
+  double sum = 0;
+  for (std::uint32_t c = 0; c < p.cell_count(); ++c) {
+    const CellRegion& r = p.region(c);
+    double ext[3];
+    for (int a = 0; a < 3; ++a)
+      ext[a] = std::min<double>(r.hi[a], world.max[a]) - std::max<double>(r.lo[a], world.min[a]);
+    sum += ext[0] / (0.5 * (ext[1] + ext[2]));
+  }
+  return sum / p.cell_count();
+}
+
+TEST(KdPartition, XSplitWeightMakesCellsLongerInX) {
+  hbp::ScenarioParams sp;
+  sp.n = 20000;
+  hbp::Scenario scene(sp);
+  BoxArray boxes;
+  scene.compute_boxes(boxes);
+  const Aabb world = scene.world_bounds();
+  KdPartition even(256, 1.0f), sweep(256, 0.5f);
+  even.update(boxes);
+  sweep.update(boxes);
+  EXPECT_EQ(sweep.x_split_weight(), 0.5f);
+  const double e = mean_x_elongation(even, world), s = mean_x_elongation(sweep, world);
+  // Uniform scene: cells about cubic with 1.0; with 0.5 x is split only when
+  // it is twice as wide as the others.
+  EXPECT_LT(e, 1.5);
+  EXPECT_GT(s, 1.5 * e);
+  expect_valid_cells(sweep, boxes, "x weight 0.5");
+  EXPECT_THROW(KdPartition(256, 0.0f), hbp::InvalidInput);
+}
+
+// Boxes that cross planes every frame, teleport, pile up, and come and go.
+std::vector<BoxArray> stress_frames(std::uint32_t frames) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(0, 1);
+  const std::uint32_t n = 2500;
+  std::vector<Aabb> base(n);
+  for (auto& a : base) {
+    const float x = 1000 * u(rng), y = 1000 * u(rng), z = 1000 * u(rng), s = 5 + 40 * u(rng);
+    a = {{x, y, z}, {x + s, y + s, z + s}};
+  }
+  std::vector<BoxArray> out;
+  for (std::uint32_t f = 0; f < frames; ++f) {
+    BoxArray b;
+    // Objects come and go at the end of the array.
+    const std::uint32_t count = n - 300 + (f * 137) % 400;
+    for (std::uint32_t i = 0; i < count; ++i) {
+      Aabb a = base[i % n];
+      const float sign = (f % 2) ? 1.0f : -1.0f;
+      if (i % 5 == 0) {  // oscillate across planes by more than a cell
+        for (int k = 0; k < 3; ++k) a.min[k] += sign * 150, a.max[k] += sign * 150;
+      } else if (i % 5 == 1) {  // teleport anywhere
+        const float x = 1000 * u(rng), y = 1000 * u(rng), z = 1000 * u(rng);
+        a = {{x, y, z}, {x + 20, y + 20, z + 20}};
+      } else if (i % 5 == 2) {  // pile into one corner over the frames
+        const float t = std::min(1.0f, 0.08f * static_cast<float>(f));
+        for (int k = 0; k < 3; ++k) {
+          const float c = (1 - t) * a.min[k] + t * 100.0f;
+          a.max[k] = c + (a.max[k] - a.min[k]) * (1 - 0.9f * t);
+          a.min[k] = c;
+        }
+      } else {  // small coherent motion
+        for (int k = 0; k < 3; ++k) {
+          const float d = 0.3f * static_cast<float>(f) * (k == 0 ? 1.0f : -0.5f);
+          a.min[k] += d, a.max[k] += d;
+        }
+      }
+      b.push_back(a);
+    }
+    out.push_back(std::move(b));
+  }
+  return out;
+}
+
+TEST(KdPartition, StressedMaintenanceKeepsExactCellsAndPairs) {
+  const std::vector<BoxArray> frames = stress_frames(16);
+  KdPartition p(64, 0.5f);
+  std::uint32_t splits = 0, merges = 0;
+  for (std::size_t f = 0; f < frames.size(); ++f) {
+    p.update(frames[f]);
+    splits += p.stats().splits;
+    merges += p.stats().merges;
+    expect_valid_cells(p, frames[f], "frame " + std::to_string(f));
+  }
+  EXPECT_GT(splits, 0u);
+  for (const char* engine : {"sw", "brute"}) {
+    HybridBroadPhase bp({.engine = engine, .cell_limit = 64});
+    for (std::size_t f = 0; f < frames.size(); ++f)
+      expect_oracle(bp, frames[f], std::string(engine) + " frame " + std::to_string(f));
+  }
+}
+
+TEST(KdPartition, OneAndTwoThreadsGiveTheSameCellsAndPairOrder) {
+  const std::vector<BoxArray> frames = stress_frames(8);
+  HybridBroadPhase one({.engine = "sw", .cell_limit = 64, .threads = 1, .sorted = false});
+  HybridBroadPhase two({.engine = "sw", .cell_limit = 64, .threads = 2, .sorted = false});
+  for (std::size_t f = 0; f < frames.size(); ++f) {
+    const std::vector<Pair> a = one.update(frames[f]);
+    const std::vector<Pair>& b = two.update(frames[f]);
+    ASSERT_TRUE(a == b) << "frame " << f;
+  }
+  // And a paper scene large enough for the parallel build's top levels.
+  hbp::ScenarioParams sp;
+  sp.n = 120000;
+  std::vector<std::vector<Pair>> runs[2];
+  for (unsigned t = 1; t <= 2; ++t) {
+    hbp::Scenario scene(sp);
+    HybridBroadPhase bp({.engine = "sw", .threads = t, .sorted = false});
+    BoxArray boxes;
+    for (int f = 0; f < 3; ++f) {
+      scene.compute_boxes(boxes);
+      runs[t - 1].push_back(bp.update(boxes));
+      scene.step();
+    }
+  }
+  for (int f = 0; f < 3; ++f) EXPECT_TRUE(runs[0][f] == runs[1][f]) << "paper frame " << f;
+}
+
+}  // namespace
+
+namespace {
+
+TEST(KdPartition, EmptyAndTinyFramesComeAndGo) {
+  KdPartition p(2);
+  const std::vector<std::vector<Aabb>> frames = {
+      {}, {{{0, 0, 0}, {1, 1, 1}}}, {}, {{{0, 0, 0}, {1, 1, 1}}, {{0.5f, 0, 0}, {2, 1, 1}}, {{5, 5, 5}, {6, 6, 6}}},
+      {{{0, 0, 0}, {1, 1, 1}}}};
+  for (std::size_t f = 0; f < frames.size(); ++f) {
+    BoxArray b;
+    for (const Aabb& a : frames[f]) b.push_back(a);
+    p.update(b);
+    expect_valid_cells(p, b, "frame " + std::to_string(f));
+    HybridBroadPhase bp({.engine = "sw", .cell_limit = 2});
+    EXPECT_EQ(bp.update(b), hbp::brute_force_pairs(b)) << "frame " << f;
+  }
+}
+
+}  // namespace
