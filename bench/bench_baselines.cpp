@@ -35,6 +35,13 @@ void BM_BulletDbvtDeferred(benchmark::State& s) { run(s, "bullet-dbvt-deferred")
 void BM_BulletAxisSweep(benchmark::State& s) { run(s, "bullet-axis-sweep"); }
 void BM_Cgal(benchmark::State& s) { run(s, "cgal"); }
 void BM_BruteForce(benchmark::State& s) { run(s, "brute"); }
+void BM_FclDynamicAabbTree(benchmark::State& s) { run(s, "fcl-dynamic-aabb-tree"); }
+void BM_FclSap(benchmark::State& s) { run(s, "fcl-sap"); }
+void BM_FclIntervalTree(benchmark::State& s) { run(s, "fcl-interval-tree"); }
+void BM_FclSpatialHash(benchmark::State& s) { run(s, "fcl-spatial-hash"); }
+void BM_OdeHash(benchmark::State& s) { run(s, "ode-hash"); }
+void BM_OdeSap(benchmark::State& s) { run(s, "ode-sap"); }
+void BM_OdeQuadTree(benchmark::State& s) { run(s, "ode-quadtree"); }
 
 BENCHMARK(BM_BulletDbvt)->Arg(1000)->Arg(16000)->Arg(128000)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_BulletDbvtDeferred)->Arg(1000)->Arg(16000)->Arg(128000)->Unit(benchmark::kMillisecond);
@@ -42,5 +49,12 @@ BENCHMARK(BM_BulletDbvtDeferred)->Arg(1000)->Arg(16000)->Arg(128000)->Unit(bench
 BENCHMARK(BM_BulletAxisSweep)->Arg(1000)->Arg(16000)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Cgal)->Arg(1000)->Arg(16000)->Arg(128000)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_BruteForce)->Arg(1000)->Arg(4000)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_FclDynamicAabbTree)->Arg(1000)->Arg(16000)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_FclSap)->Arg(1000)->Arg(16000)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_FclIntervalTree)->Arg(1000)->Arg(16000)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_FclSpatialHash)->Arg(1000)->Arg(16000)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_OdeHash)->Arg(1000)->Arg(16000)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_OdeSap)->Arg(1000)->Arg(16000)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_OdeQuadTree)->Arg(1000)->Arg(16000)->Unit(benchmark::kMillisecond);
 
 }  // namespace

@@ -1,5 +1,6 @@
 // Every baseline (Bullet DBVT with and without deferred collide, Bullet
-// AxisSweep3, CGAL, brute force) must find exactly the oracle's pair set,
+// AxisSweep3, CGAL, FCL's four broad-phase managers, ODE's three spaces, brute
+// force) must find exactly the oracle's pair set,
 // frame by frame: on the paper's scene and on adversarial ones (touching
 // faces, identical boxes, zero-size boxes, boxes sliding into and out of
 // contact). A mismatch prints the pairs that differ.
@@ -81,6 +82,14 @@ TEST_P(EveryBaseline, LargerPaperSceneWithBigStepsMatchesOracle) {
 TEST_P(EveryBaseline, ClusteredAndDegenerateScenesMatchOracle) {
   run_scenario(GetParam(), hbp::ScenarioKind::Clustered, 600, 3, 3);
   run_scenario(GetParam(), hbp::ScenarioKind::Degenerate, 500, 4, 4);
+}
+
+// Every object on one plane (a 2D world in 3D: quadtrees and sweeps see all
+// objects at one z) and a few objects spanning most of the world (they sit
+// in a tree's root, a hash space's top level, many grid cells).
+TEST_P(EveryBaseline, FlatAndHugeScenesMatchOracle) {
+  run_scenario(GetParam(), hbp::ScenarioKind::Flat, 600, 5, 3);
+  run_scenario(GetParam(), hbp::ScenarioKind::Huge, 600, 6, 3);
 }
 
 // Unit cubes on an integer lattice: every neighbour (face, edge or corner)
@@ -195,7 +204,11 @@ TEST(BaselineRegistry, UnknownNameListsKnownOnes) {
 TEST(BaselineRegistry, NamesAndLabels) {
   EXPECT_EQ(make_baseline("bullet-dbvt")->label(), "Bullet DBVT");
   EXPECT_EQ(make_baseline("bullet-dbvt-deferred")->name(), "bullet-dbvt-deferred");
-  EXPECT_EQ(hbp::baselines::baseline_names().size(), 5u);
+  EXPECT_EQ(make_baseline("fcl-dynamic-aabb-tree")->label(), "FCL DynamicAABBTree");
+  EXPECT_EQ(make_baseline("ode-quadtree")->label(), "ODE quadtree");
+  EXPECT_EQ(hbp::baselines::baseline_names().size(), 12u);
+  // Every name the registry lists makes a baseline that answers to it.
+  for (const auto& name : hbp::baselines::baseline_names()) EXPECT_EQ(make_baseline(name)->name(), name);
 }
 
 // Bullet's pair cache is a superset: after a large move the DBVT keeps

@@ -24,7 +24,8 @@
 namespace hbp::baselines {
 
 struct BaselineOptions {
-  // World bounds for quantising sweep and prune (bt32BitAxisSweep3). Empty
+  // World bounds for quantising sweep and prune (bt32BitAxisSweep3) and for
+  // the grids and trees that need them (FCL's spatial hash, ODE's quadtree). Empty
   // (min > max): the first frame's bounds, grown by a quarter of their extent
   // per side. Boxes outside are clamped by Bullet, which keeps overlaps.
   Aabb world{{1, 1, 1}, {0, 0, 0}};
@@ -55,7 +56,9 @@ class Baseline {
 
 // Names: "bullet-dbvt" (Bullet defaults, the paper's CPU baseline),
 // "bullet-dbvt-deferred" (m_deferedcollide = true), "bullet-axis-sweep"
-// (bt32BitAxisSweep3), "cgal" (box_self_intersection_d), "brute".
+// (bt32BitAxisSweep3), "cgal" (box_self_intersection_d), "fcl-dynamic-aabb-tree",
+// "fcl-sap", "fcl-interval-tree", "fcl-spatial-hash" (FCL's broad-phase
+// managers), "ode-hash", "ode-sap", "ode-quadtree" (ODE's spaces), "brute".
 // Throws InvalidInput naming the unknown baseline and listing the known ones.
 std::unique_ptr<Baseline> make_baseline(const std::string& name, const BaselineOptions& options = {});
 std::vector<std::string> baseline_names();
@@ -65,9 +68,19 @@ std::unique_ptr<Baseline> make_bullet_dbvt(bool deferred_collide);
 std::unique_ptr<Baseline> make_bullet_axis_sweep(const BaselineOptions& options);
 std::unique_ptr<Baseline> make_cgal_box_intersection();
 std::unique_ptr<Baseline> make_brute_force_baseline();
+std::unique_ptr<Baseline> make_fcl_dynamic_aabb_tree();
+std::unique_ptr<Baseline> make_fcl_sap();
+std::unique_ptr<Baseline> make_fcl_interval_tree();
+std::unique_ptr<Baseline> make_fcl_spatial_hash(const BaselineOptions& options);
+std::unique_ptr<Baseline> make_ode_hash_space();
+std::unique_ptr<Baseline> make_ode_sap_space();
+std::unique_ptr<Baseline> make_ode_quadtree_space(const BaselineOptions& options);
+std::string fcl_version();
+std::string ode_version();
 
 // Versions of the libraries behind the baselines, for reports:
-// {{"Bullet", "3.24 (single precision)"}, {"CGAL", "5.5.1"}}.
+// {{"Bullet", "3.24 (single precision)"}, {"CGAL", "5.5.1"}, {"FCL", "0.7.0"},
+// {"ODE", "0.16.2 (double precision)"}}.
 std::vector<std::pair<std::string, std::string>> baseline_library_versions();
 
 }  // namespace hbp::baselines

@@ -45,8 +45,43 @@ const char* status_name(CellStatus s) {
     case CellStatus::Skipped: return "skipped";
     case CellStatus::NotApplicable: return "n/a";
     case CellStatus::Failed: return "failed";
+    case CellStatus::Projected: return "projected";
   }
   return "?";
+}
+
+// A CSV field: quoted, with embedded quotes doubled (RFC 4180).
+std::string csv_quote(const std::string& s) {
+  std::string q = "\"";
+  for (char c : s) q += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return q + "\"";
+}
+
+std::string fmt_bytes(std::uint64_t b) {
+  if (b == 0) return "";
+  const double mb = static_cast<double>(b) / (1024.0 * 1024.0);
+  if (mb >= 1024) return fmt("%.2f GB", mb / 1024);
+  if (mb >= 10) return fmt("%.0f MB", mb);
+  return fmt("%.1f MB", mb);
+}
+
+std::string fmt_rate(double per_s) {
+  if (!(per_s > 0)) return "";
+  if (per_s >= 1e9) return fmt("%.2f G", per_s * 1e-9);
+  if (per_s >= 1e6) return fmt("%.1f M", per_s * 1e-6);
+  if (per_s >= 1e3) return fmt("%.1f k", per_s * 1e-3);
+  return fmt("%.0f", per_s);
+}
+
+std::string fmt_seconds_as_ms(double s) { return fmt_ms(s * 1e3); }
+
+// "~12.5 (projected)" (appended piecewise: GCC 12 warns falsely on
+// "literal" + string temporaries under -O3).
+std::string projected_text(const std::string& value) {
+  std::string t = "~";
+  t += value;
+  t += " (projected)";
+  return t;
 }
 
 int index_of(const BenchResult& r, const std::string& key) {
@@ -74,11 +109,36 @@ std::string column_label(const BenchResult& r, std::size_t i) {
   return r.labels[i] + (r.modelled[i] ? " (model)" : " (m)");
 }
 
+// The fastest measured system of a row (lowest median among systems that
+// ran on this machine and matched the reference every frame), or -1.
+int fastest_measured(const BenchResult& r, const RowResult& row) {
+  int best = -1;
+  for (std::size_t i = 0; i < row.cells.size(); ++i) {
+    const CellResult& c = row.cells[i];
+    if (r.modelled[i] || c.status != CellStatus::Ran || c.frames == 0 || c.mismatched_frames) continue;
+    if (best < 0 || c.median_ms < row.cells[static_cast<std::size_t>(best)].median_ms) best = static_cast<int>(i);
+  }
+  return best;
+}
+
+// The lowest projected median of a row, among systems projected there.
+int fastest_projected(const BenchResult& r, const RowResult& row) {
+  int best = -1;
+  for (std::size_t i = 0; i < row.cells.size(); ++i) {
+    const CellResult& c = row.cells[i];
+    if (r.modelled[i] || c.status != CellStatus::Projected) continue;
+    if (best < 0 || c.projected_ms < row.cells[static_cast<std::size_t>(best)].projected_ms)
+      best = static_cast<int>(i);
+  }
+  return best;
+}
+
 std::string cell_text(const CellResult& c) {
   switch (c.status) {
     case CellStatus::NotApplicable: return "n/a";
     case CellStatus::Skipped: return c.note;
     case CellStatus::Failed: return "FAILED";
+    case CellStatus::Projected: return projected_text(fmt_ms(c.projected_ms));
     case CellStatus::Ran: break;
   }
   std::string s = fmt_ms(c.median_ms);
@@ -130,11 +190,18 @@ std::string header_text(const BenchHeader& h) {
     << " for measured systems.  \n";
   o << "Threads: our software hybrid and the models' partition run with " << c.choice.threads
     << " thread(s); Bullet and CGAL are single-threaded.  \n";
-  o << "Budget: a system is skipped in a row when its projected time there exceeds "
+  o << "Budget: a system is not run in a row when the time it would take there (setup + frames, projected "
+       "from its earlier rows) exceeds "
     << format_duration(c.budget_s);
   for (const auto& [k, secs] : c.budget_for) o << ", " << k << " " << format_duration(secs);
-  o << " (projected from its earlier rows; a system is also stopped in a row once it has spent twice its "
-       "budget there).  \n";
+  o << "; its cell then shows the projected median, marked \"(projected)\", extrapolated from its last two "
+       "measured rows (time ~ n^e, e fitted, 1 <= e <= 2.2) and never counted as measured. A system is also "
+       "stopped in a row once it has spent twice its budget there.  \n";
+  o << "Memory: peak resident memory attributed to each system, in this process: the growth of VmRSS/VmHWM "
+       "(/proc/self/status; the peak reset through /proc/self/clear_refs) around each of its own calls (setup "
+       "and every frame), on top of what it retained from its earlier calls; the heap is trimmed before each "
+       "setup. Input boxes and the frame generator are not counted; pages the allocator reuses from another "
+       "system's frees are not seen, so it is a lower bound.  \n";
   o << "Machine:\n\n";
   for (const auto& [k, v] : h.machine) o << "- " << k << ": " << v << "\n";
   o << "\n";
@@ -152,12 +219,17 @@ std::string format_tables(const BenchResult& r, const BenchHeader& h) {
   o << "## Median time per frame (ms)\n\n";
   std::vector<std::string> head = {"n", "pairs"};
   for (std::size_t i = 0; i < r.keys.size(); ++i) head.push_back(column_label(r, i));
-  head.push_back("GPU");
+  if (h.paper) head.push_back("GPU");
+  head.push_back("fastest measured");
   table_head(o, head);
   for (const auto& row : r.rows) {
-    std::vector<std::string> cells = {std::to_string(row.n), std::to_string(row.median_pairs)};
+    const bool any_ran = std::any_of(row.cells.begin(), row.cells.end(),
+                                     [](const CellResult& c) { return c.status == CellStatus::Ran && c.frames > 0; });
+    std::vector<std::string> cells = {std::to_string(row.n), any_ran ? std::to_string(row.median_pairs) : ""};
     for (const auto& c : row.cells) cells.push_back(cell_text(c));
-    cells.push_back("not run");
+    if (h.paper) cells.push_back("not run");
+    const int f = fastest_measured(r, row);
+    cells.push_back(f < 0 ? "" : r.labels[static_cast<std::size_t>(f)]);
     table_row(o, cells);
   }
   o << "\n(m): measured " << (h.config.choice.clock == BenchClock::Cpu ? "CPU" : "wall")
@@ -168,9 +240,13 @@ std::string format_tables(const BenchResult& r, const BenchHeader& h) {
        "excluded as in the paper; \"none\" = the whole world in one accelerator load, only up to its capacity "
        "(1024 area-efficient, 16,384 many-object), else n/a like the paper; a cell size is used only when n "
        "exceeds it.  \n"
-       "GPU: the paper's GPU column is Bullet's OpenCL sweep and prune on a GeForce GTX 670. This machine has "
-       "no GPU, so it is not run and no figure is invented"
-    << (h.paper ? "; the published figures are in the paper table below" : "") << ".  \n"
+    << (h.paper ? "GPU: the paper's GPU column is Bullet's OpenCL sweep and prune on a GeForce GTX 670. This "
+                  "machine has no GPU, so it is not run and no figure is invented; the published figures are in "
+                  "the paper table below.  \n"
+                : "")
+    << "~x (projected): not run at this size (over budget), projected from the system's measured rows.  \n"
+       "fastest measured: lowest median among the measured (m) systems that ran at this size and matched the "
+       "reference every frame.  \n"
        "Every system's exact pair set (Bullet's pair cache filtered with the closed-interval test) is compared "
        "with " << r.reference << "'s every frame; MISMATCH xk marks k frames that differed (listed below).\n";
   bool notes = false;
@@ -188,6 +264,62 @@ std::string format_tables(const BenchResult& r, const BenchHeader& h) {
     o << "\nNot in this binary: ";
     for (std::size_t i = 0; i < r.missing.size(); ++i) o << (i ? "; " : "") << r.missing[i];
     o << ".\n";
+  }
+
+  // 1b. Every system per row: the distribution, the first frame, the rate,
+  // the memory.
+  o << "\n## Per system: median, p99 and worst frame, first frame, pairs per second, peak memory\n\n";
+  table_head(o, {"n", "system", "median ms", "p99 ms", "worst ms", "first frame (setup) ms", "pairs/s",
+                 "peak memory", "raw pairs", "frames", "status"});
+  for (const auto& row : r.rows) {
+    for (std::size_t i = 0; i < row.cells.size(); ++i) {
+      const CellResult& c = row.cells[i];
+      if (c.status == CellStatus::NotApplicable) continue;
+      if (c.status == CellStatus::Projected) {
+        table_row(o, {std::to_string(row.n), column_label(r, i), projected_text(fmt_ms(c.projected_ms)), "",
+                      "", projected_text(fmt_seconds_as_ms(c.projected_setup_s)), "", "", "", "0",
+                      c.note});
+        continue;
+      }
+      if (c.status != CellStatus::Ran) {
+        table_row(o, {std::to_string(row.n), column_label(r, i), "", "", "", "", "", "", "", "0",
+                      c.status == CellStatus::Failed ? "FAILED: " + c.note : c.note});
+        continue;
+      }
+      std::string status = c.mismatched_frames ? "MISMATCH x" + std::to_string(c.mismatched_frames) : "exact";
+      if (!c.note.empty()) status += "; " + c.note;
+      table_row(o, {std::to_string(row.n), column_label(r, i), fmt_ms(c.median_ms), fmt_ms(c.p99_ms),
+                    fmt_ms(c.max_ms), fmt_seconds_as_ms(c.setup_s), fmt_rate(c.pairs_per_s),
+                    c.memory_measured ? fmt_bytes(c.peak_bytes) : "not measured", std::to_string(c.median_raw_pairs),
+                    std::to_string(c.frames), status});
+    }
+  }
+  o << "\nmedian / p99 / worst: over every timed frame of the row (p99 by nearest rank: with fewer than 100 "
+       "frames it is the worst or next-to-worst). First frame: the untimed setup (wall time, mean per variant): "
+       "proxies or geoms created and the first pairs found; for rebuild-every-frame systems (CGAL, brute force) "
+       "one ordinary frame. pairs/s: the reference's exact pairs per second of median frame time. Peak memory: "
+       "see Memory above.\n";
+
+  // Fastest per size.
+  o << "\n## Fastest per size\n\n";
+  table_head(o, {"n", "fastest measured", "median ms", "runner-up measured", "median ms",
+                 "fastest projected (not run)", "projected ms"});
+  for (const auto& row : r.rows) {
+    const int f = fastest_measured(r, row);
+    int second = -1;
+    for (std::size_t i = 0; i < row.cells.size(); ++i) {
+      const CellResult& c = row.cells[i];
+      if (static_cast<int>(i) == f || r.modelled[i] || c.status != CellStatus::Ran || c.frames == 0 ||
+          c.mismatched_frames)
+        continue;
+      if (second < 0 || c.median_ms < row.cells[static_cast<std::size_t>(second)].median_ms)
+        second = static_cast<int>(i);
+    }
+    const int p = fastest_projected(r, row);
+    auto label = [&](int i) { return i < 0 ? std::string() : r.labels[static_cast<std::size_t>(i)]; };
+    auto med = [&](int i) { return i < 0 ? std::string() : fmt_ms(row.cells[static_cast<std::size_t>(i)].median_ms); };
+    table_row(o, {std::to_string(row.n), label(f), med(f), label(second), med(second), label(p),
+                  p < 0 ? "" : fmt_ms(row.cells[static_cast<std::size_t>(p)].projected_ms)});
   }
 
   // 2. Acceleration factors against Bullet DBVT.
@@ -276,23 +408,26 @@ std::vector<std::string> write_report_files(const std::string& dir, const BenchR
     auto f = open("samples.csv");
     f << "n,variant,frame,system,label,kind,ms,wall_ms,cpu_ms,raw_pairs,exact_pairs,match\n";
     for (const auto& s : r.samples)
-      f << s.n << "," << s.variant << "," << s.frame << "," << r.keys[s.system] << ",\"" << r.labels[s.system]
-        << "\"," << kind(s.system) << "," << fmt("%.6f", s.reported_ms) << "," << fmt("%.6f", s.wall_ms) << ","
+      f << s.n << "," << s.variant << "," << s.frame << "," << r.keys[s.system] << ","
+        << csv_quote(r.labels[s.system]) << "," << kind(s.system) << "," << fmt("%.6f", s.reported_ms) << "," << fmt("%.6f", s.wall_ms) << ","
         << fmt("%.6f", s.cpu_ms) << "," << s.raw_pairs << "," << s.exact_pairs << "," << (s.match ? 1 : 0) << "\n";
   }
   {
     auto f = open("summary.csv");
-    f << "n,system,label,kind,status,median_ms,min_ms,max_ms,median_wall_ms,median_cpu_ms,setup_s,frames,"
-         "mismatched_frames,"
-         "median_raw_pairs,reference_pairs,note\n";
+    f << "n,system,label,kind,status,median_ms,p99_ms,min_ms,max_ms,median_wall_ms,median_cpu_ms,setup_s,"
+         "pairs_per_s,peak_bytes,frames,mismatched_frames,median_raw_pairs,reference_pairs,projected_ms,"
+         "projected_setup_s,note\n";
     for (const auto& row : r.rows)
       for (std::size_t i = 0; i < row.cells.size(); ++i) {
         const CellResult& c = row.cells[i];
-        f << row.n << "," << r.keys[i] << ",\"" << r.labels[i] << "\"," << kind(i) << "," << status_name(c.status)
-          << "," << fmt("%.6f", c.median_ms) << "," << fmt("%.6f", c.min_ms) << "," << fmt("%.6f", c.max_ms) << ","
-          << fmt("%.6f", c.median_wall_ms) << "," << fmt("%.6f", c.median_cpu_ms) << "," << fmt("%.6f", c.setup_s) << "," << c.frames << ","
-          << c.mismatched_frames << "," << c.median_raw_pairs << "," << row.median_pairs << ",\"" << c.note
-          << "\"\n";
+        f << row.n << "," << r.keys[i] << "," << csv_quote(r.labels[i]) << "," << kind(i) << ","
+          << status_name(c.status) << "," << fmt("%.6f", c.median_ms) << "," << fmt("%.6f", c.p99_ms) << ","
+          << fmt("%.6f", c.min_ms) << "," << fmt("%.6f", c.max_ms) << "," << fmt("%.6f", c.median_wall_ms) << ","
+          << fmt("%.6f", c.median_cpu_ms) << "," << fmt("%.6f", c.setup_s) << "," << fmt("%.1f", c.pairs_per_s)
+          << "," << (c.memory_measured ? std::to_string(c.peak_bytes) : std::string()) << "," << c.frames << ","
+          << c.mismatched_frames << "," << c.median_raw_pairs << "," << row.median_pairs << ","
+          << fmt("%.6f", c.projected_ms) << "," << fmt("%.6f", c.projected_setup_s) << "," << csv_quote(c.note)
+          << "\n";
       }
   }
   {
@@ -320,6 +455,12 @@ std::vector<std::string> write_report_files(const std::string& dir, const BenchR
                                     {"median_ms", c.median_ms},
                                     {"min_ms", c.min_ms},
                                     {"max_ms", c.max_ms},
+                                    {"p99_ms", c.p99_ms},
+                                    {"pairs_per_s", c.pairs_per_s},
+                                    {"peak_bytes", c.memory_measured ? nlohmann::json(c.peak_bytes)
+                                                                     : nlohmann::json(nullptr)},
+                                    {"projected_ms", c.projected_ms},
+                                    {"projected_setup_s", c.projected_setup_s},
                                     {"median_wall_ms", c.median_wall_ms},
                                     {"median_cpu_ms", c.median_cpu_ms},
                                     {"setup_s", c.setup_s},
@@ -363,12 +504,23 @@ std::vector<std::string> write_report_files(const std::string& dir, const BenchR
   }
   // Plot data: whitespace-separated, "?" for a missing value, quoted titles.
   {
+    // Systems projected somewhere get a second column: the projected
+    // medians, starting at the last measured row so the curve continues.
+    std::vector<std::size_t> projected;
+    for (std::size_t i = 0; i < r.keys.size(); ++i)
+      for (const auto& row : r.rows)
+        if (row.cells[i].status == CellStatus::Projected) {
+          projected.push_back(i);
+          break;
+        }
     auto f = open("times.dat");
     f << "n";
     for (std::size_t i = 0; i < r.keys.size(); ++i) f << " \"" << column_label(r, i) << "\"";
     if (h.paper) f << " \"paper CPU (DBVT)\" \"paper AE best (model)\"";
+    for (std::size_t i : projected) f << " \"" << r.labels[i] << " (projected)\"";
     f << "\n";
-    for (const auto& row : r.rows) {
+    for (std::size_t k = 0; k < r.rows.size(); ++k) {
+      const RowResult& row = r.rows[k];
       f << row.n;
       for (const auto& key : r.keys) {
         const double v = median_of(r, row, key);
@@ -377,6 +529,13 @@ std::vector<std::string> write_report_files(const std::string& dir, const BenchR
       if (h.paper) {
         const PaperTable4Row* p = paper_table4_row(row.n);
         f << " " << (p ? fmt("%.9g", p->cpu) : "?") << " " << (p ? fmt("%.9g", paper_ae_best(*p)) : "?");
+      }
+      for (std::size_t i : projected) {
+        const CellResult& c = row.cells[i];
+        const bool next_projected = k + 1 < r.rows.size() && r.rows[k + 1].cells[i].status == CellStatus::Projected;
+        if (c.status == CellStatus::Projected) f << " " << fmt("%.9g", c.projected_ms);
+        else if (c.status == CellStatus::Ran && c.frames > 0 && next_projected) f << " " << fmt("%.9g", c.median_ms);
+        else f << " ?";
       }
       f << "\n";
     }

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <exception>
 
+#include "bench_memory.hpp"
 #include "hbp/error.hpp"
 
 namespace hbp::cli {
@@ -22,6 +23,14 @@ double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   const std::size_t m = v.size() / 2;
   return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
+}
+
+// Nearest-rank percentile (q in (0, 1]).
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const auto rank = static_cast<std::size_t>(std::ceil(q * static_cast<double>(v.size())));
+  return v[std::min(v.size(), std::max<std::size_t>(rank, 1)) - 1];
 }
 
 // Growth of a frame's cost with n when only one earlier row is known.
@@ -72,20 +81,29 @@ void BenchRunner::plan(const std::vector<std::uint32_t>& object_counts) {
     work_total_ += static_cast<double>(n) * config_.variants * (config_.warmup + config_.frames + 1);
 }
 
-double BenchRunner::project_seconds(std::size_t i, std::uint32_t n) const {
+BenchRunner::Projection BenchRunner::project(std::size_t i, std::uint32_t n) const {
+  Projection p;
   const auto& h = history_[i];
-  if (h.empty()) return 0;  // nothing known: run it (the in-row guard still applies)
+  if (h.empty()) return p;  // nothing known: run it (the in-row guard still applies)
   const History& last = h.back();
-  double e = default_frame_exponent(systems_[i]->key());
-  if (h.size() >= 2) {
-    const History& prev = h[h.size() - 2];
-    if (last.n > prev.n && prev.frame_wall_ms > 0 && last.frame_wall_ms > 0)
-      e = std::clamp(std::log(last.frame_wall_ms / prev.frame_wall_ms) / std::log(double(last.n) / prev.n), 1.0, 2.2);
-  }
+  // Growth exponent of a frame's time with n, fitted on the last two rows
+  // (separately for wall time, which sets the budget, and for the reported
+  // clock, which the table shows).
+  auto exponent = [&](double History::*ms) {
+    double e = default_frame_exponent(systems_[i]->key());
+    if (h.size() >= 2) {
+      const History& prev = h[h.size() - 2];
+      if (last.n > prev.n && prev.*ms > 0 && last.*ms > 0)
+        e = std::clamp(std::log(last.*ms / prev.*ms) / std::log(double(last.n) / prev.n), 1.0, 2.2);
+    }
+    return e;
+  };
   const double r = static_cast<double>(n) / last.n;
-  const double frame_s = last.frame_wall_ms * 1e-3 * std::pow(r, e);
-  const double setup_s = last.setup_s * std::pow(r, setup_exponent(systems_[i]->key()));
-  return config_.variants * (setup_s + (config_.warmup + config_.frames) * frame_s);
+  p.frame_wall_ms = last.frame_wall_ms * std::pow(r, exponent(&History::frame_wall_ms));
+  p.frame_reported_ms = last.frame_reported_ms * std::pow(r, exponent(&History::frame_reported_ms));
+  p.setup_s = last.setup_s * std::pow(r, setup_exponent(systems_[i]->key()));
+  p.row_seconds = config_.variants * (p.setup_s + (config_.warmup + config_.frames) * p.frame_wall_ms * 1e-3);
+  return p;
 }
 
 void BenchRunner::run_row(FrameSource& source) {
@@ -105,10 +123,14 @@ void BenchRunner::run_row(FrameSource& source) {
       c.note = s.not_applicable_reason(n);
       continue;
     }
-    const double projected = project_seconds(i, n);
-    if (projected > config_.budget_of(s.key())) {
-      c.status = CellStatus::Skipped;
-      c.note = "skipped, projected " + format_duration(projected);
+    // Our software hybrid is the reference every other system is checked
+    // against: it always runs.
+    const Projection projected = project(i, n);
+    if (s.key() != "sw" && projected.row_seconds > config_.budget_of(s.key())) {
+      c.status = CellStatus::Projected;
+      c.projected_ms = projected.frame_reported_ms;
+      c.projected_setup_s = projected.setup_s;
+      c.note = "projected, row would take " + format_duration(projected.row_seconds);
       continue;
     }
     c.status = CellStatus::Ran;
@@ -126,6 +148,9 @@ void BenchRunner::run_row(FrameSource& source) {
   std::vector<std::vector<double>> reported(count), wall(count), cpu(count);
   std::vector<std::vector<double>> raw(count);
   std::vector<double> spent(count, 0), setup(count, 0);
+  std::vector<MemoryMeter> memory(count);
+  std::vector<std::uint64_t> peak_bytes(count, 0);
+  std::vector<bool> memory_ok(count, true);
   std::vector<double> ref_pairs;
   BoxArray boxes;
 
@@ -142,6 +167,7 @@ void BenchRunner::run_row(FrameSource& source) {
   // Stops a system whose time in this row runs far past the budget (the
   // projection had no earlier row, or was wrong).
   auto over_budget = [&](std::size_t i) {
+    if (i == ref) return false;  // the reference runs every frame, whatever it costs
     const double budget = config_.budget_of(systems_[i]->key());
     if (spent[i] <= 2 * budget) return false;
     active[i] = false;
@@ -156,6 +182,12 @@ void BenchRunner::run_row(FrameSource& source) {
     source.begin_variant(v, boxes);
     for (std::size_t i = 0; i < count; ++i) {
       if (!active[i]) continue;
+      // A fresh meter per world: the system's earlier world is freed by
+      // setup(), the heap trimmed so freed pages are not silently reused.
+      if (v > 0) peak_bytes[i] = std::max(peak_bytes[i], memory[i].peak_bytes());
+      memory[i].reset();
+      trim_heap();
+      memory[i].before();
       const auto t0 = Clock::now();
       try {
         systems_[i]->setup(boxes);
@@ -163,6 +195,7 @@ void BenchRunner::run_row(FrameSource& source) {
         fail(i, "setup", e);
       }
       const double s = seconds_since(t0);
+      memory[i].after();
       setup[i] += s;
       spent[i] += s;
     }
@@ -181,12 +214,15 @@ void BenchRunner::run_row(FrameSource& source) {
       for (std::size_t i : order) {
         if (over_budget(i)) continue;
         FrameTime t;
+        memory[i].before();
         try {
           t = systems_[i]->update(boxes);
         } catch (const std::exception& e) {
+          memory[i].after();
           fail(i, "frame " + std::to_string(frame), e);
           continue;
         }
+        memory[i].after();
         spent[i] += t.wall_ms * 1e-3;
         if (!timed) continue;
         const std::vector<Pair>& got = systems_[i]->exact_pairs();
@@ -226,15 +262,21 @@ void BenchRunner::run_row(FrameSource& source) {
       continue;
     }
     c.median_ms = median(reported[i]);
+    c.p99_ms = percentile(reported[i], 0.99);
     c.min_ms = *std::min_element(reported[i].begin(), reported[i].end());
     c.max_ms = *std::max_element(reported[i].begin(), reported[i].end());
     c.median_wall_ms = median(wall[i]);
     c.median_cpu_ms = median(cpu[i]);
     c.median_raw_pairs = static_cast<std::uint64_t>(median(raw[i]));
     c.setup_s = setup[i] / config_.variants;
-    history_[i].push_back({n, c.median_wall_ms, c.setup_s});
+    c.peak_bytes = std::max(peak_bytes[i], memory[i].peak_bytes());
+    c.memory_measured = memory[i].measured();
+    history_[i].push_back({n, c.median_wall_ms, c.median_ms, c.setup_s});
   }
   row.median_pairs = static_cast<std::uint64_t>(median(ref_pairs));
+  for (auto& c : row.cells)
+    if (c.status == CellStatus::Ran && c.median_ms > 0)
+      c.pairs_per_s = static_cast<double>(row.median_pairs) / (c.median_ms * 1e-3);
   result_.rows.push_back(std::move(row));
 }
 

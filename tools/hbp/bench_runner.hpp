@@ -42,14 +42,22 @@ struct BenchConfig {
   SystemChoice choice;
 };
 
-enum class CellStatus { Ran, Skipped, NotApplicable, Failed };
+// Projected: over budget at this size, so not run; its time is projected
+// from its measured rows (never shown as measured).
+enum class CellStatus { Ran, Skipped, NotApplicable, Failed, Projected };
 
 struct CellResult {
   CellStatus status = CellStatus::NotApplicable;
-  double median_ms = 0, min_ms = 0, max_ms = 0;  // reported (measured or modelled)
+  double median_ms = 0, min_ms = 0, max_ms = 0;  // reported (measured or modelled); max = worst frame
+  double p99_ms = 0;                             // 99th percentile (nearest rank) of the timed frames
   double median_wall_ms = 0;                     // this machine's cost
   double median_cpu_ms = 0;                      // calling thread's CPU time
-  double setup_s = 0;                            // mean one-time setup per variant
+  double setup_s = 0;                            // mean one-time setup per variant (the first frame:
+                                                 // proxies created / structures built), wall time
+  double pairs_per_s = 0;                        // reference's exact pairs / median frame time
+  std::uint64_t peak_bytes = 0;                  // peak memory attributed to the system (bench_memory.hpp)
+  bool memory_measured = false;
+  double projected_ms = 0, projected_setup_s = 0;  // Projected: from the measured scaling
   std::uint32_t frames = 0;                      // timed frames recorded
   std::uint32_t mismatched_frames = 0;
   std::uint64_t median_raw_pairs = 0;
@@ -104,10 +112,15 @@ class BenchRunner {
  private:
   struct History {
     std::uint32_t n;
-    double frame_wall_ms;  // median per timed frame
-    double setup_s;        // mean per variant
+    double frame_wall_ms;      // median per timed frame
+    double frame_reported_ms;  // the same on the reported clock
+    double setup_s;            // mean per variant
   };
-  double project_seconds(std::size_t system, std::uint32_t n) const;
+  struct Projection {
+    double frame_wall_ms = 0, frame_reported_ms = 0, setup_s = 0;
+    double row_seconds = 0;  // what the row would cost (variants x (setup + frames))
+  };
+  Projection project(std::size_t system, std::uint32_t n) const;
 
   BenchConfig config_;
   Progress progress_;

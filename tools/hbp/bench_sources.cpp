@@ -7,8 +7,8 @@
 namespace hbp::cli {
 
 void PaperFrames::begin_variant(std::uint32_t variant, BoxArray& first) {
-  ScenarioParams p;  // the paper's scenario, section 5
-  p.kind = ScenarioKind::Paper;
+  ScenarioParams p;  // the paper's scenario (section 5) or another kind, default parameters
+  p.kind = kind_;
   p.n = n_;
   p.seed = variant;
   scenario_ = std::make_unique<Scenario>(p);

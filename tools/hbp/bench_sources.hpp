@@ -12,15 +12,18 @@
 
 namespace hbp::cli {
 
+// A generated scene (src/scene/scenario.cpp) of any kind: the paper's
+// uniform scene, clustered, flat, huge, degenerate.
 class PaperFrames final : public FrameSource {
  public:
-  explicit PaperFrames(std::uint32_t n) : n_(n) {}
+  explicit PaperFrames(std::uint32_t n, ScenarioKind kind = ScenarioKind::Paper) : n_(n), kind_(kind) {}
   std::uint32_t object_count() const override { return n_; }
   void begin_variant(std::uint32_t variant, BoxArray& first) override;
   void next(BoxArray& boxes) override;
 
  private:
   std::uint32_t n_;
+  ScenarioKind kind_;
   std::unique_ptr<Scenario> scenario_;
 };
 

@@ -1,9 +1,13 @@
-// hbp bench paper | scene: the paper's evaluation (Table 4, Fig. 4) against
-// real baselines on the same frames, with exact pair sets checked every
-// frame, Table-4-shaped output, CSV/JSON of every sample and gnuplot plots.
+// hbp bench paper | kind KIND | scene FILE: the paper's evaluation (Table 4,
+// Fig. 4) and every other scene kind against real baselines on the same
+// frames, with exact pair sets checked every frame, Table-4-shaped output,
+// CSV/JSON of every sample and gnuplot plots.
+#include <spawn.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -34,10 +38,37 @@ const std::vector<std::uint32_t> kTable4Rows = {100,   200,   300,   400,    500
 // --quick: one row per regime (no partition, small cells, large worlds),
 // under 3 minutes on 2 cores.
 const std::vector<std::uint32_t> kQuickRows = {100, 1000, 4000, 16000, 64000};
+// bench kind: one row per decade up to a million objects.
+const std::vector<std::uint32_t> kKindRows = {1000, 10000, 100000, 1000000};
+// The degenerate scene stacks a third of its objects as mutually
+// overlapping identical boxes: about n^2 / 18 pairs (5.6 million at 10,000,
+// 5.6 * 10^10 at 10^6, beyond any memory), so its rows stop early.
+const std::vector<std::uint32_t> kDegenerateRows = {1000, 3000, 10000};
+constexpr std::uint32_t kDegenerateLimit = 20000;
+
+std::string kind_description(ScenarioKind kind) {
+  const std::string common = "sizes 25-75 m, |v| <= 25 m/s, |w| <= 2.5 rad/s per axis, spheres/cuboids/cylinders/"
+                             "cones, dt = 1/60 s; variant v uses seed v";
+  switch (kind) {
+    case ScenarioKind::Paper:
+      return "the paper's scenario (section 5): uniform in a cube of side cbrt(50^3 * 5n) m, " + common;
+    case ScenarioKind::Clustered:
+      return "clustered: the paper's cube, objects in 8 Gaussian clusters (sigma = 5 % of the side), " + common;
+    case ScenarioKind::Flat:
+      return "flat: the paper's cube, every centre on the plane z = side / 2 (no motion in z), " + common;
+    case ScenarioKind::Huge:
+      return "huge: the paper's scene plus 4 cuboids spanning 50-90 % of the world per axis, " + common;
+    case ScenarioKind::Degenerate:
+      return "degenerate: integer lattice, thirds of unit cubes with exactly touching faces, zero-size boxes "
+             "on lattice points, stacks of identical 4 m boxes; moves of multiples of 0.25 m per frame";
+  }
+  return scenario_kind_name(kind);
+}
 
 struct BenchArgs {
   std::vector<std::uint32_t> n;
   std::string file;
+  std::string kind;  // bench kind: a scenario kind
   std::uint32_t frames = 10, variants = 3, warmup = 3;
   unsigned threads = 1;
   std::string clock = "wall";
@@ -84,13 +115,30 @@ std::optional<std::string> find_plot_script() {
   return std::nullopt;
 }
 
-std::string shell_quote(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
+extern "C" char** environ;
+
+// Runs `bash SCRIPT DIR` without a shell command line (no quoting to get
+// wrong); true when it exits with 0.
+bool run_plot_script(const std::string& script, const std::string& dir) {
+  std::vector<std::string> args = {"bash", script, dir};
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  pid_t pid = 0;
+  if (posix_spawnp(&pid, "bash", nullptr, nullptr, argv.data(), environ) != 0) return false;
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0)
+    if (errno != EINTR) return false;
+  return WIFEXITED(status) && WEXITSTATUS(status) == 0;
 }
 
-void run_bench(const BenchArgs& a, bool paper) {
+enum class BenchSource { Paper, Kind, Scene };
+
+void run_bench(const BenchArgs& a, BenchSource source) {
+  const bool paper = source == BenchSource::Paper;
+  const bool generated = source != BenchSource::Scene;
+  ScenarioKind kind = ScenarioKind::Paper;
+  if (source == BenchSource::Kind) kind = parse_scenario_kind(a.kind);
   BenchConfig config;
   config.frames = a.frames;
   config.variants = a.variants;
@@ -106,6 +154,8 @@ void run_bench(const BenchArgs& a, bool paper) {
   }
   config.only = a.systems;
   config.choice.threads = a.threads;
+  // The full-pipeline column (broad + narrow phase) belongs to the paper's
+  // evaluation; the kind benches compare broad phases.
   config.choice.shapes = paper;
   if (a.clock == "cpu") {
     if (a.threads != 1)
@@ -124,14 +174,21 @@ void run_bench(const BenchArgs& a, bool paper) {
   header.command = command_line();
   header.started = now_text("%Y-%m-%dT%H:%M:%S%z");
   header.paper = paper;
-  if (paper) {
-    rows = a.n.empty() ? (a.quick ? kQuickRows : kTable4Rows) : a.n;
-    for (std::uint32_t n : rows)
+  if (generated) {
+    const bool degenerate = kind == ScenarioKind::Degenerate;
+    rows = a.n.empty() ? (paper ? (a.quick ? kQuickRows : kTable4Rows) : degenerate ? kDegenerateRows : kKindRows)
+                       : a.n;
+    for (std::uint32_t n : rows) {
       if (n < 2) throw InvalidInput("--n: every object count must be at least 2 (got " + std::to_string(n) + ")");
-    header.title = "paper scenario";
-    header.scene = "the paper's scenario (section 5): cube of side cbrt(50^3 * 5n) m, sizes 25-75 m, "
-                   "|v| <= 25 m/s, |w| <= 2.5 rad/s per axis, spheres/cuboids/cylinders/cones, dt = 1/60 s; "
-                   "variant v uses seed v";
+      if (degenerate && n > kDegenerateLimit)
+        throw InvalidInput("--n " + std::to_string(n) + ": the degenerate scene has about n^2/18 pairs (a third of "
+                           "its objects are mutually overlapping identical boxes), " +
+                           std::to_string(static_cast<unsigned long long>(double(n) * n / 18)) +
+                           " here; bench kind degenerate takes at most " + std::to_string(kDegenerateLimit) +
+                           " objects");
+    }
+    header.title = paper ? "paper scenario" : std::string("scene kind ") + scenario_kind_name(kind);
+    header.scene = kind_description(kind);
   } else {
     scene = std::make_unique<SceneFrames>(a.file);
     const std::uint32_t available = scene->frames_after_first();
@@ -147,9 +204,12 @@ void run_bench(const BenchArgs& a, bool paper) {
   header.config = config;
   header.machine = describe_machine();
 
-  const std::string out = !a.out.empty() ? a.out
-                                         : (paper ? "bench-results/paper-" : "bench-results/scene-") +
-                                               now_text("%Y%m%d-%H%M%S");
+  const std::string out =
+      !a.out.empty() ? a.out
+                     : "bench-results/" +
+                           (paper ? std::string("paper")
+                                  : generated ? std::string("kind-") + scenario_kind_name(kind) : std::string("scene")) +
+                           "-" + now_text("%Y%m%d-%H%M%S");
 
   std::fprintf(stderr, "hbp bench: %s, %zu row(s), %u variant(s) x %u frame(s) (+%u warm-up), budget %s per "
                "system per row, %u thread(s), %s clock; the paper used 20 x 1000\n",
@@ -170,8 +230,8 @@ void run_bench(const BenchArgs& a, bool paper) {
   BenchRunner runner(config, progress, log);
   runner.plan(rows);
   for (std::uint32_t n : rows) {
-    if (paper) {
-      PaperFrames frames(n);
+    if (generated) {
+      PaperFrames frames(n, kind);
       runner.run_row(frames);
     } else {
       runner.run_row(*scene);
@@ -199,12 +259,13 @@ void run_bench(const BenchArgs& a, bool paper) {
     if (!script) {
       std::printf("Plots: scripts/plot-bench not found; run it by hand: scripts/plot-bench %s\n", out.c_str());
     } else {
-      const std::string cmd = shell_quote(*script) + " " + shell_quote(out);
-      if (std::system(cmd.c_str()) == 0)
+      std::fflush(stdout);
+      if (run_plot_script(*script, out))
         std::printf("Plots: %s/accel.png, accel.svg (acceleration vs n, like Fig. 4), times.png, times.svg\n",
                     out.c_str());
       else
-        std::printf("Plots: %s failed (is gnuplot installed? scripts/install-deps)\n", cmd.c_str());
+        std::printf("Plots: bash %s %s failed (is gnuplot installed? scripts/install-deps)\n", script->c_str(),
+                    out.c_str());
     }
   }
   if (!result.mismatches.empty())
@@ -230,8 +291,9 @@ void add_common(CLI::App* cmd, BenchArgs& a) {
                   "Per-system budgets, SYSTEM=SECONDS (comma list), e.g. bullet-axis-sweep=30,brute=30")
       ->delimiter(',');
   cmd->add_option("--systems", a.systems, "Only these systems (comma list): bullet-dbvt, bullet-dbvt-deferred, "
-                                           "bullet-axis-sweep, cgal, brute, sw, ae-none, ae-1024, mo-none, "
-                                           "mo-1024 ... mo-16384")
+                                           "bullet-axis-sweep, cgal, fcl-dynamic-aabb-tree, fcl-sap, "
+                                           "fcl-interval-tree, fcl-spatial-hash, ode-hash, ode-sap, ode-quadtree, "
+                                           "brute, sw, sw-narrow, ae-none, ae-1024, mo-none, mo-1024 ... mo-16384")
       ->delimiter(',');
   cmd->add_option("--out", a.out, "Output directory (default bench-results/<kind>-<time>)");
   cmd->add_flag("--no-plots", a.no_plots, "Do not run gnuplot");
@@ -259,7 +321,32 @@ const RegisterCommand reg([](CLI::App& app) {
       if (paper->count("--warmup") == 0) a.warmup = 2;
       if (paper->count("--budget") == 0) a.budget_s = 20;
     }
-    run_bench(a, true);
+    run_bench(a, BenchSource::Paper);
+  });
+
+  auto ka = std::make_shared<BenchArgs>();
+  CLI::App* kind = bench->add_subcommand(
+      "kind", "One scene kind (paper, clustered, flat, huge, degenerate) for each n: every engine and baseline on "
+              "the same frames, systems over budget projected");
+  kind->add_option("kind", ka->kind, "Scene kind: paper, clustered, flat, huge, degenerate")
+      ->required()
+      ->check(CLI::IsMember({"paper", "clustered", "flat", "huge", "degenerate"}));
+  kind->add_option("--n", ka->n,
+                   "Object counts (comma list; default 1000,10000,100000,1000000; degenerate: 1000,3000,10000, "
+                   "at most 20000)")
+      ->delimiter(',');
+  kind->add_option("--variants", ka->variants, "Variants (seeds) per row")->capture_default_str();
+  add_common(kind, *ka);
+  kind->callback([ka, kind] {
+    BenchArgs a = *ka;
+    // Defaults sized so the four decades up to 10^6 finish within 15 minutes
+    // on 2 cores: 1 variant x 10 timed frames after 2 warm-up frames, 20 s
+    // per system per row (projected beyond).
+    if (kind->count("--frames") == 0) a.frames = 10;
+    if (kind->count("--variants") == 0) a.variants = 1;
+    if (kind->count("--warmup") == 0) a.warmup = 2;
+    if (kind->count("--budget") == 0) a.budget_s = 20;
+    run_bench(a, BenchSource::Kind);
   });
 
   auto sa = std::make_shared<BenchArgs>();
@@ -267,7 +354,7 @@ const RegisterCommand reg([](CLI::App& app) {
                                                    "Broadmark .aabbs), same tables");
   scene->add_option("file", sa->file, "Scene file")->required();
   add_common(scene, *sa);
-  scene->callback([sa] { run_bench(*sa, false); });
+  scene->callback([sa] { run_bench(*sa, BenchSource::Scene); });
 
   add_bench_narrow(bench);
 });
