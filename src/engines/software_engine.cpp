@@ -33,19 +33,28 @@ void SoftwareEngine::run(const BoxArray& cell, const CellRegion& region, std::ve
     first_.resize(want);
     second_.resize(want);
   }
+  // The kernel writes at most `room` pairs per round: the buffer, but no
+  // more than what the pair limit leaves plus one round's minimum (`want`),
+  // so a call stops within `want` pairs of the limit.
+  const std::size_t start = out.size();
   std::uint32_t row = 0;
   while (true) {
-    kernels::KernelOutput o{first_.data(), second_.data(), first_.size(), 0};
+    const std::uint64_t appended = out.size() - start;
+    const std::uint64_t left = appended < pair_limit_ ? pair_limit_ - appended : 0;
+    const std::size_t room = left < first_.size() ? std::max<std::size_t>(want, left + want) : first_.size();
+    kernels::KernelOutput o{first_.data(), second_.data(), std::min(room, first_.size()), 0};
     row = k(in, row, o);
     const std::size_t base = out.size();
     out.resize(base + o.count);
     for (std::size_t p = 0; p < o.count; ++p) out[base + p] = {first_[p], second_[p]};
-    if (row >= n) break;
-    if (out.size() > pair_limit_)
+    if (out.size() - start > pair_limit_)
       throw CapacityExceeded("cell of " + std::to_string(n) + " boxes has more than " + std::to_string(pair_limit_) +
                              " overlapping pairs (max_pairs)");
-    first_.resize(first_.size() * 2);  // a dense cell: grow and resume
-    second_.resize(second_.size() * 2);
+    if (row >= n) break;
+    if (room == first_.size()) {  // a dense cell: grow and resume
+      first_.resize(first_.size() * 2);
+      second_.resize(second_.size() * 2);
+    }
   }
 }
 
@@ -74,8 +83,20 @@ CellRun SoftwareEngine::find_pairs(const BoxArray& cell, std::vector<Pair>& out)
 }
 
 CellRun BruteForceEngine::find_pairs(const BoxArray& cell, std::vector<Pair>& out) {
-  const auto pairs = brute_force_pairs(cell);
-  out.insert(out.end(), pairs.begin(), pairs.end());
+  // The oracle's loop, appending in place and counting against the pair
+  // limit as it goes: a cell of coincident boxes stops at the limit instead
+  // of building all n²/2 pairs first.
+  const auto n = static_cast<std::uint32_t>(cell.size());
+  const std::size_t base = out.size();
+  for (std::uint32_t i = 0; i + 1 < n; ++i) {
+    const Aabb a = cell.get(i);
+    for (std::uint32_t j = i + 1; j < n; ++j) {
+      if (overlaps(a, cell.get(j))) out.push_back({i, j});
+    }
+    if (out.size() - base > pair_limit_)
+      throw CapacityExceeded("cell of " + std::to_string(n) + " boxes has more than " + std::to_string(pair_limit_) +
+                             " overlapping pairs (max_pairs)");
+  }
   return {};
 }
 
