@@ -10,7 +10,9 @@
 
 namespace hbp {
 
-SoftwareEngine::SoftwareEngine(Kernel kernel) : kernel_(kernel) {}
+SoftwareEngine::SoftwareEngine(Kernel kernel) : kernel_(kernel) {
+  kernels::selected_isa();  // a bad HBP_SIMD fails here, when the engine is made, not in a worker
+}
 
 std::string SoftwareEngine::name() const { return kernel_ == Kernel::Sweep ? "sw" : "sw-allpairs"; }
 
