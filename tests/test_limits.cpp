@@ -12,6 +12,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -23,6 +24,7 @@
 #include <vector>
 
 #include "hbp/brute_force.hpp"
+#include "hbp/cell_engine.hpp"
 #include "hbp/error.hpp"
 #include "hbp/hw/hw_cell_engines.hpp"
 #include "hbp/hybrid_broadphase.hpp"
@@ -170,29 +172,88 @@ std::string describe(const ChildResult& r) {
 
 // ---- Pair explosion -----------------------------------------------------------
 
-// 20,000 coincident boxes: 199,990,000 pairs (1.6 GB as 8-byte pairs). With
-// max_pairs = 10^6 the frame must stop with CapacityExceeded while the
-// process stays small.
+// Every built-in engine ("sw", "sw-allpairs", "brute", "ae", "mo", "ae-sim",
+// "mo-sim"; the Verilated ones are tested in rtl/tb).
+std::vector<std::string> builtin_engines() {
+  std::vector<std::string> names;
+  for (const std::string& name : hbp::cell_engine_names())
+    if (name.rfind("rtl-", 0) != 0 && name.rfind("limits-", 0) != 0) names.push_back(name);
+  return names;
+}
+
+// n coincident boxes (n(n-1)/2 pairs) with max_pairs = 10^6: the frame must
+// stop with CapacityExceeded while the process stays small. Stopping near
+// the limit costs ~8 bytes per pair in the engine's output plus the same in
+// the cell's list: ~16 MiB over the process's baseline.
+constexpr std::size_t kExplosionBound = HBP_LIMITS_SANITIZED ? 1536 * kMiB : 64 * kMiB;
+
 void expect_explosion_stopped(const std::string& engine, std::size_t n) {
-  const std::size_t bound = HBP_LIMITS_SANITIZED ? 1536 * kMiB : 512 * kMiB;
   const ChildResult r = run_child("coincident " + engine + " " + std::to_string(n) + " 1000000");
   std::printf("explosion %zu coincident, engine %s, max_pairs 1e6: %s\n", n, engine.c_str(), describe(r).c_str());
   EXPECT_TRUE(WIFEXITED(r.status)) << engine << ": " << describe(r);
   EXPECT_EQ(r.output.rfind("capacity ", 0), 0u) << engine << ": " << describe(r);
   EXPECT_NE(r.output.find("max_pairs"), std::string::npos) << engine << ": " << describe(r);
-  EXPECT_LT(r.peak_rss, bound) << engine << ": the explosion was not stopped near max_pairs: " << describe(r);
+  EXPECT_LT(r.peak_rss, kExplosionBound) << engine << ": the explosion was not stopped near max_pairs: " << describe(r);
 }
 
-TEST(Limits, PairExplosionStopsWithinMaxPairs) {
-  for (const char* engine : {"sw", "sw-allpairs", "ae"}) expect_explosion_stopped(engine, 20000);
+// 16,000 coincident boxes (127,992,000 pairs) fit one call of every engine
+// but the area-efficient ones (tiled in calls of 1024): before the engines
+// honoured the pair limit, brute and mo-sim stored all 1.3e8 pairs (1.9 GiB
+// and 1.0 GiB) before the pipeline counted them.
+TEST(Limits, PairExplosionStopsWithinMaxPairsEveryEngine) {
+  for (const std::string& engine : builtin_engines()) expect_explosion_stopped(engine, 16000);
 }
 
-// The many-object engine holds 16,384 boxes: one engine call (a whole cell,
-// or a tile of an over-full one) may produce 1.3e8 pairs before the pipeline
-// counts them, unless the engine itself honours CellEngine::pair_limit().
-TEST(Limits, PairExplosionStopsWithinMaxPairsManyObject) {
-  expect_explosion_stopped("mo", 20000);  // tiled: two blocks of 8192 per call
-  expect_explosion_stopped("mo", 16000);  // one cell within the buffer
+// 20,000 boxes: tiled for the many-object buffer (16,384) too.
+TEST(Limits, PairExplosionStopsWithinMaxPairsTiled) {
+  for (const char* engine : {"sw", "ae", "mo"}) expect_explosion_stopped(engine, 20000);
+}
+
+// The per-call limit itself, engine by engine, counted at the throw: one
+// find_pairs / find_owned_pairs call on coincident boxes appends more than
+// the limit (else it could not know) but at most one kernel round beyond it
+// (2(n + 16) pairs: the software engine's smallest output round; a row for
+// brute and the hardware-order loops, one cycle's lines for the models).
+// Pairs already in `out` do not count. With the limit equal to the cell's
+// pair count the call completes.
+TEST(Limits, EveryEngineStopsAtItsPairLimit) {
+  const std::vector<Pair> sentinel(5, Pair{7, 9});
+  for (const std::string& name : builtin_engines()) {
+    auto engine = hbp::make_cell_engine(name);
+    const auto n = static_cast<std::uint32_t>(std::min<std::uint64_t>(engine->capacity(), 3000));
+    const BoxArray boxes = coincident(n);
+    const std::uint64_t limit = 100000;
+    engine->set_pair_limit(limit);
+    for (const bool owned : {false, true}) {
+      std::vector<Pair> out = sentinel;
+      try {
+        if (owned)
+          engine->find_owned_pairs(boxes, hbp::CellRegion::everything(), out);
+        else
+          engine->find_pairs(boxes, out);
+        ADD_FAILURE() << name << ": " << n << " coincident boxes passed a pair limit of " << limit;
+      } catch (const hbp::CapacityExceeded& e) {
+        EXPECT_NE(std::string(e.what()).find("max_pairs"), std::string::npos) << name << ": " << e.what();
+      }
+      const std::uint64_t appended = out.size() - sentinel.size();
+      std::printf("engine %-12s %s: n %u, limit %llu, stored %llu at the throw\n", name.c_str(),
+                  owned ? "find_owned_pairs" : "find_pairs      ", n, static_cast<unsigned long long>(limit),
+                  static_cast<unsigned long long>(appended));
+      EXPECT_GT(appended, limit) << name;
+      EXPECT_LE(appended, limit + 2 * (std::uint64_t{n} + 16)) << name;
+      EXPECT_TRUE(std::equal(sentinel.begin(), sentinel.end(), out.begin())) << name;
+    }
+    // Exactly at the limit: complete; one fewer: stop.
+    const BoxArray few = coincident(600);
+    const std::uint64_t total = 600 * 599 / 2;
+    engine->set_pair_limit(total);
+    std::vector<Pair> out;
+    engine->find_pairs(few, out);
+    EXPECT_EQ(out.size(), total) << name;
+    engine->set_pair_limit(total - 1);
+    out.clear();
+    EXPECT_THROW(engine->find_pairs(few, out), hbp::CapacityExceeded) << name;
+  }
 }
 
 std::vector<std::string> limit_engines() {

@@ -324,6 +324,38 @@ TEST(ScenarioParams, InvalidParametersAreRejected) {
     p.kind = ScenarioKind::Clustered;
     p.clusters = 0;
   });
+  rejects([](ScenarioParams& p) { p.cluster_sigma = -1; });
+  rejects([](ScenarioParams& p) { p.cluster_sigma = NAN; });
+  rejects([](ScenarioParams& p) { p.cluster_sigma = 0; });
+  rejects([](ScenarioParams& p) {
+    p.kind = ScenarioKind::Huge;
+    p.huge_objects = 11;
+  });
+  rejects([](ScenarioParams& p) { p.volume_per_object = 1e300; });  // world past float range
+  rejects([](ScenarioParams& p) { p.size_max = 2e30; });
+}
+
+// Sizes past kMaxScenarioObjects are refused before anything is allocated,
+// naming n and the limit (they used to end in std::bad_alloc).
+TEST(ScenarioParams, ObjectCountLimitIsCheckedUpFront) {
+  for (const std::uint32_t n : {hbp::kMaxScenarioObjects + 1, 2147483647u, 4000000000u}) {
+    ScenarioParams p;
+    p.n = n;
+    try {
+      Scenario s(p);
+      ADD_FAILURE() << "n = " << n << " accepted";
+    } catch (const hbp::InvalidInput& e) {
+      const std::string msg = e.what();
+      EXPECT_NE(msg.find(std::to_string(n)), std::string::npos) << msg;
+      EXPECT_NE(msg.find(std::to_string(hbp::kMaxScenarioObjects)), std::string::npos) << msg;
+    }
+  }
+  // Huge with exactly n huge objects, and a clustered scene's sigma, are fine.
+  ScenarioParams p;
+  p.kind = ScenarioKind::Huge;
+  p.n = 4;
+  p.huge_objects = 4;
+  EXPECT_EQ(Scenario(p).size(), 4u);
 }
 
 TEST(ScenarioParams, OverridesTakeEffect) {

@@ -347,10 +347,22 @@ TEST_F(SceneFileTest, WrongMagicAndVersion) {
   poke<std::uint32_t>(bytes, 12, 512);
   write_bytes(file, bytes);
   expect_error<hbp::FileError>([&] { SceneReader r(file); }, {file, "header size 512"});
+  // Bytes 48-51 are the frame layout (0: structure of arrays, the only one
+  // version 1 has): a 1 there is an unknown layout, not a reserved byte.
+  bytes = good;
+  poke<std::uint32_t>(bytes, 48, 1);
+  write_bytes(file, bytes);
+  expect_error<hbp::FileError>([&] { SceneReader r(file); }, {file, "unsupported native frame layout 1 ", "48-51"});
   bytes = good;
   bytes[50] = 1;
   write_bytes(file, bytes);
-  expect_error<hbp::FileError>([&] { SceneReader r(file); }, {file, "reserved"});
+  expect_error<hbp::FileError>([&] { SceneReader r(file); }, {file, "frame layout 65536"});
+  for (const std::size_t reserved : {52u, 55u, 56u, 63u}) {
+    bytes = good;
+    bytes[reserved] = 1;
+    write_bytes(file, bytes);
+    expect_error<hbp::FileError>([&] { SceneReader r(file); }, {file, "reserved bytes 52-63 are not 0"});
+  }
 }
 
 TEST_F(SceneFileTest, FilesThatAreNotScenes) {

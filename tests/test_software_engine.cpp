@@ -261,4 +261,26 @@ TEST(ReadmeExample, CompilesAndFindsThePairs) {
   EXPECT_EQ(seen, (std::vector<Pair>{{0, 1}}));
 }
 
+// HBP_SIMD: the three lower-case names (capped at what the CPU has), unset or
+// empty for the best; anything else is an error naming the accepted values.
+TEST(SimdChoice, AcceptedValuesAndErrors) {
+  EXPECT_EQ(k::isa_for_request(nullptr, k::Isa::Avx512), k::Isa::Avx512);
+  EXPECT_EQ(k::isa_for_request("", k::Isa::Avx2), k::Isa::Avx2);
+  EXPECT_EQ(k::isa_for_request("scalar", k::Isa::Avx512), k::Isa::Scalar);
+  EXPECT_EQ(k::isa_for_request("avx2", k::Isa::Avx512), k::Isa::Avx2);
+  EXPECT_EQ(k::isa_for_request("avx512", k::Isa::Avx512), k::Isa::Avx512);
+  EXPECT_EQ(k::isa_for_request("avx512", k::Isa::Avx2), k::Isa::Avx2);  // documented fallback
+  EXPECT_EQ(k::isa_for_request("avx2", k::Isa::Scalar), k::Isa::Scalar);
+  for (const char* bad : {"bogus", "AVX2", "Scalar", "avx", "avx512 ", " scalar", "sse"}) {
+    try {
+      (void)k::isa_for_request(bad, k::Isa::Avx512);
+      ADD_FAILURE() << "HBP_SIMD=" << bad << " accepted";
+    } catch (const hbp::InvalidInput& e) {
+      const std::string msg = e.what();
+      EXPECT_NE(msg.find(std::string("HBP_SIMD=") + bad), std::string::npos) << msg;
+      EXPECT_NE(msg.find("scalar, avx2 or avx512"), std::string::npos) << msg;
+    }
+  }
+}
+
 }  // namespace

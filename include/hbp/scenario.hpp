@@ -41,8 +41,19 @@ struct ScenarioParams {
   double world_side() const;
 };
 
+// Most objects a scenario generates: its state is ~160 bytes per object
+// (shape, velocities) plus 24 per box, so 2^26 objects already take ~12 GiB
+// before the hybrid system's ~92 bytes per object. Larger n is refused up
+// front (InvalidInput naming n and this limit) rather than ending in
+// std::bad_alloc.
+inline constexpr std::uint32_t kMaxScenarioObjects = 1u << 26;  // 67,108,864
+
 class Scenario {
  public:
+  // Validates the parameters first: InvalidInput naming the bad one (n past
+  // kMaxScenarioObjects, NaN/Inf or negative sizes, speeds, dt, volume,
+  // cluster sigma, more huge objects than objects, a world too large for
+  // float coordinates).
   explicit Scenario(const ScenarioParams& params);
 
   const ScenarioParams& params() const { return params_; }

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "hbp/box_array.hpp"
+#include "hbp/error.hpp"
 #include "hbp/pair.hpp"
 #include "verilated.h"
 
@@ -152,6 +153,11 @@ class RtlDriver {
   // Lines the pair memory holds (L * PAIR_ROWS); read from the build.
   void set_pair_rows(std::uint32_t rows) { pair_rows_ = rows; }
 
+  // Most compare-stage pairs one run() collects: past it, run() throws
+  // CapacityExceeded (the cell engine passes max_pairs), so a cell of
+  // coincident boxes stops at the limit instead of collecting n^2/2 lines.
+  void set_pair_limit(std::uint64_t limit) { pair_limit_ = limit; }
+
  private:
   std::uint64_t stored_limit() const {
     return pair_rows_ ? static_cast<std::uint64_t>(pair_rows_) * lanes_ : ~0ull;
@@ -172,6 +178,9 @@ class RtlDriver {
       r.pairs.push_back({detail::bits(top_->out_a, l * pw_, pw_), detail::bits(top_->out_b, l * pw_, pw_)});
       r.pair_cycle.push_back(cycle);
     }
+    if (r.pairs.size() > pair_limit_)
+      throw CapacityExceeded("rtl: more than " + std::to_string(pair_limit_) +
+                             " overlapping pairs in one run (max_pairs)");
   }
 
   RtlStep step(std::uint64_t cycle) {
@@ -197,6 +206,7 @@ class RtlDriver {
   Design design_;
   unsigned m_, depth_, lanes_ = 0, pw_ = 1, aw_ = 1;
   std::uint32_t capacity_ = 0, pair_rows_ = 0;
+  std::uint64_t pair_limit_ = ~std::uint64_t{0};
   std::unique_ptr<VerilatedContext> ctx_;
   std::unique_ptr<V> top_;
 };

@@ -34,6 +34,7 @@ class RtlCellEngine final : public CellEngine {
     if (cell.size() > capacity())
       throw CapacityExceeded(name() + ": cell of " + std::to_string(cell.size()) +
                              " boxes exceeds the RTL capacity " + std::to_string(capacity()));
+    driver_.set_pair_limit(pair_limit_);
     RtlResult r = driver_.run(cell);
     out.insert(out.end(), r.pairs.begin(), r.pairs.end());
     return CellRun{r.cycles};

@@ -496,6 +496,25 @@ TEST(RtlEngines, RegisteredAndEqualToTheOracle) {
   EXPECT_THROW(ae->find_pairs(random_boxes(1025, 1, 10.f, 1.f, 2.f), out), CapacityExceeded);
 }
 
+// The pair limit stops a run within one cycle's lines (2m - 1 or m) of it.
+TEST(RtlEngines, StopAtThePairLimit) {
+  register_rtl_engines();
+  BoxArray cell(300);
+  for (std::uint32_t i = 0; i < 300; ++i) cell.set(i, {{0, 0, 0}, {1, 1, 1}});  // 44,850 pairs
+  for (const char* name : {"rtl-ae", "rtl-mo"}) {
+    SCOPED_TRACE(name);
+    std::unique_ptr<CellEngine> e = make_cell_engine(name);
+    e->set_pair_limit(5000);
+    std::vector<Pair> out = {{7, 9}};
+    EXPECT_THROW(e->find_pairs(cell, out), CapacityExceeded);
+    EXPECT_LE(out.size(), 1u);  // nothing appended by the failed call
+    e->set_pair_limit(300 * 299 / 2);
+    out.clear();
+    e->find_pairs(cell, out);
+    EXPECT_EQ(out.size(), 300u * 299 / 2);
+  }
+}
+
 TEST(RtlEngines, HybridSystemWithTheHardwareInTheLoop) {
   // The whole hybrid system (k-d partition -> RTL -> de-duplication) on a
   // frame several cells large: the oracle's pairs, and the same modelled

@@ -66,8 +66,12 @@ void canonical_pairs_avx512(const std::uint32_t*, const std::uint32_t*, std::siz
 
 enum class Isa { Scalar, Avx2, Avx512 };
 // Best ISA this CPU supports, unless HBP_SIMD=scalar|avx2|avx512 says otherwise
-// (an ISA the CPU lacks falls back to the best it has).
+// (an ISA the CPU lacks falls back to the best it has). Any other value of
+// HBP_SIMD throws InvalidInput listing the accepted ones (every call, until
+// the variable is fixed: the choice is made once, on the first good call).
 Isa selected_isa();
+// The choice itself: `request` is HBP_SIMD's value (null or empty: unset).
+Isa isa_for_request(const char* request, Isa best);
 const char* isa_name(Isa isa);
 Kernel sweep_kernel(Isa isa);
 Kernel allpairs_kernel(Isa isa);

@@ -1,7 +1,9 @@
 #include <cstdlib>
 #include <cstring>
+#include <string>
 
 #include "engines/box_kernels.hpp"
+#include "hbp/error.hpp"
 
 namespace hbp::kernels {
 
@@ -16,18 +18,26 @@ Isa best_supported() {
   return Isa::Scalar;
 }
 
-Isa choose() {
-  const Isa best = best_supported();
-  const char* env = std::getenv("HBP_SIMD");
-  if (env == nullptr) return best;
-  Isa want = best;
-  if (std::strcmp(env, "scalar") == 0) want = Isa::Scalar;
-  if (std::strcmp(env, "avx2") == 0) want = Isa::Avx2;
-  if (std::strcmp(env, "avx512") == 0) want = Isa::Avx512;
-  return static_cast<int>(want) <= static_cast<int>(best) ? want : best;
-}
+Isa choose() { return isa_for_request(std::getenv("HBP_SIMD"), best_supported()); }
 
 }  // namespace
+
+Isa isa_for_request(const char* request, Isa best) {
+  if (request == nullptr || *request == '\0') return best;
+  Isa want;
+  if (std::strcmp(request, "scalar") == 0) {
+    want = Isa::Scalar;
+  } else if (std::strcmp(request, "avx2") == 0) {
+    want = Isa::Avx2;
+  } else if (std::strcmp(request, "avx512") == 0) {
+    want = Isa::Avx512;
+  } else {
+    throw InvalidInput(std::string("HBP_SIMD=") + request +
+                       " is not an instruction set: use scalar, avx2 or avx512 (lower case), or leave HBP_SIMD unset "
+                       "for the best this CPU supports");
+  }
+  return static_cast<int>(want) <= static_cast<int>(best) ? want : best;
+}
 
 Isa selected_isa() {
   static const Isa isa = choose();

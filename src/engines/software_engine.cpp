@@ -11,7 +11,9 @@
 
 namespace hbp {
 
-SoftwareEngine::SoftwareEngine(Kernel kernel) : kernel_(kernel) {}
+SoftwareEngine::SoftwareEngine(Kernel kernel) : kernel_(kernel) {
+  kernels::selected_isa();  // a bad HBP_SIMD fails here, when the engine is made, not in a worker
+}
 
 std::string SoftwareEngine::name() const { return kernel_ == Kernel::Sweep ? "sw" : "sw-allpairs"; }
 
@@ -72,6 +74,8 @@ void SoftwareEngine::run(const BoxArray& cell, const CellRegion& region, std::ve
     first_.assign(want, 0);
     second_.assign(want, 0);
   }
+  // A call appends at most one stage past the pair limit before it stops.
+  const std::size_t start = out.size();
   std::uint32_t row = 0;
   while (row < n) {
     std::size_t count = 0;
@@ -79,7 +83,7 @@ void SoftwareEngine::run(const BoxArray& cell, const CellRegion& region, std::ve
     const std::size_t base = out.size();
     out.resize(base + count);
     write_pairs(first_.data(), second_.data(), count, out.data() + base);
-    if (row < n && out.size() > pair_limit_)
+    if (row < n && out.size() - start > pair_limit_)
       throw CapacityExceeded("cell of " + std::to_string(n) + " boxes has more than " + std::to_string(pair_limit_) +
                              " overlapping pairs (max_pairs)");
   }
@@ -110,8 +114,20 @@ CellRun SoftwareEngine::find_pairs(const BoxArray& cell, std::vector<Pair>& out)
 }
 
 CellRun BruteForceEngine::find_pairs(const BoxArray& cell, std::vector<Pair>& out) {
-  const auto pairs = brute_force_pairs(cell);
-  out.insert(out.end(), pairs.begin(), pairs.end());
+  // The oracle's loop, appending in place and counting against the pair
+  // limit as it goes: a cell of coincident boxes stops at the limit instead
+  // of building all n²/2 pairs first.
+  const auto n = static_cast<std::uint32_t>(cell.size());
+  const std::size_t base = out.size();
+  for (std::uint32_t i = 0; i + 1 < n; ++i) {
+    const Aabb a = cell.get(i);
+    for (std::uint32_t j = i + 1; j < n; ++j) {
+      if (overlaps(a, cell.get(j))) out.push_back({i, j});
+    }
+    if (out.size() - base > pair_limit_)
+      throw CapacityExceeded("cell of " + std::to_string(n) + " boxes has more than " + std::to_string(pair_limit_) +
+                             " overlapping pairs (max_pairs)");
+  }
   return {};
 }
 

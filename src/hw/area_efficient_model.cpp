@@ -2,6 +2,7 @@
 
 #include "hbp/hw/analytic_cycles.hpp"
 #include "hbp/hw/buffer_input_checks.hpp"
+#include "hbp/hw/pair_limit_check.hpp"
 
 namespace hbp::hw {
 
@@ -39,6 +40,7 @@ Counters AreaEfficientModel::run(const BoxArray& boxes, std::vector<Pair>& pair_
   pipeline_.configure(pipeline_depth());
 
   const auto n = static_cast<std::uint32_t>(boxes.size());
+  const std::size_t base = pair_memory.size();
   const std::uint32_t ports = 2 * cfg_.m;
   const std::uint32_t stride = ports - 1;  // = comparisons per cycle
   Counters k;
@@ -95,6 +97,7 @@ Counters AreaEfficientModel::run(const BoxArray& boxes, std::vector<Pair>& pair_
       }
     }
     k.pairs_written += pipeline_.retire(cycle, pair_memory);
+    check_pair_limit(pair_memory.size() - base, pair_limit_, n);
   }
   k.comparisons_discarded = k.comparator_slots - k.comparisons_performed;
   return k;

@@ -37,9 +37,9 @@ class HardwareModelEngine final : public CellEngine {
     if (simulate_) return simulate(cell, out);
     check_capacity(design_, cfg_, cell.size());
     if (design_ == Design::AreaEfficient) {
-      area_efficient_order_pairs(cell, out);
+      area_efficient_order_pairs(cell, out, pair_limit_);
     } else {
-      many_object_order_pairs(cell, cfg_.m, out);
+      many_object_order_pairs(cell, cfg_.m, out, pair_limit_);
     }
     return {cycles_for(static_cast<std::uint32_t>(cell.size()))};
   }
@@ -66,11 +66,16 @@ class HardwareModelEngine final : public CellEngine {
  private:
   CellRun simulate(const BoxArray& cell, std::vector<Pair>& out) {
     // Models are built on first use: the fast path never pays for buffers.
+    // The pair limit applies to the model's pair memory, before the
+    // ownership filter: pairs found in one cell are distinct real pairs of
+    // the frame, so more of them than max_pairs means the frame has more.
     if (design_ == Design::AreaEfficient) {
       if (!area_efficient_) area_efficient_ = std::make_unique<AreaEfficientModel>(cfg_);
+      area_efficient_->set_pair_limit(pair_limit_);
       return {area_efficient_->run(cell, out).cycles.total()};
     }
     if (!many_object_) many_object_ = std::make_unique<ManyObjectModel>(cfg_);
+    many_object_->set_pair_limit(pair_limit_);
     return {many_object_->run(cell, out).cycles.total()};
   }
 

@@ -2,6 +2,7 @@
 
 #include "hbp/hw/analytic_cycles.hpp"
 #include "hbp/hw/buffer_input_checks.hpp"
+#include "hbp/hw/pair_limit_check.hpp"
 
 namespace hbp::hw {
 
@@ -36,6 +37,7 @@ Counters ManyObjectModel::run(const BoxArray& boxes, std::vector<Pair>& pair_mem
   pipeline_.configure(pipeline_depth());
 
   const auto n = static_cast<std::uint32_t>(boxes.size());
+  const std::size_t base = pair_memory.size();
   const std::uint32_t m = cfg_.m;
   Counters k;
   std::uint64_t cycle = 0;
@@ -117,6 +119,7 @@ Counters ManyObjectModel::run(const BoxArray& boxes, std::vector<Pair>& pair_mem
       }
     }
     k.pairs_written += pipeline_.retire(cycle, pair_memory);
+    check_pair_limit(pair_memory.size() - base, pair_limit_, n);
   }
   k.comparisons_discarded = k.comparator_slots - k.comparisons_performed;
   return k;

@@ -3,6 +3,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <sstream>
 #include <cmath>
 
 #include "hbp/error.hpp"
@@ -47,6 +48,13 @@ Quat random_orientation(Random& rng) {
   return normalized({b * std::cos(t3), a * std::sin(t2), a * std::cos(t2), b * std::sin(t3)});
 }
 
+// A double as a user would type it (std::to_string prints 1e100 in full).
+std::string number(double v) {
+  std::ostringstream o;
+  o << v;
+  return o.str();
+}
+
 void validate(const ScenarioParams& p) {
   auto bad = [](const std::string& what) { throw InvalidInput("scenario: " + what); };
   if (!(p.dt > 0) || !std::isfinite(p.dt)) bad("dt must be positive and finite");
@@ -56,6 +64,19 @@ void validate(const ScenarioParams& p) {
   if (!(p.angular_speed >= 0) || !std::isfinite(p.angular_speed)) bad("angular speed must be >= 0");
   if (!(p.volume_per_object > 0) || !std::isfinite(p.volume_per_object)) bad("volume per object must be > 0");
   if (p.kind == ScenarioKind::Clustered && p.clusters == 0) bad("clustered scenes need at least one cluster");
+  if (p.n > kMaxScenarioObjects)
+    bad("n = " + std::to_string(p.n) + " objects is more than the limit of " + std::to_string(kMaxScenarioObjects) +
+        " (kMaxScenarioObjects: ~184 bytes of scenario state per object)");
+  if (!(p.cluster_sigma > 0) || !std::isfinite(p.cluster_sigma))
+    bad("cluster sigma must be positive and finite (got " + number(p.cluster_sigma) + ")");
+  if (p.kind == ScenarioKind::Huge && p.huge_objects > p.n)
+    bad("huge objects (" + std::to_string(p.huge_objects) + ") must not outnumber the objects (n = " +
+        std::to_string(p.n) + ")");
+  // Boxes are float32: the world and the objects must fit with room to spare.
+  constexpr double kMaxCoordinate = 1e30;
+  if (!(p.world_side() + p.size_max < kMaxCoordinate))
+    bad("world side " + number(p.world_side()) + " plus object size " + number(p.size_max) +
+        " exceeds 1e30 (float32 coordinates)");
 }
 
 }  // namespace

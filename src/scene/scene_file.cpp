@@ -219,8 +219,11 @@ void SceneReader::read_header() {
     if (header_bytes != kNativeHeaderBytes)
       throw FileError(path_ + ": corrupt native header: header size " + std::to_string(header_bytes) +
                       ", version 1 has " + std::to_string(kNativeHeaderBytes));
-    if (load<std::uint32_t>(h, 48) != 0 || load<std::uint32_t>(h, 52) != 0 || load<std::uint64_t>(h, 56) != 0)
-      throw FileError(path_ + ": corrupt native header: reserved bytes 48-63 are not 0");
+    if (const auto layout = load<std::uint32_t>(h, 48); layout != 0)
+      throw FileError(path_ + ": unsupported native frame layout " + std::to_string(layout) +
+                      " (header bytes 48-51; version 1 has only layout 0, structure of arrays)");
+    if (load<std::uint32_t>(h, 52) != 0 || load<std::uint64_t>(h, 56) != 0)
+      throw FileError(path_ + ": corrupt native header: reserved bytes 52-63 are not 0");
     info_.object_count = load<std::uint32_t>(h, 16);
     const auto frames = load<std::uint32_t>(h, kNativeFrameCountOffset);
     unfinished = frames == kNativeUnfinished;

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
@@ -25,6 +26,7 @@
 #include "bench_runner.hpp"
 #include "bench_sources.hpp"
 #include "command_registry.hpp"
+#include "option_checks.hpp"
 #include "hbp/error.hpp"
 #include "progress.hpp"
 
@@ -148,8 +150,9 @@ void run_bench(const BenchArgs& a, BenchSource source) {
     const auto eq = item.find('=');
     char* end = nullptr;
     const double seconds = eq == std::string::npos ? -1 : std::strtod(item.c_str() + eq + 1, &end);
-    if (eq == std::string::npos || seconds < 0 || end == item.c_str() + eq + 1 || *end != '\0')
-      throw InvalidInput("--budget-for: expected SYSTEM=SECONDS, got '" + item + "'");
+    if (eq == std::string::npos || !(seconds > 0) || !std::isfinite(seconds) || end == item.c_str() + eq + 1 ||
+        *end != '\0')
+      throw InvalidInput("--budget-for: expected SYSTEM=SECONDS with SECONDS > 0, got '" + item + "'");
     config.budget_for.emplace_back(item.substr(0, eq), seconds);
   }
   config.only = a.systems;
@@ -180,6 +183,9 @@ void run_bench(const BenchArgs& a, BenchSource source) {
                        : a.n;
     for (std::uint32_t n : rows) {
       if (n < 2) throw InvalidInput("--n: every object count must be at least 2 (got " + std::to_string(n) + ")");
+      if (n > kMaxScenarioObjects)
+        throw InvalidInput("--n: " + std::to_string(n) + " objects is more than the scenario limit of " +
+                           std::to_string(kMaxScenarioObjects));
       if (degenerate && n > kDegenerateLimit)
         throw InvalidInput("--n " + std::to_string(n) + ": the degenerate scene has about n^2/18 pairs (a third of "
                            "its objects are mutually overlapping identical boxes), " +
@@ -279,6 +285,7 @@ void add_common(CLI::App* cmd, BenchArgs& a) {
                   "Untimed frames after setup, per variant (Bullet's DBVT needs a few to optimise its trees)")
       ->capture_default_str();
   cmd->add_option("--threads", a.threads, "Threads for our software hybrid (baselines are single-threaded)")
+      ->check(threads_range())
       ->capture_default_str();
   cmd->add_option("--clock", a.clock,
                   "wall: elapsed time (what a user waits); cpu: CPU time of the calling thread, robust to other "
@@ -286,6 +293,7 @@ void add_common(CLI::App* cmd, BenchArgs& a) {
       ->check(CLI::IsMember({"wall", "cpu"}))
       ->capture_default_str();
   cmd->add_option("--budget", a.budget_s, "Seconds per system per row; skip systems projected beyond it")
+      ->check(positive_finite())
       ->capture_default_str();
   cmd->add_option("--budget-for", a.budget_for,
                   "Per-system budgets, SYSTEM=SECONDS (comma list), e.g. bullet-axis-sweep=30,brute=30")

@@ -19,6 +19,7 @@
 #include <nlohmann/json.hpp>
 
 #include "command_registry.hpp"
+#include "option_checks.hpp"
 #include "hbp/brute_force.hpp"
 #include "hbp/error.hpp"
 #include "hbp/hw/analytic_cycles.hpp"
@@ -489,7 +490,9 @@ void setup_hw(CLI::App& app) {
   t->add_option("--frames", table->frames, "Frames per partitioned row")->check(CLI::Range(1u, 1000u))->capture_default_str();
   t->add_option("--max-n", table->max_n, "Largest n for partitioned rows (the paper goes to 1,024,000)")
       ->capture_default_str();
-  t->add_option("--threads", table->threads, "Threads for the hybrid system (0: all cores)")->capture_default_str();
+  t->add_option("--threads", table->threads, "Threads for the hybrid system (0: all cores)")
+      ->check(threads_range())
+      ->capture_default_str();
   t->callback([table] {
     const int status = run_table(*table);
     if (status != 0) throw CLI::RuntimeError(status);

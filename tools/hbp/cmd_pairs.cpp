@@ -12,6 +12,7 @@
 
 #include "cmd_distributed.hpp"
 #include "command_registry.hpp"
+#include "option_checks.hpp"
 #include "hbp/brute_force.hpp"
 #include "hbp/error.hpp"
 #include "hbp/hybrid_broadphase.hpp"
@@ -59,6 +60,7 @@ void write_pairs(const std::vector<Pair>& pairs, std::FILE* out, const std::stri
 
 void run_pairs(const PairsOptions& o) {
   SceneReader reader(o.file);
+  if (reader.info().frame_count == 0) throw InvalidInput(o.file + ": the scene has no frames: no pairs to find");
   BoxArray boxes;
   reader.read_frame(o.frame, boxes);  // validates; names file, frame, object
 
@@ -110,6 +112,7 @@ void setup_pairs(CLI::App& app) {
   cmd->add_option("--cell-limit", opts->cell_limit, "Most objects per k-d cell (0: the engine's default)")
       ->capture_default_str();
   cmd->add_option("--threads", opts->threads, "Worker threads of the hybrid system (0: all cores)")
+      ->check(threads_range())
       ->capture_default_str();
   cmd->add_option("-o,--out", opts->out, "Write the pairs to this file instead of stdout");
   cmd->add_flag("--distributed", opts->distributed,

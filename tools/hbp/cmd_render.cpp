@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "command_registry.hpp"
+#include "option_checks.hpp"
 #include "hbp/error.hpp"
 #include "hbp/raytrace/colliding_objects.hpp"
 #include "hbp/raytrace/png_writer.hpp"
@@ -114,16 +115,24 @@ const RegisterCommand reg([](CLI::App& app) {
   cmd->add_option("--n", args->n, "Objects")->capture_default_str();
   cmd->add_option("--seed", args->seed, "Scenario seed (variant)")->capture_default_str();
   cmd->add_option("--frame", args->frame, "Frame to render (simulated from frame 0)")->capture_default_str();
-  cmd->add_option("--width", args->width, "Image width (pixels)")->capture_default_str();
-  cmd->add_option("--height", args->height, "Image height (pixels)")->capture_default_str();
-  cmd->add_option("--samples", args->samples, "n x n primary rays per pixel")->capture_default_str();
+  // Image sizes are bounded so the frame buffer (4 bytes per pixel) stays
+  // within 1 GiB: a larger request is a typo, refused before any work.
+  cmd->add_option("--width", args->width, "Image width (pixels)")->check(CLI::Range(1u, 16384u))->capture_default_str();
+  cmd->add_option("--height", args->height, "Image height (pixels)")
+      ->check(CLI::Range(1u, 16384u))
+      ->capture_default_str();
+  cmd->add_option("--samples", args->samples, "n x n primary rays per pixel")
+      ->check(CLI::Range(1u, 16u))
+      ->capture_default_str();
   cmd->add_option("--out", args->out, "PNG file to write");
   cmd->add_option("--video", args->video, "Directory for a numbered PNG sequence (frame_00000.png, ...)");
-  cmd->add_option("--frames", args->frames, "Frames of the sequence (with --video)")->capture_default_str();
+  cmd->add_option("--frames", args->frames, "Frames of the sequence (with --video)")
+      ->check(at_least_one())
+      ->capture_default_str();
   cmd->add_flag("--highlight-collisions", args->highlight, "Colour objects the narrow phase finds colliding");
   cmd->add_flag("--no-shadows", args->no_shadows, "Primary rays only");
   cmd->add_option("--cell-limit", args->cell_limit, "Objects per k-d cell")->capture_default_str();
-  cmd->add_option("--threads", args->threads, "Threads (0: all cores)")->capture_default_str();
+  cmd->add_option("--threads", args->threads, "Threads (0: all cores)")->check(threads_range())->capture_default_str();
   cmd->callback([args] { run(*args); });
 });
 

@@ -16,6 +16,7 @@
 
 #include "cmd_distributed.hpp"
 #include "command_registry.hpp"
+#include "option_checks.hpp"
 #include "hbp/collision_pipeline.hpp"
 #include "hbp/error.hpp"
 #include "hbp/hybrid_broadphase.hpp"
@@ -55,6 +56,8 @@ class FrameSource {
   explicit FrameSource(const RunArgs& a) {
     if (!a.in.empty()) {
       reader_ = std::make_unique<SceneReader>(a.in);
+      if (reader_->info().frame_count == 0)
+        throw InvalidInput(a.in + ": the scene has no frames: nothing to run");
       frames_ = std::min<std::uint32_t>(a.frames, reader_->info().frame_count);
     } else {
       ScenarioParams p;
@@ -262,12 +265,12 @@ const RegisterCommand reg([](CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--in", args->in, "Recorded scene file (native or Broadmark) instead of --scene");
   cmd->add_option("--n", args->n, "Objects")->capture_default_str();
-  cmd->add_option("--frames", args->frames, "Frames")->capture_default_str();
+  cmd->add_option("--frames", args->frames, "Frames")->check(at_least_one())->capture_default_str();
   cmd->add_option("--seed", args->seed, "Scenario seed (variant)")->capture_default_str();
   cmd->add_option("--engine", args->engine, "Cell engine: sw, sw-allpairs, brute, ae, mo, ae-sim, mo-sim, rtl-ae, rtl-mo")
       ->capture_default_str();
   cmd->add_option("--cell-limit", args->cell_limit, "Objects per cell (0: engine default)")->capture_default_str();
-  cmd->add_option("--threads", args->threads, "Threads (0: all cores)")->capture_default_str();
+  cmd->add_option("--threads", args->threads, "Threads (0: all cores)")->check(threads_range())->capture_default_str();
   cmd->add_flag("--json", args->json, "Print one JSON object");
   cmd->add_flag("--cost-splits", args->cost_splits,
                 "Hardware engines: split cells below the limit while that lowers the modelled cycles");

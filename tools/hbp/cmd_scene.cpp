@@ -7,6 +7,7 @@
 #include <string>
 
 #include "command_registry.hpp"
+#include "option_checks.hpp"
 #include "hbp/error.hpp"
 #include "hbp/scenario.hpp"
 #include "hbp/scene_file.hpp"
@@ -134,7 +135,7 @@ void setup_scene(CLI::App& app) {
   gen->add_option("--kind", gen_opts->kind, "Scenario kind")
       ->check(CLI::IsMember({"paper", "clustered", "flat", "huge", "degenerate"}))
       ->capture_default_str();
-  gen->add_option("-n,--n", p.n, "Number of objects")->check(CLI::Range(1u, 0x7FFFFFFFu))->capture_default_str();
+  gen->add_option("-n,--n", p.n, "Number of objects")->check(CLI::Range(1u, kMaxScenarioObjects))->capture_default_str();
   gen->add_option("--frames", p.frames,
                   "Collision-detection cycles: native writes frames 0..F-1, Broadmark the initial state + F")
       ->check(CLI::Range(1u, 0x7FFFFFFEu))

@@ -4,6 +4,7 @@
 
 #include "app.hpp"
 #include "hbp/error.hpp"
+#include "hbp/software_engine.hpp"
 #ifdef HBP_HAVE_RTL
 #include "hbp/rtl/rtl_engines.hpp"
 #endif
@@ -15,6 +16,9 @@ int main(int argc, char** argv) {
   const auto app_ptr = hbp::cli::make_app();
   CLI::App& app = *app_ptr;
   try {
+    // A bad HBP_SIMD is an error for every command, before any work (the
+    // value is read once; the kernels would otherwise fail mid-frame).
+    (void)hbp::SoftwareEngine::isa();
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e);

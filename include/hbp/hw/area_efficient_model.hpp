@@ -37,13 +37,19 @@ class AreaEfficientModel {
   // Loads `boxes` into the buffer, runs the sequence cycle by cycle and
   // appends each colliding pair (i < j) to `pair_memory` in the order the
   // hardware writes them. Records every issuing cycle into `trace` if given.
-  // Throws CapacityExceeded when boxes.size() > capacity(), InvalidInput
-  // naming the object when a coordinate is NaN.
+  // Throws CapacityExceeded when boxes.size() > capacity(), or as soon as
+  // more than pair_limit() pairs have reached `pair_memory` in this run (a
+  // pair explosion stops within one cycle's lines of the limit instead of
+  // filling memory); InvalidInput naming the object when a coordinate is NaN.
   Counters run(const BoxArray& boxes, std::vector<Pair>& pair_memory,
                AreaEfficientTrace* trace = nullptr);
 
   // The buffer as the last run() left it (for inspecting the layout).
   const BufferMemories& buffer() const { return buffer_; }
+
+  // Most pairs one run() may write (the cell engine passes max_pairs).
+  void set_pair_limit(std::uint64_t limit) { pair_limit_ = limit; }
+  std::uint64_t pair_limit() const { return pair_limit_; }
 
  private:
   void load(const BoxArray& boxes);
@@ -51,6 +57,7 @@ class AreaEfficientModel {
   ModelConfig cfg_;
   BufferMemories buffer_;
   PairPipeline pipeline_;
+  std::uint64_t pair_limit_ = ~std::uint64_t{0};
   std::vector<AabbWords> port_data_;  // the 2m words read this cycle
 };
 

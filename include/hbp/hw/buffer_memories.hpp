@@ -21,8 +21,15 @@ struct AabbWords {
   std::uint32_t word[kCoordinates];
 };
 
+// Most AABB slots (groups x depth) a simulated buffer allocates: 2^24 slots
+// are 384 MiB of words, far past the paper's designs (16 x 1024). Larger
+// configurations still work analytically (cycles, resources); simulating
+// them is refused with InvalidInput instead of std::bad_alloc.
+inline constexpr std::uint64_t kMaxSimulatedSlots = std::uint64_t{1} << 24;
+
 class BufferMemories {
  public:
+  // Throws InvalidInput when groups x depth > kMaxSimulatedSlots.
   void configure(std::uint32_t groups, std::uint32_t depth);
   std::uint32_t groups() const { return groups_; }
   std::uint32_t depth() const { return depth_; }

@@ -37,11 +37,15 @@ class ManyObjectModel {
   Resources resources() const;
   CycleBreakdown analytic_cycles(std::uint64_t n) const;
 
-  // As AreaEfficientModel::run.
+  // As AreaEfficientModel::run (including the pair limit).
   Counters run(const BoxArray& boxes, std::vector<Pair>& pair_memory,
                ManyObjectTrace* trace = nullptr);
 
   const BufferMemories& buffer() const { return buffer_; }
+
+  // Most pairs one run() may write (the cell engine passes max_pairs).
+  void set_pair_limit(std::uint64_t limit) { pair_limit_ = limit; }
+  std::uint64_t pair_limit() const { return pair_limit_; }
 
  private:
   void load(const BoxArray& boxes);
@@ -49,6 +53,7 @@ class ManyObjectModel {
   ModelConfig cfg_;
   BufferMemories buffer_;
   PairPipeline pipeline_;
+  std::uint64_t pair_limit_ = ~std::uint64_t{0};
   std::vector<AabbWords> a_data_, b_data_;  // m words each, read this cycle
 };
 

@@ -1,0 +1,230 @@
+// The `hbp` tool refuses bad input up front: each case runs the real binary
+// (HBP_CLI_PATH, built with the tests) and expects a non-zero exit and a
+// message naming the offending option, value or limit — never std::bad_alloc,
+// never exit 0 with an empty result.
+#include <gtest/gtest.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "hbp/scenario.hpp"
+#include "hbp/scene_file.hpp"
+
+extern char** environ;
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Result {
+  int status = -1;     // exit status (-1: did not exit normally)
+  std::string output;  // stdout and stderr, interleaved
+};
+
+// Runs hbp with `args`; `env` entries NAME=VALUE replace or add variables.
+Result hbp(const std::vector<std::string>& args, const std::vector<std::string>& env = {}) {
+  std::vector<std::string> env_store;
+  for (char** e = environ; *e != nullptr; ++e) {
+    bool replaced = false;
+    for (const std::string& v : env)
+      replaced |= std::strncmp(*e, v.c_str(), v.find('=') + 1) == 0;
+    if (!replaced) env_store.emplace_back(*e);
+  }
+  for (const std::string& v : env) env_store.push_back(v);
+  std::vector<char*> envp;
+  for (std::string& s : env_store) envp.push_back(s.data());
+  envp.push_back(nullptr);
+  std::vector<std::string> argv_store = {HBP_CLI_PATH};
+  argv_store.insert(argv_store.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (std::string& s : argv_store) argv.push_back(s.data());
+  argv.push_back(nullptr);
+
+  int fds[2];
+  if (pipe(fds) != 0) throw std::runtime_error("pipe failed");
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_adddup2(&actions, fds[1], STDOUT_FILENO);
+  posix_spawn_file_actions_adddup2(&actions, fds[1], STDERR_FILENO);
+  posix_spawn_file_actions_addclose(&actions, fds[0]);
+  pid_t pid = 0;
+  const int rc = posix_spawn(&pid, HBP_CLI_PATH, &actions, nullptr, argv.data(), envp.data());
+  posix_spawn_file_actions_destroy(&actions);
+  close(fds[1]);
+  if (rc != 0) {
+    close(fds[0]);
+    throw std::runtime_error("posix_spawn " HBP_CLI_PATH " failed");
+  }
+  Result r;
+  char buf[4096];
+  for (ssize_t got; (got = read(fds[0], buf, sizeof buf)) > 0;) r.output.append(buf, static_cast<std::size_t>(got));
+  close(fds[0]);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  r.status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+std::string joined(const std::vector<std::string>& args) {
+  std::string s = "hbp";
+  for (const auto& a : args) s += " " + a;
+  return s;
+}
+
+// Non-zero exit (not a crash) and every part in the output; no bad_alloc.
+void expect_refused(const std::vector<std::string>& args, const std::vector<std::string>& parts,
+                    const std::vector<std::string>& env = {}) {
+  const Result r = hbp(args, env);
+  EXPECT_GT(r.status, 0) << joined(args) << ":\n" << r.output;
+  for (const auto& part : parts)
+    EXPECT_NE(r.output.find(part), std::string::npos) << joined(args) << ": '" << part << "' not in:\n" << r.output;
+  EXPECT_EQ(r.output.find("bad_alloc"), std::string::npos) << joined(args) << ":\n" << r.output;
+}
+
+class Cli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("hbp_test_cli_" + std::to_string(getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::string path(const std::string& name) const { return (dir_ / name).string(); }
+
+  // A valid native scene with `frames` frames of `n` unit cubes.
+  std::string scene(const std::string& name, std::uint32_t n, std::uint32_t frames) const {
+    const std::string file = path(name);
+    hbp::SceneWriter w(file, hbp::SceneFormat::Native, n, {{0, 0, 0}, {10, 10, 10}}, "test", "box");
+    hbp::BoxArray boxes(n);
+    for (std::uint32_t i = 0; i < n; ++i) boxes.set(i, {{float(i), 0, 0}, {float(i) + 1.5f, 1, 1}});
+    for (std::uint32_t k = 0; k < frames; ++k) w.write_frame(boxes);
+    w.close();
+    return file;
+  }
+
+ private:
+  fs::path dir_;
+};
+
+TEST_F(Cli, BadSimdChoiceIsAnErrorNamingTheAcceptedValues) {
+  for (const char* value : {"bogus", "AVX2", "Scalar", "avx", "avx512 "}) {
+    expect_refused({"run", "--n", "50", "--frames", "1"}, {std::string("HBP_SIMD=") + value, "scalar, avx2 or avx512"},
+                   {std::string("HBP_SIMD=") + value});
+  }
+  // Every command, not only those running the software engine.
+  expect_refused({"hw", "trace", "--n", "4"}, {"HBP_SIMD=bogus"}, {"HBP_SIMD=bogus"});
+  // The accepted values work (an ISA the CPU lacks falls back, as documented).
+  const Result r = hbp({"run", "--n", "50", "--frames", "1", "--json"}, {"HBP_SIMD=scalar"});
+  EXPECT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("\"simd\": \"scalar\""), std::string::npos) << r.output;
+}
+
+TEST_F(Cli, NothingToComputeIsAnError) {
+  expect_refused({"run", "--frames", "0"}, {"--frames", "0"});
+  const std::string empty = scene("empty.hbps", 10, 0);
+  // A zero-frame file is a valid file: `scene info` describes it ...
+  const Result info = hbp({"scene", "info", empty, "--validate"});
+  EXPECT_EQ(info.status, 0) << info.output;
+  EXPECT_NE(info.output.find("frames:       0"), std::string::npos) << info.output;
+  // ... but `run` and `pairs` have nothing to compute.
+  expect_refused({"run", "--in", empty}, {empty, "no frames"});
+  expect_refused({"pairs", empty}, {empty, "no frames"});
+  expect_refused({"pairs", empty, "--engine", "sw"}, {empty, "no frames"});
+  // One frame is enough.
+  const std::string one = scene("one.hbps", 10, 1);
+  const Result run = hbp({"run", "--in", one, "--quiet"});
+  EXPECT_EQ(run.status, 0) << run.output;
+  const Result pairs = hbp({"pairs", one});
+  EXPECT_EQ(pairs.status, 0) << pairs.output;
+  EXPECT_NE(pairs.output.find("0 1\n"), std::string::npos) << pairs.output;
+}
+
+TEST_F(Cli, NativeLayoutFieldIsReportedAsSuch) {
+  const std::string file = scene("layout.hbps", 10, 2);
+  {
+    std::fstream f(file, std::ios::in | std::ios::out | std::ios::binary);
+    const std::uint32_t layout = 1;
+    f.seekp(48);
+    f.write(reinterpret_cast<const char*>(&layout), sizeof layout);
+  }
+  for (const char* command : {"info", "run", "pairs"}) {
+    std::vector<std::string> args = {"scene", "info", file};
+    if (std::string(command) == "run") args = {"run", "--in", file};
+    if (std::string(command) == "pairs") args = {"pairs", file};
+    expect_refused(args, {file, "unsupported native frame layout 1"});
+    EXPECT_EQ(hbp(args).output.find("reserved"), std::string::npos) << command;
+  }
+}
+
+TEST_F(Cli, ScenarioParametersAreCheckedBeforeWriting) {
+  const std::string out = path("x.hbps");
+  auto gen = [&](std::vector<std::string> extra) {
+    std::vector<std::string> args = {"scene", "gen", "-o", out, "--frames", "2"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    return args;
+  };
+  expect_refused(gen({"--kind", "clustered", "--cluster-sigma", "-1", "-n", "10"}), {"cluster sigma", "-1"});
+  expect_refused(gen({"--kind", "clustered", "--cluster-sigma", "nan", "-n", "10"}), {"cluster sigma"});
+  expect_refused(gen({"--kind", "clustered", "--cluster-sigma", "0", "-n", "10"}), {"cluster sigma"});
+  expect_refused(gen({"--kind", "huge", "--huge-objects", "11", "-n", "10"}), {"huge objects (11)", "n = 10"});
+  expect_refused(gen({"--dt", "nan", "-n", "10"}), {"dt"});
+  expect_refused(gen({"--dt", "-0.1", "-n", "10"}), {"dt"});
+  expect_refused(gen({"--size-min", "nan", "-n", "10"}), {"size"});
+  expect_refused(gen({"--size-max", "inf", "-n", "10"}), {"size"});
+  expect_refused(gen({"--linear-speed", "-1", "-n", "10"}), {"linear speed"});
+  expect_refused(gen({"--angular-speed", "nan", "-n", "10"}), {"angular speed"});
+  expect_refused(gen({"--volume-per-object", "0", "-n", "10"}), {"volume per object"});
+  expect_refused(gen({"--volume-per-object", "1e300", "-n", "10"}), {"1e30"});
+  expect_refused(gen({"--kind", "clustered", "--clusters", "0", "-n", "10"}), {"cluster"});
+  EXPECT_FALSE(fs::exists(out)) << "a refused scene must not leave a file behind";
+  // The boundary values are accepted.
+  const Result ok = hbp(gen({"--kind", "huge", "--huge-objects", "10", "-n", "10"}));
+  EXPECT_EQ(ok.status, 0) << ok.output;
+}
+
+TEST_F(Cli, SizesPastTheLimitAreRefusedUpFrontNamingIt) {
+  const std::string limit = std::to_string(hbp::kMaxScenarioObjects);
+  expect_refused({"scene", "gen", "-n", "2147483647", "-o", path("big.hbps")}, {"2147483647", limit});
+  expect_refused({"run", "--n", "4000000000", "--frames", "1"}, {"4000000000", limit});
+  expect_refused({"run", "--n", "67108865", "--frames", "1"}, {"67108865", limit});
+  expect_refused({"render", "--n", "4000000000", "--out", path("x.png")}, {"4000000000", limit});
+  expect_refused({"hw", "run", "--n", "4000000000"}, {"4000000000"});
+  expect_refused({"bench", "paper", "--n", "100,4000000000", "--out", path("bench")}, {"4000000000", limit});
+  expect_refused({"render", "--width", "100000", "--height", "100000", "--out", path("x.png")}, {"--width"});
+  expect_refused({"render", "--samples", "1000", "--out", path("x.png")}, {"--samples"});
+  // The cycle-by-cycle buffer is bounded (the analytic commands are not).
+  expect_refused({"hw", "run", "--depth", "1073741824", "--m", "64", "-n", "10"}, {"16777216"});
+  for (const char* command : {"run", "pairs", "render"}) {
+    std::vector<std::string> args = {command, "--threads", "5000"};
+    if (std::string(command) == "pairs") args.insert(args.begin() + 1, path("none.hbps"));
+    expect_refused(args, {"--threads", "5000"});
+  }
+  expect_refused({"bench", "paper", "--threads", "5000"}, {"--threads"});
+  expect_refused({"hw", "table", "--threads", "5000"}, {"--threads"});
+}
+
+TEST_F(Cli, BenchBudgetsMustBePositiveNumbers) {
+  for (const char* budget : {"-1", "nan", "0", "inf", "-inf", "abc"})
+    expect_refused({"bench", "paper", "--n", "100", "--budget", budget, "--out", path("b")}, {"--budget"});
+  for (const char* item : {"brute=nan", "brute=-1", "brute=0", "brute=inf", "brute", "brute=1x"})
+    expect_refused({"bench", "paper", "--n", "100", "--budget-for", item, "--out", path("b")}, {"--budget-for", item});
+  expect_refused({"bench", "paper", "--n", "100", "--frames", "0", "--out", path("b")}, {"--frames"});
+  expect_refused({"bench", "paper", "--n", "100", "--variants", "0", "--out", path("b")}, {"--variants"});
+  EXPECT_FALSE(fs::exists(path("b")));
+}
+
+TEST_F(Cli, RenderCountsMustBePositive) {
+  expect_refused({"render", "--width", "0", "--out", path("x.png")}, {"--width"});
+  expect_refused({"render", "--samples", "0", "--out", path("x.png")}, {"--samples"});
+  expect_refused({"render", "--video", path("v"), "--frames", "0"}, {"--frames"});
+}
+
+}  // namespace
