@@ -78,12 +78,19 @@ void SoftwareEngine::run(const BoxArray& cell, const CellRegion& region, std::ve
   const std::size_t start = out.size();
   std::uint32_t row = 0;
   while (row < n) {
+    // Near the pair limit a round gets only the room the limit leaves plus
+    // one row's worth, so the call stops within n + kOutputSlack of it.
+    const std::uint64_t appended = out.size() - start;
+    const std::uint64_t left = appended < pair_limit_ ? pair_limit_ - appended : 0;
+    const std::size_t room =
+        left >= stage_capacity_ ? stage_capacity_
+                                : std::min<std::size_t>(stage_capacity_, left + std::size_t{n} + kOutputSlack);
     std::size_t count = 0;
-    row = emit_hits(cell, local_ids_.data(), region, row, first_.data(), second_.data(), stage_capacity_, count);
+    row = emit_hits(cell, local_ids_.data(), region, row, first_.data(), second_.data(), room, count);
     const std::size_t base = out.size();
     out.resize(base + count);
     write_pairs(first_.data(), second_.data(), count, out.data() + base);
-    if (row < n && out.size() - start > pair_limit_)
+    if (out.size() - start > pair_limit_)
       throw CapacityExceeded("cell of " + std::to_string(n) + " boxes has more than " + std::to_string(pair_limit_) +
                              " overlapping pairs (max_pairs)");
   }
