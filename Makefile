@@ -52,6 +52,7 @@ test-sanitize: deps
 	cmake --build $(ASAN_BUILD) -j $(JOBS)
 	cd $(ASAN_BUILD) && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:strict_string_checks=1 \
 	  UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+	  LSAN_OPTIONS=suppressions=$(CURDIR)/tests/lsan-thirdparty.supp:print_suppressions=0 \
 	  ctest --output-on-failure -j $(JOBS) --timeout 1800 -E '$(SANITIZE_EXCLUDE)'
 
 # TSan on the suites that run threads (ctest label "threaded", listed in

@@ -58,6 +58,7 @@ void OrderedCell::load(const BoxArray& frame) {
   const auto n = static_cast<std::uint32_t>(frame.size());
   fit(n);
   was_sorted_ = in_min_x_order(frame.min(0), n);
+  if (n == 0) return;  // an empty frame's lanes may be null: nothing to copy
   if (was_sorted_) {
     for (int k = 0; k < 3; ++k) {
       std::memcpy(boxes_.min(k), frame.min(k), sizeof(float) * n);
