@@ -3,21 +3,7 @@
 #include "baselines/bullet_shapes.hpp"
 #include "hbp/error.hpp"
 
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wunused-parameter"
-#pragma GCC diagnostic ignored "-Wdeprecated-copy"
-#pragma GCC diagnostic ignored "-Wunused-variable"
-#pragma GCC diagnostic ignored "-Wunused-but-set-variable"
-#pragma GCC diagnostic ignored "-Wclass-memaccess"
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-#include <BulletCollision/BroadphaseCollision/btCollisionAlgorithm.h>
-#include <BulletCollision/CollisionDispatch/btCollisionDispatcher.h>
-#include <BulletCollision/CollisionDispatch/btCollisionObject.h>
-#include <BulletCollision/CollisionDispatch/btCollisionObjectWrapper.h>
-#include <BulletCollision/CollisionDispatch/btDefaultCollisionConfiguration.h>
-#include <BulletCollision/CollisionDispatch/btManifoldResult.h>
-#include <BulletCollision/NarrowPhaseCollision/btPersistentManifold.h>
-#pragma GCC diagnostic pop
+#include "baselines/bullet_headers.hpp"
 
 namespace hbp::baselines {
 

@@ -5,16 +5,7 @@
 
 #include "hbp/shape.hpp"
 
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wunused-parameter"
-#pragma GCC diagnostic ignored "-Wdeprecated-copy"
-#pragma GCC diagnostic ignored "-Wunused-variable"
-#pragma GCC diagnostic ignored "-Wunused-but-set-variable"
-#pragma GCC diagnostic ignored "-Wclass-memaccess"
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-#include <BulletCollision/CollisionShapes/btConvexShape.h>
-#include <LinearMath/btTransform.h>
-#pragma GCC diagnostic pop
+#include "baselines/bullet_headers.hpp"
 
 namespace hbp::baselines {
 
