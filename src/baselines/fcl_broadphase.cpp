@@ -36,7 +36,7 @@
 #include <fcl/config.h>
 #include <fcl/geometry/shape/box.h>
 
-#include "baselines/baseline.hpp"
+#include "hbp/baselines/baseline.hpp"
 #include "baselines/reported_pairs.hpp"
 #include "hbp/error.hpp"
 

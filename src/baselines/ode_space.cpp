@@ -17,7 +17,7 @@
 #include <mutex>
 #include <vector>
 
-#include "baselines/baseline.hpp"
+#include "hbp/baselines/baseline.hpp"
 #include "baselines/reported_pairs.hpp"
 #include "hbp/error.hpp"
 

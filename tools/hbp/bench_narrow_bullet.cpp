@@ -23,12 +23,12 @@
 #include "hbp/narrow/libccd_solver.hpp"
 #include "hbp/narrow/narrow_cache.hpp"
 #include "hbp/narrow/narrow_phase.hpp"
-#include "hbp/narrow/random_pairs.hpp"
+#include "hbp/benchdata/random_pairs.hpp"
 #include "hbp/scenario.hpp"
 
 #ifdef HBP_HAVE_BASELINES
-#include "baselines/bullet_narrow_phase.hpp"
-#include "baselines/bullet_shape_pair_test.hpp"
+#include "hbp/baselines/bullet_narrow_phase.hpp"
+#include "hbp/baselines/bullet_shape_pair_test.hpp"
 #endif
 
 namespace hbp::cli {

@@ -6,7 +6,7 @@
 #include <limits>
 #include <vector>
 
-#include "hbp/hw/paper_table4.hpp"
+#include "hbp/benchdata/paper_table4.hpp"
 
 namespace hbp::cli {
 

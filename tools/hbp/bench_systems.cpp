@@ -12,7 +12,7 @@
 #include "hbp/hybrid_broadphase.hpp"
 
 #ifdef HBP_HAVE_BASELINES
-#include "baselines/baseline.hpp"
+#include "hbp/baselines/baseline.hpp"
 #endif
 
 namespace hbp::cli {

@@ -1,4 +1,4 @@
-#include "hbp/hw/paper_table4.hpp"
+#include "hbp/benchdata/paper_table4.hpp"
 
 namespace hbp::hw {
 namespace {

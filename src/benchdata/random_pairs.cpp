@@ -1,4 +1,4 @@
-#include "hbp/narrow/random_pairs.hpp"
+#include "hbp/benchdata/random_pairs.hpp"
 
 #include <cmath>
 

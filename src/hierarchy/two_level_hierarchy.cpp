@@ -14,7 +14,7 @@
 #include <unordered_map>
 
 #include "hbp/error.hpp"
-#include "partition/cell_bvh.hpp"
+#include "hierarchy/cell_bvh.hpp"
 
 namespace hbp {
 

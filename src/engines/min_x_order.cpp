@@ -1,4 +1,4 @@
-#include "partition/min_x_order.hpp"
+#include "engines/min_x_order.hpp"
 
 #include <algorithm>
 #include <bit>
