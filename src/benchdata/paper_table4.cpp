@@ -33,4 +33,10 @@ const PaperTable4Row kRows[] = {
 
 std::span<const PaperTable4Row> paper_table4() { return kRows; }
 
+const PaperTable4Row* paper_table4_row(std::uint32_t n) {
+  for (const PaperTable4Row& r : kRows)
+    if (r.n == n) return &r;
+  return nullptr;
+}
+
 }  // namespace hbp::hw
