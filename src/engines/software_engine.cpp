@@ -124,17 +124,7 @@ CellRun BruteForceEngine::find_pairs(const BoxArray& cell, std::vector<Pair>& ou
   // The oracle's loop, appending in place and counting against the pair
   // limit as it goes: a cell of coincident boxes stops at the limit instead
   // of building all n²/2 pairs first.
-  const auto n = static_cast<std::uint32_t>(cell.size());
-  const std::size_t base = out.size();
-  for (std::uint32_t i = 0; i + 1 < n; ++i) {
-    const Aabb a = cell.get(i);
-    for (std::uint32_t j = i + 1; j < n; ++j) {
-      if (overlaps(a, cell.get(j))) out.push_back({i, j});
-    }
-    if (out.size() - base > pair_limit_)
-      throw CapacityExceeded("cell of " + std::to_string(n) + " boxes has more than " + std::to_string(pair_limit_) +
-                             " overlapping pairs (max_pairs)");
-  }
+  append_brute_force_pairs(cell, out, pair_limit_);
   return {};
 }
 
