@@ -36,23 +36,20 @@
 #include "hbp/broad_phase.hpp"
 #include "hbp/scenario.hpp"
 #include "pipeline/ray_segment.hpp"
+#include "support/clock.hpp"
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
+using hbp::ms_since;
+using hbp::SteadyClock;
+using hbp::thread_cpu_ms;
+
 using hbp::Aabb;
 using hbp::BoxArray;
 using hbp::Handle;
 using hbp::Pair;
 
 // CPU time of the calling thread (all of the work when threads = 1).
-double thread_cpu_ms() {
-  timespec ts;
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-}
-
-double ms_since(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
 
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
@@ -137,7 +134,7 @@ void MostlyStatic(benchmark::State& state) {
     // Let the scenario's TBB workers go idle (they spin a while after a
     // parallel loop, taking a core from the timed code).
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
-    auto t0 = Clock::now();
+    auto t0 = SteadyClock::now();
     bp.move(hm, moved);
     move_ms.push_back(ms_since(t0));
     const double cpu0 = thread_cpu_ms();
@@ -147,7 +144,7 @@ void MostlyStatic(benchmark::State& state) {
     update_ms.push_back(bp.stats().wall_ms);
     if (!with_dbvt) return ours;
     std::this_thread::sleep_for(std::chrono::milliseconds(5));  // same for DBVT after our workers
-    t0 = Clock::now();
+    t0 = SteadyClock::now();
     for (std::uint32_t i = 0; i < moving; ++i)
       dbvt.setAabb(proxies[statics + i], hbp::baselines::bullet_min(all, statics + i),
                    hbp::baselines::bullet_max(all, statics + i), nullptr);
@@ -217,12 +214,12 @@ void AllMoving(benchmark::State& state) {
     double ours = 0, theirs = 0;
     for (int k = 0; k < 2; ++k) {
       if ((k == 0) == ours_first) {
-        const auto t0 = Clock::now();
+        const auto t0 = SteadyClock::now();
         bp.move(h, aabbs);
         bp.update();
         ours = ms_since(t0);
       } else {
-        const auto t0 = Clock::now();
+        const auto t0 = SteadyClock::now();
         whole.update(boxes);
         theirs = ms_since(t0);
       }
@@ -321,14 +318,14 @@ void BoxQueries(benchmark::State& state) {
   std::uint64_t hits = 0, dbvt_hits = 0;
   double ours_s = 0, dbvt_s = 0, ours_cpu_s = 0, dbvt_cpu_s = 0;
   for (auto _ : state) {
-    auto t0 = Clock::now();
+    auto t0 = SteadyClock::now();
     double c0 = thread_cpu_ms();
     hits = 0;
     for (const Aabb& q : queries) hits += w.bp.query_box(q).size();
     ours_s = ms_since(t0) / 1000;
     ours_cpu_s = (thread_cpu_ms() - c0) / 1000;
     c0 = thread_cpu_ms();
-    t0 = Clock::now();
+    t0 = SteadyClock::now();
     Collect c;
     for (const Aabb& q : queries) {
       c.ids.clear();
@@ -390,14 +387,14 @@ void RayQueries(benchmark::State& state) {
   std::uint64_t hits = 0;
   double ours_s = 0, dbvt_s = 0, ours_cpu_s = 0, dbvt_cpu_s = 0;
   for (auto _ : state) {
-    auto t0 = Clock::now();
+    auto t0 = SteadyClock::now();
     double c0 = thread_cpu_ms();
     hits = 0;
     for (const Ray& r : rays) hits += w.bp.query_ray(r.o, r.d, kLength).size();
     ours_s = ms_since(t0) / 1000;
     ours_cpu_s = (thread_cpu_ms() - c0) / 1000;
     c0 = thread_cpu_ms();
-    t0 = Clock::now();
+    t0 = SteadyClock::now();
     for (const Ray& r : rays) {
       const btVector3 from(r.o[0], r.o[1], r.o[2]);
       const btVector3 to = from + kLength * btVector3(r.d[0], r.d[1], r.d[2]);

@@ -10,8 +10,6 @@
 // docs/narrow-phase.md: |distance| <= 1e-4 m + 2e-6 x (sum of bounding radii)).
 #include "bench_narrow_bullet.hpp"
 
-#include <time.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -25,6 +23,7 @@
 #include "hbp/narrow/narrow_phase.hpp"
 #include "hbp/narrow/random_pairs.hpp"
 #include "hbp/scenario.hpp"
+#include "support/clock.hpp"
 
 #ifdef HBP_HAVE_BASELINES
 #include "baselines/bullet_narrow_phase.hpp"
@@ -42,12 +41,6 @@ struct NarrowBenchArgs {
   std::uint64_t random_pairs = 0;
   bool no_bullet = false;
 };
-
-double thread_cpu_ms() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
-}
 
 double median(std::vector<double> v) {
   if (v.empty()) return 0;

@@ -8,15 +8,11 @@
 
 #include "bench_memory.hpp"
 #include "hbp/error.hpp"
+#include "support/clock.hpp"
 
 namespace hbp::cli {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
-double seconds_since(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
 
 double median(std::vector<double> v) {
   if (v.empty()) return 0;
@@ -188,7 +184,7 @@ void BenchRunner::run_row(FrameSource& source) {
       memory[i].reset();
       trim_heap();
       memory[i].before();
-      const auto t0 = Clock::now();
+      const auto t0 = SteadyClock::now();
       try {
         systems_[i]->setup(boxes);
       } catch (const std::exception& e) {
