@@ -37,9 +37,11 @@
 #include "hbp/scenario.hpp"
 #include "pipeline/ray_segment.hpp"
 #include "support/clock.hpp"
+#include "support/percentile.hpp"
 
 namespace {
 
+using hbp::median;
 using hbp::ms_since;
 using hbp::SteadyClock;
 using hbp::thread_cpu_ms;
@@ -51,10 +53,6 @@ using hbp::Pair;
 
 // CPU time of the calling thread (all of the work when threads = 1).
 
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0 : v[v.size() / 2];
-}
 double worst(const std::vector<double>& v) { return v.empty() ? 0 : *std::max_element(v.begin(), v.end()); }
 
 void to_aabbs(const BoxArray& b, std::vector<Aabb>& out) {

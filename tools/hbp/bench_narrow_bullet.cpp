@@ -24,6 +24,7 @@
 #include "hbp/narrow/random_pairs.hpp"
 #include "hbp/scenario.hpp"
 #include "support/clock.hpp"
+#include "support/percentile.hpp"
 
 #ifdef HBP_HAVE_BASELINES
 #include "baselines/bullet_narrow_phase.hpp"
@@ -41,13 +42,6 @@ struct NarrowBenchArgs {
   std::uint64_t random_pairs = 0;
   bool no_bullet = false;
 };
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const std::size_t m = v.size() / 2;
-  return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
-}
 
 double band(const Shape& a, const Shape& b) {
   const double ra = 0.5 * std::sqrt(a.size.x * a.size.x + a.size.y * a.size.y + a.size.z * a.size.z);

@@ -9,25 +9,11 @@
 #include "bench_memory.hpp"
 #include "hbp/error.hpp"
 #include "support/clock.hpp"
+#include "support/percentile.hpp"
 
 namespace hbp::cli {
 namespace {
 
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const std::size_t m = v.size() / 2;
-  return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
-}
-
-// Nearest-rank percentile (q in (0, 1]).
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const auto rank = static_cast<std::size_t>(std::ceil(q * static_cast<double>(v.size())));
-  return v[std::min(v.size(), std::max<std::size_t>(rank, 1)) - 1];
-}
 
 // Growth of a frame's cost with n when only one earlier row is known.
 double default_frame_exponent(const std::string& key) { return key == "brute" ? 2.0 : 1.3; }

@@ -24,6 +24,7 @@
 #include "hbp/scene_file.hpp"
 #include "hbp/software_engine.hpp"
 #include "support/clock.hpp"
+#include "support/percentile.hpp"
 
 namespace hbp::cli {
 namespace {
@@ -43,13 +44,6 @@ struct RunArgs {
   bool cost_splits = false;
   bool distributed = false;
 };
-
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const auto idx = static_cast<std::size_t>(q * static_cast<double>(v.size() - 1) + 0.5);
-  return v[std::min(idx, v.size() - 1)];
-}
 
 // Frames come from a scenario or a scene file, behind one small interface.
 class FrameSource {
