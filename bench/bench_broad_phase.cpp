@@ -25,7 +25,6 @@
 #include <chrono>
 #include <ctime>
 #include <cmath>
-#include <random>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -38,6 +37,7 @@
 #include "pipeline/ray_segment.hpp"
 #include "support/clock.hpp"
 #include "support/percentile.hpp"
+#include "support/random.hpp"
 
 namespace {
 
@@ -302,13 +302,13 @@ void BoxQueries(benchmark::State& state) {
   }
   QueryWorld& w = *world;
   // Boxes of the objects' sizes: object boxes moved to random places.
-  std::mt19937 rng(3);
-  std::uniform_real_distribution<float> pos(0, w.side);
+  hbp::Random rng(3);
   std::vector<Aabb> queries(kQueries);
   for (Aabb& q : queries) {
-    const Aabb o = w.boxes.get(rng() % n);
+    const Aabb o = w.boxes.get(rng.below(static_cast<std::uint32_t>(n)));
     for (int k = 0; k < 3; ++k) {
-      const float c = pos(rng), half = 0.5f * (o.max[k] - o.min[k]);
+      const auto c = static_cast<float>(rng.uniform(0, w.side));
+      const float half = 0.5f * (o.max[k] - o.min[k]);
       q.min[k] = c - half;
       q.max[k] = c + half;
     }
@@ -364,8 +364,7 @@ void RayQueries(benchmark::State& state) {
   }
   QueryWorld& w = *world;
   // Random rays of 500 m inside the world: unit direction, max_t = 500.
-  std::mt19937 rng(4);
-  std::uniform_real_distribution<float> pos(0, w.side), gauss(-1, 1);
+  hbp::Random rng(4);
   struct Ray {
     float o[3], d[3];
   };
@@ -373,12 +372,12 @@ void RayQueries(benchmark::State& state) {
   for (Ray& r : rays) {
     float len = 0;
     do {
-      for (int k = 0; k < 3; ++k) r.d[k] = gauss(rng);
+      for (int k = 0; k < 3; ++k) r.d[k] = static_cast<float>(rng.uniform(-1, 1));
       len = std::sqrt(r.d[0] * r.d[0] + r.d[1] * r.d[1] + r.d[2] * r.d[2]);
     } while (len < 0.1f || len > 1);
     for (int k = 0; k < 3; ++k) {
       r.d[k] /= len;
-      r.o[k] = pos(rng);
+      r.o[k] = static_cast<float>(rng.uniform(0, w.side));
     }
   }
   constexpr float kLength = 500;
