@@ -418,7 +418,7 @@ struct BroadPhase::Impl {
                          }
                        }
                      });
-    detail::sort_pair_list(static_pairs, sort_scratch);
+    sort_pairs(static_pairs, sort_scratch);
     fit(sort_scratch);
   }
 
