@@ -293,14 +293,39 @@ struct RayCollect : btBroadphaseRayCallback {
 constexpr int kQueries = 20000;
 constexpr int kChecked = 100;  // brute-force checked per run
 
-void BoxQueries(benchmark::State& state) {
+// The query benchmarks' world of n objects, built once and kept between runs.
+QueryWorld& query_world(std::uint32_t n) {
   static QueryWorld* world = nullptr;
-  const auto n = static_cast<std::uint32_t>(state.range(0));
   if (!world || world->boxes.size() != n) {
     delete world;
     world = new QueryWorld(n);
   }
-  QueryWorld& w = *world;
+  return *world;
+}
+
+// Wall and calling-thread CPU seconds of one run of f.
+struct Seconds {
+  double wall = 0, cpu = 0;
+};
+template <class F>
+Seconds time_run(F&& f) {
+  const auto t0 = SteadyClock::now();
+  const double c0 = thread_cpu_ms();
+  f();
+  return {ms_since(t0) / 1000, (thread_cpu_ms() - c0) / 1000};
+}
+
+// ours_<what>_per_s, dbvt_<what>_per_s and the same per CPU second.
+void rate_counters(benchmark::State& state, const std::string& what, Seconds ours, Seconds dbvt) {
+  state.counters["ours_" + what + "_per_s"] = kQueries / ours.wall;
+  state.counters["dbvt_" + what + "_per_s"] = kQueries / dbvt.wall;
+  state.counters["ours_" + what + "_per_cpu_s"] = kQueries / ours.cpu;
+  state.counters["dbvt_" + what + "_per_cpu_s"] = kQueries / dbvt.cpu;
+}
+
+void BoxQueries(benchmark::State& state) {
+  const auto n = static_cast<std::uint32_t>(state.range(0));
+  QueryWorld& w = query_world(n);
   // Boxes of the objects' sizes: object boxes moved to random places.
   hbp::Random rng(3);
   std::vector<Aabb> queries(kQueries);
@@ -314,25 +339,21 @@ void BoxQueries(benchmark::State& state) {
     }
   }
   std::uint64_t hits = 0, dbvt_hits = 0;
-  double ours_s = 0, dbvt_s = 0, ours_cpu_s = 0, dbvt_cpu_s = 0;
+  Seconds ours, dbvt;
   for (auto _ : state) {
-    auto t0 = SteadyClock::now();
-    double c0 = thread_cpu_ms();
-    hits = 0;
-    for (const Aabb& q : queries) hits += w.bp.query_box(q).size();
-    ours_s = ms_since(t0) / 1000;
-    ours_cpu_s = (thread_cpu_ms() - c0) / 1000;
-    c0 = thread_cpu_ms();
-    t0 = SteadyClock::now();
-    Collect c;
-    for (const Aabb& q : queries) {
-      c.ids.clear();
-      w.dbvt.aabbTest(btVector3(q.min[0], q.min[1], q.min[2]), btVector3(q.max[0], q.max[1], q.max[2]), c);
-      dbvt_hits += c.ids.size();
-    }
-    dbvt_s = ms_since(t0) / 1000;
-    dbvt_cpu_s = (thread_cpu_ms() - c0) / 1000;
-    state.SetIterationTime(ours_s);
+    ours = time_run([&] {
+      hits = 0;
+      for (const Aabb& q : queries) hits += w.bp.query_box(q).size();
+    });
+    dbvt = time_run([&] {
+      Collect c;
+      for (const Aabb& q : queries) {
+        c.ids.clear();
+        w.dbvt.aabbTest(btVector3(q.min[0], q.min[1], q.min[2]), btVector3(q.max[0], q.max[1], q.max[2]), c);
+        dbvt_hits += c.ids.size();
+      }
+    });
+    state.SetIterationTime(ours.wall);
   }
   // Checked against a scan and against DBVT's (superset) answer.
   for (int i = 0; i < kChecked; ++i) {
@@ -347,22 +368,14 @@ void BoxQueries(benchmark::State& state) {
     if (!std::includes(c.ids.begin(), c.ids.end(), want.begin(), want.end()))
       throw std::runtime_error("DBVT misses a box hit");
   }
-  state.counters["ours_queries_per_s"] = kQueries / ours_s;
-  state.counters["dbvt_queries_per_s"] = kQueries / dbvt_s;
-  state.counters["ours_queries_per_cpu_s"] = kQueries / ours_cpu_s;
-  state.counters["dbvt_queries_per_cpu_s"] = kQueries / dbvt_cpu_s;
+  rate_counters(state, "queries", ours, dbvt);
   state.counters["hits_per_query"] = static_cast<double>(hits) / kQueries;
   state.SetItemsProcessed(state.iterations() * kQueries);
 }
 
 void RayQueries(benchmark::State& state) {
-  static QueryWorld* world = nullptr;
   const auto n = static_cast<std::uint32_t>(state.range(0));
-  if (!world || world->boxes.size() != n) {
-    delete world;
-    world = new QueryWorld(n);
-  }
-  QueryWorld& w = *world;
+  QueryWorld& w = query_world(n);
   // Random rays of 500 m inside the world: unit direction, max_t = 500.
   hbp::Random rng(4);
   struct Ray {
@@ -382,25 +395,21 @@ void RayQueries(benchmark::State& state) {
   }
   constexpr float kLength = 500;
   std::uint64_t hits = 0;
-  double ours_s = 0, dbvt_s = 0, ours_cpu_s = 0, dbvt_cpu_s = 0;
+  Seconds ours, dbvt;
   for (auto _ : state) {
-    auto t0 = SteadyClock::now();
-    double c0 = thread_cpu_ms();
-    hits = 0;
-    for (const Ray& r : rays) hits += w.bp.query_ray(r.o, r.d, kLength).size();
-    ours_s = ms_since(t0) / 1000;
-    ours_cpu_s = (thread_cpu_ms() - c0) / 1000;
-    c0 = thread_cpu_ms();
-    t0 = SteadyClock::now();
-    for (const Ray& r : rays) {
-      const btVector3 from(r.o[0], r.o[1], r.o[2]);
-      const btVector3 to = from + kLength * btVector3(r.d[0], r.d[1], r.d[2]);
-      RayCollect c(from, to);
-      w.dbvt.rayTest(from, to, c);
-    }
-    dbvt_s = ms_since(t0) / 1000;
-    dbvt_cpu_s = (thread_cpu_ms() - c0) / 1000;
-    state.SetIterationTime(ours_s);
+    ours = time_run([&] {
+      hits = 0;
+      for (const Ray& r : rays) hits += w.bp.query_ray(r.o, r.d, kLength).size();
+    });
+    dbvt = time_run([&] {
+      for (const Ray& r : rays) {
+        const btVector3 from(r.o[0], r.o[1], r.o[2]);
+        const btVector3 to = from + kLength * btVector3(r.d[0], r.d[1], r.d[2]);
+        RayCollect c(from, to);
+        w.dbvt.rayTest(from, to, c);
+      }
+    });
+    state.SetIterationTime(ours.wall);
   }
   // Checked against a scan (same slab test) and against DBVT's answer.
   std::uint64_t dbvt_missed = 0;
@@ -427,10 +436,7 @@ void RayQueries(benchmark::State& state) {
     for (Handle h : want_h) dbvt_missed += std::binary_search(c.ids.begin(), c.ids.end(), h) ? 0 : 1;
   }
   state.counters["dbvt_missed_in_check"] = static_cast<double>(dbvt_missed);
-  state.counters["ours_rays_per_s"] = kQueries / ours_s;
-  state.counters["dbvt_rays_per_s"] = kQueries / dbvt_s;
-  state.counters["ours_rays_per_cpu_s"] = kQueries / ours_cpu_s;
-  state.counters["dbvt_rays_per_cpu_s"] = kQueries / dbvt_cpu_s;
+  rate_counters(state, "rays", ours, dbvt);
   state.counters["hits_per_ray"] = static_cast<double>(hits) / kQueries;
   state.SetItemsProcessed(state.iterations() * kQueries);
 }
