@@ -4,7 +4,7 @@
 
 #include "hbp/narrow/convex.hpp"
 #include "hbp/narrow/intersect.hpp"
-#include "scene/random.hpp"
+#include "support/random.hpp"
 
 namespace hbp {
 

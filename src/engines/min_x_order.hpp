@@ -1,20 +1,12 @@
 #pragma once
 // The order of a cell's boxes by increasing min x (ties by index), which the
-// sweep kernel needs. Radix sort on the float's order-preserving bit pattern:
-// linear in the cell size, no comparisons, no allocation once warmed up.
-#include <bit>
+// sweep kernel needs. The radix sort of src/support/radix_sort.hpp on the
+// float's order-preserving bit pattern: linear in the cell size, no
+// comparisons, no allocation once warmed up.
 #include <cstdint>
 #include <vector>
 
 namespace hbp {
-
-// Order-preserving map from float to unsigned (negatives flipped; -0 sorts
-// before +0, which is harmless: equal values may come in either order, as
-// long as the choice is deterministic).
-inline std::uint32_t min_x_key(float f) {
-  const auto u = std::bit_cast<std::uint32_t>(f);
-  return (u & 0x80000000u) ? ~u : (u | 0x80000000u);
-}
 
 // True when min_x is already in the order min_x_order() would produce
 // (non-decreasing keys): the sort can be skipped.
