@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "bench_paper_table4.hpp"
+#include "csv.hpp"
 #include "hbp/error.hpp"
 
 namespace hbp::cli {
@@ -48,13 +49,6 @@ const char* status_name(CellStatus s) {
     case CellStatus::Projected: return "projected";
   }
   return "?";
-}
-
-// A CSV field: quoted, with embedded quotes doubled (RFC 4180).
-std::string csv_quote(const std::string& s) {
-  std::string q = "\"";
-  for (char c : s) q += c == '"' ? std::string("\"\"") : std::string(1, c);
-  return q + "\"";
 }
 
 std::string fmt_bytes(std::uint64_t b) {
@@ -409,7 +403,7 @@ std::vector<std::string> write_report_files(const std::string& dir, const BenchR
     f << "n,variant,frame,system,label,kind,ms,wall_ms,cpu_ms,raw_pairs,exact_pairs,match\n";
     for (const auto& s : r.samples)
       f << s.n << "," << s.variant << "," << s.frame << "," << r.keys[s.system] << ","
-        << csv_quote(r.labels[s.system]) << "," << kind(s.system) << "," << fmt("%.6f", s.reported_ms) << "," << fmt("%.6f", s.wall_ms) << ","
+        << csv_field(r.labels[s.system]) << "," << kind(s.system) << "," << fmt("%.6f", s.reported_ms) << "," << fmt("%.6f", s.wall_ms) << ","
         << fmt("%.6f", s.cpu_ms) << "," << s.raw_pairs << "," << s.exact_pairs << "," << (s.match ? 1 : 0) << "\n";
   }
   {
@@ -420,13 +414,13 @@ std::vector<std::string> write_report_files(const std::string& dir, const BenchR
     for (const auto& row : r.rows)
       for (std::size_t i = 0; i < row.cells.size(); ++i) {
         const CellResult& c = row.cells[i];
-        f << row.n << "," << r.keys[i] << "," << csv_quote(r.labels[i]) << "," << kind(i) << ","
+        f << row.n << "," << r.keys[i] << "," << csv_field(r.labels[i]) << "," << kind(i) << ","
           << status_name(c.status) << "," << fmt("%.6f", c.median_ms) << "," << fmt("%.6f", c.p99_ms) << ","
           << fmt("%.6f", c.min_ms) << "," << fmt("%.6f", c.max_ms) << "," << fmt("%.6f", c.median_wall_ms) << ","
           << fmt("%.6f", c.median_cpu_ms) << "," << fmt("%.6f", c.setup_s) << "," << fmt("%.1f", c.pairs_per_s)
           << "," << (c.memory_measured ? std::to_string(c.peak_bytes) : std::string()) << "," << c.frames << ","
           << c.mismatched_frames << "," << c.median_raw_pairs << "," << row.median_pairs << ","
-          << fmt("%.6f", c.projected_ms) << "," << fmt("%.6f", c.projected_setup_s) << "," << csv_quote(c.note)
+          << fmt("%.6f", c.projected_ms) << "," << fmt("%.6f", c.projected_setup_s) << "," << csv_field(c.note)
           << "\n";
       }
   }
