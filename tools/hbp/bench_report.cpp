@@ -11,6 +11,7 @@
 
 #include "bench_paper_table4.hpp"
 #include "csv.hpp"
+#include "duration_text.hpp"
 #include "hbp/error.hpp"
 
 namespace hbp::cli {

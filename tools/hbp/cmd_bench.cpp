@@ -22,6 +22,7 @@
 #include "bench_sources.hpp"
 #include "child_process.hpp"
 #include "command_registry.hpp"
+#include "duration_text.hpp"
 #include "option_checks.hpp"
 #include "hbp/error.hpp"
 #include "progress.hpp"

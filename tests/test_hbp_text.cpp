@@ -1,16 +1,21 @@
-// `hbp`'s CSV fields (tools/hbp/csv.hpp) against RFC 4180: quotes doubled,
-// commas and line breaks kept inside the quotes, and every field read back
-// unchanged by an independent RFC 4180 reader.
+// `hbp`'s text formats: CSV fields (tools/hbp/csv.hpp) against RFC 4180
+// (quotes doubled, commas and line breaks kept inside the quotes, every field
+// read back unchanged by an independent RFC 4180 reader) and durations
+// (tools/hbp/duration_text.hpp) in both presentations.
 #include <gtest/gtest.h>
 
+#include <limits>
 #include <string>
 #include <vector>
 
 #include "csv.hpp"
+#include "duration_text.hpp"
 
 namespace {
 
 using hbp::cli::csv_field;
+using hbp::cli::DurationStyle;
+using hbp::cli::format_duration;
 
 // RFC 4180 section 2: records end in CRLF or LF, fields split on commas,
 // a quoted field may hold commas, CR, LF and "" (one quote).
@@ -73,6 +78,29 @@ TEST(CsvField, EveryFieldReadsBackUnchanged) {
   EXPECT_EQ(records[0], (std::vector<std::string>{"a", "b"}));
   EXPECT_EQ(records[1], fields);
   EXPECT_EQ(records[2], fields);
+}
+
+TEST(Duration, WordsForReports) {
+  EXPECT_EQ(format_duration(0), "0 s");
+  EXPECT_EQ(format_duration(45.4), "45 s");
+  EXPECT_EQ(format_duration(89.4), "89 s");
+  EXPECT_EQ(format_duration(90), "2 min");
+  EXPECT_EQ(format_duration(31 * 60 + 10), "31 min");
+  EXPECT_EQ(format_duration(5399), "90 min");
+  EXPECT_EQ(format_duration(5400), "1.5 h");
+  EXPECT_EQ(format_duration(2.1 * 3600), "2.1 h");
+}
+
+TEST(Duration, ClockForTheProgressBar) {
+  EXPECT_EQ(format_duration(0, DurationStyle::Clock), "0:00");
+  EXPECT_EQ(format_duration(44.6, DurationStyle::Clock), "0:45");
+  EXPECT_EQ(format_duration(31 * 60 + 2, DurationStyle::Clock), "31:02");
+  EXPECT_EQ(format_duration(3599.4, DurationStyle::Clock), "59:59");
+  EXPECT_EQ(format_duration(3599.6, DurationStyle::Clock), "1:00:00");
+  EXPECT_EQ(format_duration(2 * 3600 + 5 * 60 + 7, DurationStyle::Clock), "2:05:07");
+  EXPECT_EQ(format_duration(-1, DurationStyle::Clock), "--:--");
+  EXPECT_EQ(format_duration(std::numeric_limits<double>::infinity(), DurationStyle::Clock), "--:--");
+  EXPECT_EQ(format_duration(std::numeric_limits<double>::quiet_NaN(), DurationStyle::Clock), "--:--");
 }
 
 }  // namespace
