@@ -21,10 +21,11 @@ std::vector<std::uint8_t> encode_png(std::uint32_t width, std::uint32_t height, 
   image.format = PNG_FORMAT_RGB;
   // The renderer's bytes are written as they are; libpng tags them sRGB
   // (what a viewer assumes for an untagged file anyway).
-  // The bound libpng documents for the stream it writes, so one pass suffices.
+  // The bound libpng documents for the stream it writes, so one pass
+  // suffices; left uninitialised so only the pages written are touched.
   png_alloc_size_t size = PNG_IMAGE_PNG_SIZE_MAX(image);
-  std::vector<std::uint8_t> png(size);
-  const int ok = png_image_write_to_memory(&image, png.data(), &size, /*convert_to_8_bit=*/0, rgb.data(),
+  const auto buffer = std::make_unique_for_overwrite<std::uint8_t[]>(size);
+  const int ok = png_image_write_to_memory(&image, buffer.get(), &size, /*convert_to_8_bit=*/0, rgb.data(),
                                            /*row_stride=*/0, /*colormap=*/nullptr);
   if (!ok) {
     const std::string why = image.message;
@@ -32,8 +33,7 @@ std::vector<std::uint8_t> encode_png(std::uint32_t width, std::uint32_t height, 
     throw Error("png: libpng could not encode the " + std::to_string(width) + " x " + std::to_string(height) +
                 " image: " + why);
   }
-  png.resize(size);
-  return png;
+  return std::vector<std::uint8_t>(buffer.get(), buffer.get() + size);
 }
 
 void write_png(const std::string& path, std::uint32_t width, std::uint32_t height, std::span<const std::uint8_t> rgb) {
