@@ -11,6 +11,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -225,6 +226,40 @@ TEST_F(Cli, RenderCountsMustBePositive) {
   expect_refused({"render", "--width", "0", "--out", path("x.png")}, {"--width"});
   expect_refused({"render", "--samples", "0", "--out", path("x.png")}, {"--samples"});
   expect_refused({"render", "--video", path("v"), "--frames", "0"}, {"--frames"});
+}
+
+// `hbp bench` runs its plot script with an argument vector, no shell: an
+// output directory with spaces, quotes and `$` reaches the script unchanged,
+// and a script that fails or cannot be started makes the run fail, naming
+// the command and why (after the report files are written).
+TEST_F(Cli, BenchPlotScriptRunsWithoutAShellAndItsFailuresAreErrors) {
+  const std::string out = path("out dir 'q\" $HOME");
+  const std::vector<std::string> bench = {"bench", "kind", "degenerate", "--n", "300,600", "--frames", "1",
+                                          "--warmup", "0", "--systems", "brute,sw,bullet-dbvt", "--out", out};
+  auto stub = [&](const std::string& name, const std::string& body) {
+    const std::string file = path(name);
+    std::ofstream(file) << body;
+    return "HBP_PLOT_BENCH=" + file;
+  };
+  // The directory as the script sees it.
+  const Result echo = hbp(bench, {stub("echo.sh", "printf '%s' \"$1\" > \"$1/argv.txt\"\n")});
+  ASSERT_EQ(echo.status, 0) << echo.output;
+  std::ifstream argv_file(out + "/argv.txt");
+  std::string seen((std::istreambuf_iterator<char>(argv_file)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(seen, out);
+  // A failing script: non-zero exit, its status and command named; the report is still written.
+  fs::remove_all(out);
+  expect_refused(bench, {"plots: exit status 3 from: bash", "fail.sh", "out dir"}, {stub("fail.sh", "exit 3\n")});
+  EXPECT_TRUE(fs::exists(out + "/summary.csv"));
+  // bash not found on PATH.
+  expect_refused(bench, {"cannot start 'bash'", "No such file or directory"},
+                 {stub("echo2.sh", "exit 0\n"), "PATH=" + path("no such dir")});
+  // The real script and gnuplot draw into the directory.
+  fs::remove_all(out);
+  const Result real = hbp(bench);
+  ASSERT_EQ(real.status, 0) << real.output;
+  EXPECT_TRUE(fs::exists(out + "/accel.png")) << real.output;
+  EXPECT_TRUE(fs::exists(out + "/times.svg")) << real.output;
 }
 
 }  // namespace

@@ -1,15 +1,18 @@
 // Exact ray-shape intersection (closed cases and a cross-check against the
-// shapes' support functions), the PNG writer (round trip through an
-// independent inflater) and the renderer (determinism, highlighting).
+// shapes' support functions), the PNG writer (round trip through libpng's
+// reader) and the renderer (determinism, highlighting).
 #include <gtest/gtest.h>
+#include <png.h>
 #include <tbb/global_control.h>
 
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <random>
 #include <string>
 #include <vector>
 
+#include "hbp/error.hpp"
 #include "hbp/raytrace/png_writer.hpp"
 #include "hbp/raytrace/renderer.hpp"
 #include "hbp/raytrace/traversal.hpp"
@@ -179,73 +182,24 @@ TEST(RayShape, HitsLieOnTheSurface) {
 
 // ---- PNG ---------------------------------------------------------------------
 
-// An independent inflater for what the writer emits (fixed-Huffman blocks).
-std::vector<std::uint8_t> inflate_fixed(const std::vector<std::uint8_t>& z) {
-  std::size_t bitpos = 16;  // after the zlib header
-  auto bit = [&]() -> std::uint32_t {
-    const std::uint32_t b = (z.at(bitpos / 8) >> (bitpos % 8)) & 1u;
-    ++bitpos;
-    return b;
-  };
-  auto bits = [&](int n) {
-    std::uint32_t v = 0;
-    for (int i = 0; i < n; ++i) v |= bit() << i;
-    return v;
-  };
-  static const int len_base[] = {3,  4,  5,  6,  7,  8,  9,  10, 11,  13,  15,  17,  19,  23, 27,
-                                 31, 35, 43, 51, 59, 67, 83, 99, 115, 131, 163, 195, 227, 258};
-  static const int len_extra[] = {0, 0, 0, 0, 0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2, 2, 3, 3, 3, 3, 4, 4, 4, 4, 5, 5, 5, 5, 0};
-  std::vector<std::uint8_t> out;
-  bool final_block = false;
-  while (!final_block) {
-    final_block = bit();
-    EXPECT_EQ(bits(2), 1u);  // fixed Huffman
-    for (;;) {
-      std::uint32_t code = 0;
-      int sym = -1;
-      for (int len = 1; len <= 9 && sym < 0; ++len) {
-        code = code << 1 | bit();
-        if (len == 7 && code <= 23) sym = 256 + static_cast<int>(code);
-        if (len == 8 && code >= 48 && code <= 191) sym = static_cast<int>(code) - 48;
-        if (len == 8 && code >= 192 && code <= 199) sym = 280 + static_cast<int>(code) - 192;
-        if (len == 9 && code >= 400) sym = 144 + static_cast<int>(code) - 400;
-      }
-      if (sym < 256) {
-        out.push_back(static_cast<std::uint8_t>(sym));
-        continue;
-      }
-      if (sym == 256) break;
-      const int length = len_base[sym - 257] + static_cast<int>(bits(len_extra[sym - 257]));
-      std::uint32_t dcode = 0;
-      for (int i = 0; i < 5; ++i) dcode = dcode << 1 | bit();
-      int dist = 1, extra = 0;
-      for (std::uint32_t c = 0; c < dcode; ++c) {  // distance bases by recurrence
-        dist += 1 << extra;
-        if (c >= 2 && c % 2 == 1) ++extra;
-      }
-      dist += static_cast<int>(bits(extra));
-      for (int i = 0; i < length; ++i) out.push_back(out[out.size() - dist]);
-    }
+// Decodes a PNG with libpng (independent of how it was written) into RGB.
+std::vector<std::uint8_t> decode_png(const std::vector<std::uint8_t>& png, std::uint32_t& width,
+                                     std::uint32_t& height) {
+  png_image image{};
+  image.version = PNG_IMAGE_VERSION;
+  if (!png_image_begin_read_from_memory(&image, png.data(), png.size())) {
+    ADD_FAILURE() << "libpng cannot read the header: " << image.message;
+    return {};
   }
-  return out;
-}
-
-std::uint32_t be32(const std::uint8_t* p) { return std::uint32_t(p[0]) << 24 | p[1] << 16 | p[2] << 8 | p[3]; }
-
-TEST(PngWriter, ChecksumsOfKnownStrings) {
-  const std::string a = "123456789", b = "Wikipedia";
-  EXPECT_EQ(crc32({reinterpret_cast<const std::uint8_t*>(a.data()), a.size()}), 0xCBF43926u);
-  EXPECT_EQ(adler32({reinterpret_cast<const std::uint8_t*>(b.data()), b.size()}), 0x11E60398u);
-}
-
-TEST(PngWriter, DeflateRoundTripsAndCompressesFlatData) {
-  std::mt19937 rng(3);
-  std::vector<std::uint8_t> data;
-  for (int i = 0; i < 70000; ++i) data.push_back(static_cast<std::uint8_t>(i % 300 < 200 ? 7 : rng() % 4));
-  const auto z = zlib_compress(data);
-  EXPECT_EQ(inflate_fixed(z), data);
-  EXPECT_LT(z.size(), data.size() / 3);
-  EXPECT_EQ(be32(&z[z.size() - 4]), adler32(data));
+  image.format = PNG_FORMAT_RGB;
+  width = image.width;
+  height = image.height;
+  std::vector<std::uint8_t> rgb(PNG_IMAGE_SIZE(image));
+  if (!png_image_finish_read(&image, nullptr, rgb.data(), 0, nullptr)) {
+    ADD_FAILURE() << "libpng cannot read the pixels: " << image.message;
+    return {};
+  }
+  return rgb;
 }
 
 TEST(PngWriter, ImageRoundTrip) {
@@ -255,40 +209,45 @@ TEST(PngWriter, ImageRoundTrip) {
   for (std::uint32_t i = 0; i < rgb.size(); ++i) rgb[i] = static_cast<std::uint8_t>((i / 3) % w * 5 + (rng() % 3));
   const auto png = encode_png(w, h, rgb);
   ASSERT_EQ(std::memcmp(png.data(), "\x89PNG\r\n\x1a\n", 8), 0);
-  std::vector<std::uint8_t> idat;
-  for (std::size_t at = 8; at < png.size();) {
-    const std::uint32_t len = be32(&png[at]);
-    const std::string type(reinterpret_cast<const char*>(&png[at + 4]), 4);
-    EXPECT_EQ(crc32({&png[at + 4], len + 4}), be32(&png[at + 8 + len])) << type;
-    if (type == "IHDR") {
-      EXPECT_EQ(be32(&png[at + 8]), w);
-      EXPECT_EQ(be32(&png[at + 12]), h);
-    }
-    if (type == "IDAT") idat.insert(idat.end(), &png[at + 8], &png[at + 8 + len]);
-    at += 12 + len;
-  }
-  const auto raw = inflate_fixed(idat);
-  ASSERT_EQ(raw.size(), (3 * w + 1) * h);
-  // Undo the filters.
-  std::vector<std::uint8_t> out(3 * w * h);
-  for (std::uint32_t y = 0; y < h; ++y) {
-    const std::uint8_t f = raw[y * (3 * w + 1)];
-    ASSERT_LE(f, 4);
-    for (std::uint32_t x = 0; x < 3 * w; ++x) {
-      const int a = x >= 3 ? out[y * 3 * w + x - 3] : 0, b = y > 0 ? out[(y - 1) * 3 * w + x] : 0,
-                c = (x >= 3 && y > 0) ? out[(y - 1) * 3 * w + x - 3] : 0;
-      int pred = 0;
-      if (f == 1) pred = a;
-      if (f == 2) pred = b;
-      if (f == 3) pred = (a + b) / 2;
-      if (f == 4) {
-        const int p = a + b - c, pa = std::abs(p - a), pb = std::abs(p - b), pc = std::abs(p - c);
-        pred = (pa <= pb && pa <= pc) ? a : (pb <= pc ? b : c);
-      }
-      out[y * 3 * w + x] = static_cast<std::uint8_t>(raw[y * (3 * w + 1) + 1 + x] + pred);
-    }
-  }
+  std::uint32_t dw = 0, dh = 0;
+  const auto out = decode_png(png, dw, dh);
+  EXPECT_EQ(dw, w);
+  EXPECT_EQ(dh, h);
   EXPECT_EQ(out, rgb);
+}
+
+TEST(PngWriter, CompressesFlatImagesAndRefusesBadSizes) {
+  const std::uint32_t w = 200, h = 100;
+  std::vector<std::uint8_t> rgb(3 * w * h, 7);
+  for (std::uint32_t i = 0; i < rgb.size(); i += 301) rgb[i] = static_cast<std::uint8_t>(i % 251);
+  const auto png = encode_png(w, h, rgb);
+  EXPECT_LT(png.size(), rgb.size() / 3);
+  std::uint32_t dw = 0, dh = 0;
+  EXPECT_EQ(decode_png(png, dw, dh), rgb);
+  EXPECT_THROW(encode_png(w, h + 1, rgb), InvalidInput);
+  EXPECT_THROW(encode_png(0, h, {}), InvalidInput);
+}
+
+TEST(PngWriter, WritesTheFileAndNamesAnUnwritablePath) {
+  const std::uint32_t w = 5, h = 3;
+  std::vector<std::uint8_t> rgb(3 * w * h);
+  for (std::uint32_t i = 0; i < rgb.size(); ++i) rgb[i] = static_cast<std::uint8_t>(i * 17);
+  const std::string path = ::testing::TempDir() + "png writer test.png";
+  write_png(path, w, h, rgb);
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  ASSERT_NE(f, nullptr);
+  std::vector<std::uint8_t> bytes;
+  for (int c; (c = std::fgetc(f)) != EOF;) bytes.push_back(static_cast<std::uint8_t>(c));
+  std::fclose(f);
+  std::remove(path.c_str());
+  EXPECT_EQ(bytes, encode_png(w, h, rgb));
+  const std::string bad = ::testing::TempDir() + "no such dir/x.png";
+  try {
+    write_png(bad, w, h, rgb);
+    ADD_FAILURE() << "no exception";
+  } catch (const FileError& e) {
+    EXPECT_NE(std::string(e.what()).find(bad), std::string::npos) << e.what();
+  }
 }
 
 // ---- renderer ---------------------------------------------------------------

@@ -11,6 +11,8 @@
 #include <sstream>
 
 #include "hbp/benchdata/paper_table4.hpp"
+#include "csv.hpp"
+#include "duration_text.hpp"
 #include "hbp/error.hpp"
 
 namespace hbp::cli {
@@ -55,13 +57,6 @@ const char* status_name(CellStatus s) {
     case CellStatus::Projected: return "projected";
   }
   return "?";
-}
-
-// A CSV field: quoted, with embedded quotes doubled (RFC 4180).
-std::string csv_quote(const std::string& s) {
-  std::string q = "\"";
-  for (char c : s) q += c == '"' ? std::string("\"\"") : std::string(1, c);
-  return q + "\"";
 }
 
 std::string fmt_bytes(std::uint64_t b) {
@@ -167,9 +162,7 @@ void table_head(std::ostringstream& o, const std::vector<std::string>& cells) {
   o << "\n";
 }
 
-double paper_ae_best(const PaperTable4Row& p) {
-  return min_ignoring_nan({or_nan(p.area_efficient_none), or_nan(p.area_efficient_1024)});
-}
+double paper_ae_best(const PaperTable4Row& p) { return min_ignoring_nan({or_nan(p.area_efficient_none), or_nan(p.area_efficient_1024)}); }
 double paper_mo_best(const PaperTable4Row& p) {
   return min_ignoring_nan({or_nan(p.many_object_none), or_nan(p.many_object_cells[0]), or_nan(p.many_object_cells[1]),
                            or_nan(p.many_object_cells[2]), or_nan(p.many_object_cells[3]),
@@ -376,11 +369,9 @@ std::string format_tables(const BenchResult& r, const BenchHeader& h) {
     for (const auto& row : r.rows) {
       const PaperTable4Row* p = paper_table4_row(row.n);
       if (!p) continue;
-      table_row(o, {std::to_string(p->n), fmt_ms(p->cpu_ms), fmt_ms(p->gpu_ms), fmt_ms(or_nan(p->area_efficient_none)),
-                    fmt_ms(or_nan(p->area_efficient_1024)), fmt_ms(or_nan(p->many_object_none)),
-                    fmt_ms(or_nan(p->many_object_cells[0])), fmt_ms(or_nan(p->many_object_cells[1])),
-                    fmt_ms(or_nan(p->many_object_cells[2])), fmt_ms(or_nan(p->many_object_cells[3])),
-                    fmt_ms(or_nan(p->many_object_cells[4]))});
+      table_row(o, {std::to_string(p->n), fmt_ms(p->cpu_ms), fmt_ms(p->gpu_ms), fmt_ms(or_nan(p->area_efficient_none)), fmt_ms(or_nan(p->area_efficient_1024)),
+                    fmt_ms(or_nan(p->many_object_none)), fmt_ms(or_nan(p->many_object_cells[0])), fmt_ms(or_nan(p->many_object_cells[1])), fmt_ms(or_nan(p->many_object_cells[2])),
+                    fmt_ms(or_nan(p->many_object_cells[3])), fmt_ms(or_nan(p->many_object_cells[4]))});
     }
   }
 
@@ -398,190 +389,203 @@ std::string format_tables(const BenchResult& r, const BenchHeader& h) {
   return o.str();
 }
 
+namespace {
+
+const char* kind_name(const BenchResult& r, std::size_t i) { return r.modelled[i] ? "modelled" : "measured"; }
+
+// samples.csv: every timed frame of every system.
+void write_samples_csv(std::ostream& f, const BenchResult& r) {
+  f << "n,variant,frame,system,label,kind,ms,wall_ms,cpu_ms,raw_pairs,exact_pairs,match\n";
+  for (const auto& s : r.samples)
+    f << s.n << "," << s.variant << "," << s.frame << "," << r.keys[s.system] << "," << csv_field(r.labels[s.system])
+      << "," << kind_name(r, s.system) << "," << fmt("%.6f", s.reported_ms) << "," << fmt("%.6f", s.wall_ms) << ","
+      << fmt("%.6f", s.cpu_ms) << "," << s.raw_pairs << "," << s.exact_pairs << "," << (s.match ? 1 : 0) << "\n";
+}
+
+// summary.csv: one line per system per row.
+void write_summary_csv(std::ostream& f, const BenchResult& r) {
+  f << "n,system,label,kind,status,median_ms,p99_ms,min_ms,max_ms,median_wall_ms,median_cpu_ms,setup_s,"
+       "pairs_per_s,peak_bytes,frames,mismatched_frames,median_raw_pairs,reference_pairs,projected_ms,"
+       "projected_setup_s,note\n";
+  for (const auto& row : r.rows)
+    for (std::size_t i = 0; i < row.cells.size(); ++i) {
+      const CellResult& c = row.cells[i];
+      f << row.n << "," << r.keys[i] << "," << csv_field(r.labels[i]) << "," << kind_name(r, i) << ","
+        << status_name(c.status) << "," << fmt("%.6f", c.median_ms) << "," << fmt("%.6f", c.p99_ms) << ","
+        << fmt("%.6f", c.min_ms) << "," << fmt("%.6f", c.max_ms) << "," << fmt("%.6f", c.median_wall_ms) << ","
+        << fmt("%.6f", c.median_cpu_ms) << "," << fmt("%.6f", c.setup_s) << "," << fmt("%.1f", c.pairs_per_s)
+        << "," << (c.memory_measured ? std::to_string(c.peak_bytes) : std::string()) << "," << c.frames << ","
+        << c.mismatched_frames << "," << c.median_raw_pairs << "," << row.median_pairs << ","
+        << fmt("%.6f", c.projected_ms) << "," << fmt("%.6f", c.projected_setup_s) << "," << csv_field(c.note)
+        << "\n";
+    }
+}
+
+// report.json: parameters, machine, every row, mismatch and sample.
+void write_report_json(std::ostream& f, const BenchResult& r, const BenchHeader& h) {
+  nlohmann::json j;
+  j["tool"] = "hbp bench";
+  j["title"] = h.title;
+  j["command"] = h.command;
+  j["started"] = h.started;
+  j["frames_description"] = h.scene;
+  j["parameters"] = {{"frames", h.config.frames},     {"variants", h.config.variants},
+                     {"warmup", h.config.warmup},     {"threads", h.config.choice.threads},
+                     {"budget_s", h.config.budget_s}, {"reference", r.reference},
+                     {"clock", h.config.choice.clock == BenchClock::Cpu ? "cpu" : "wall"}};
+  for (const auto& [k, secs] : h.config.budget_for) j["parameters"]["budget_for_s"][k] = secs;
+  for (const auto& [k, v] : h.machine) j["machine"][k] = v;
+  j["total_s"] = r.total_s;
+  j["not_built"] = r.missing;
+  for (std::size_t i = 0; i < r.keys.size(); ++i)
+    j["systems"].push_back({{"key", r.keys[i]}, {"label", r.labels[i]}, {"kind", kind_name(r, i)}});
+  for (const auto& row : r.rows) {
+    nlohmann::json jr = {{"n", row.n}, {"reference_pairs", row.median_pairs}};
+    for (std::size_t i = 0; i < row.cells.size(); ++i) {
+      const CellResult& c = row.cells[i];
+      jr["systems"][r.keys[i]] = {{"status", status_name(c.status)},
+                                  {"median_ms", c.median_ms},
+                                  {"min_ms", c.min_ms},
+                                  {"max_ms", c.max_ms},
+                                  {"p99_ms", c.p99_ms},
+                                  {"pairs_per_s", c.pairs_per_s},
+                                  {"peak_bytes", c.memory_measured ? nlohmann::json(c.peak_bytes)
+                                                                   : nlohmann::json(nullptr)},
+                                  {"projected_ms", c.projected_ms},
+                                  {"projected_setup_s", c.projected_setup_s},
+                                  {"median_wall_ms", c.median_wall_ms},
+                                  {"median_cpu_ms", c.median_cpu_ms},
+                                  {"setup_s", c.setup_s},
+                                  {"frames", c.frames},
+                                  {"mismatched_frames", c.mismatched_frames},
+                                  {"median_raw_pairs", c.median_raw_pairs},
+                                  {"note", c.note}};
+    }
+    if (const PaperTable4Row* p = paper_table4_row(row.n); p && h.paper) {
+      auto num = [](double v) { return std::isnan(v) ? nlohmann::json(nullptr) : nlohmann::json(v); };
+      jr["paper_table4"] = {{"cpu", num(p->cpu_ms)},         {"gpu", num(p->gpu_ms)},
+                            {"ae_none", num(or_nan(p->area_efficient_none))}, {"ae_1024", num(or_nan(p->area_efficient_1024))},
+                            {"mo_none", num(or_nan(p->many_object_none))}, {"mo_1024", num(or_nan(p->many_object_cells[0]))},
+                            {"mo_2048", num(or_nan(p->many_object_cells[1]))}, {"mo_4096", num(or_nan(p->many_object_cells[2]))},
+                            {"mo_8192", num(or_nan(p->many_object_cells[3]))}, {"mo_16384", num(or_nan(p->many_object_cells[4]))}};
+    }
+    j["rows"].push_back(jr);
+  }
+  j["mismatches"] = nlohmann::json::array();
+  for (const auto& m : r.mismatches)
+    j["mismatches"].push_back({{"n", m.n},
+                               {"variant", m.variant},
+                               {"frame", m.frame},
+                               {"system", m.system},
+                               {"reference", m.reference},
+                               {"summary", m.summary}});
+  j["samples"] = nlohmann::json::array();
+  for (const auto& s : r.samples)
+    j["samples"].push_back({{"n", s.n},
+                            {"variant", s.variant},
+                            {"frame", s.frame},
+                            {"system", r.keys[s.system]},
+                            {"ms", s.reported_ms},
+                            {"wall_ms", s.wall_ms},
+                            {"cpu_ms", s.cpu_ms},
+                            {"raw_pairs", s.raw_pairs},
+                            {"exact_pairs", s.exact_pairs},
+                            {"match", s.match}});
+  f << j.dump(1) << "\n";
+}
+
+// Plot data (times.dat, accel.dat): whitespace-separated, "?" for a missing
+// value, quoted titles.
+
+// times.dat: median ms per system and n; the paper's curves; projections.
+void write_times_dat(std::ostream& f, const BenchResult& r, const BenchHeader& h) {
+  // Systems projected somewhere get a second column: the projected
+  // medians, starting at the last measured row so the curve continues.
+  std::vector<std::size_t> projected;
+  for (std::size_t i = 0; i < r.keys.size(); ++i)
+    for (const auto& row : r.rows)
+      if (row.cells[i].status == CellStatus::Projected) {
+        projected.push_back(i);
+        break;
+      }
+  f << "n";
+  for (std::size_t i = 0; i < r.keys.size(); ++i) f << " \"" << column_label(r, i) << "\"";
+  if (h.paper) f << " \"paper CPU (DBVT)\" \"paper AE best (model)\"";
+  for (std::size_t i : projected) f << " \"" << r.labels[i] << " (projected)\"";
+  f << "\n";
+  for (std::size_t k = 0; k < r.rows.size(); ++k) {
+    const RowResult& row = r.rows[k];
+    f << row.n;
+    for (const auto& key : r.keys) {
+      const double v = median_of(r, row, key);
+      f << " " << (std::isnan(v) ? std::string("?") : fmt("%.9g", v));
+    }
+    if (h.paper) {
+      const PaperTable4Row* p = paper_table4_row(row.n);
+      f << " " << (p ? fmt("%.9g", p->cpu_ms) : "?") << " " << (p ? fmt("%.9g", paper_ae_best(*p)) : "?");
+    }
+    for (std::size_t i : projected) {
+      const CellResult& c = row.cells[i];
+      const bool next_projected = k + 1 < r.rows.size() && r.rows[k + 1].cells[i].status == CellStatus::Projected;
+      if (c.status == CellStatus::Projected) f << " " << fmt("%.9g", c.projected_ms);
+      else if (c.status == CellStatus::Ran && c.frames > 0 && next_projected) f << " " << fmt("%.9g", c.median_ms);
+      else f << " ?";
+    }
+    f << "\n";
+  }
+}
+
+// accel.dat: acceleration against Bullet DBVT per system and n (Fig. 4).
+void write_accel_dat(std::ostream& f, const BenchResult& r, const BenchHeader& h) {
+  f << "n";
+  for (std::size_t i = 0; i < r.keys.size(); ++i)
+    if (r.keys[i] != "bullet-dbvt") f << " \"" << column_label(r, i) << "\"";
+  f << " \"AE best (model)\" \"MO best (model)\"";
+  if (h.paper) f << " \"paper: AE best vs CPU\" \"paper: AE best vs GPU\"";
+  f << "\n";
+  for (const auto& row : r.rows) {
+    const double base = median_of(r, row, "bullet-dbvt");
+    auto factor = [&](double v) {
+      return std::isnan(base) || std::isnan(v) ? std::string("?") : fmt("%.9g", base / v);
+    };
+    f << row.n;
+    for (const auto& key : r.keys)
+      if (key != "bullet-dbvt") f << " " << factor(median_of(r, row, key));
+    f << " " << factor(ours_ae_best(r, row)) << " " << factor(ours_mo_best(r, row));
+    if (h.paper) {
+      const PaperTable4Row* p = paper_table4_row(row.n);
+      f << " " << (p ? fmt("%.9g", p->cpu_ms / paper_ae_best(*p)) : "?") << " "
+        << (p ? fmt("%.9g", p->gpu_ms / paper_ae_best(*p)) : "?");
+    }
+    f << "\n";
+  }
+}
+
+}  // namespace
+
 std::vector<std::string> write_report_files(const std::string& dir, const BenchResult& r, const BenchHeader& h) {
   namespace fs = std::filesystem;
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (ec) throw FileError("cannot create output directory '" + dir + "': " + ec.message());
+  using Writer = void (*)(std::ostream&, const BenchResult&, const BenchHeader&);
+  const std::pair<const char*, Writer> files[] = {
+      {"tables.md", [](std::ostream& f, const BenchResult& r, const BenchHeader& h) { f << format_tables(r, h); }},
+      {"samples.csv", [](std::ostream& f, const BenchResult& r, const BenchHeader&) { write_samples_csv(f, r); }},
+      {"summary.csv", [](std::ostream& f, const BenchResult& r, const BenchHeader&) { write_summary_csv(f, r); }},
+      {"report.json", write_report_json},
+      {"times.dat", write_times_dat},
+      {"accel.dat", write_accel_dat},
+  };
   std::vector<std::string> written;
-  auto open = [&](const std::string& name) {
+  for (const auto& [name, write] : files) {
     const std::string path = (fs::path(dir) / name).string();
     std::ofstream f(path);
     if (!f) throw FileError("cannot write '" + path + "'");
     written.push_back(path);
-    return f;
-  };
-  auto kind = [&](std::size_t i) { return r.modelled[i] ? "modelled" : "measured"; };
-
-  {
-    auto f = open("tables.md");
-    f << format_tables(r, h);
-  }
-  {
-    auto f = open("samples.csv");
-    f << "n,variant,frame,system,label,kind,ms,wall_ms,cpu_ms,raw_pairs,exact_pairs,match\n";
-    for (const auto& s : r.samples)
-      f << s.n << "," << s.variant << "," << s.frame << "," << r.keys[s.system] << ","
-        << csv_quote(r.labels[s.system]) << "," << kind(s.system) << "," << fmt("%.6f", s.reported_ms) << "," << fmt("%.6f", s.wall_ms) << ","
-        << fmt("%.6f", s.cpu_ms) << "," << s.raw_pairs << "," << s.exact_pairs << "," << (s.match ? 1 : 0) << "\n";
-  }
-  {
-    auto f = open("summary.csv");
-    f << "n,system,label,kind,status,median_ms,p99_ms,min_ms,max_ms,median_wall_ms,median_cpu_ms,setup_s,"
-         "pairs_per_s,peak_bytes,frames,mismatched_frames,median_raw_pairs,reference_pairs,projected_ms,"
-         "projected_setup_s,note\n";
-    for (const auto& row : r.rows)
-      for (std::size_t i = 0; i < row.cells.size(); ++i) {
-        const CellResult& c = row.cells[i];
-        f << row.n << "," << r.keys[i] << "," << csv_quote(r.labels[i]) << "," << kind(i) << ","
-          << status_name(c.status) << "," << fmt("%.6f", c.median_ms) << "," << fmt("%.6f", c.p99_ms) << ","
-          << fmt("%.6f", c.min_ms) << "," << fmt("%.6f", c.max_ms) << "," << fmt("%.6f", c.median_wall_ms) << ","
-          << fmt("%.6f", c.median_cpu_ms) << "," << fmt("%.6f", c.setup_s) << "," << fmt("%.1f", c.pairs_per_s)
-          << "," << (c.memory_measured ? std::to_string(c.peak_bytes) : std::string()) << "," << c.frames << ","
-          << c.mismatched_frames << "," << c.median_raw_pairs << "," << row.median_pairs << ","
-          << fmt("%.6f", c.projected_ms) << "," << fmt("%.6f", c.projected_setup_s) << "," << csv_quote(c.note)
-          << "\n";
-      }
-  }
-  {
-    nlohmann::json j;
-    j["tool"] = "hbp bench";
-    j["title"] = h.title;
-    j["command"] = h.command;
-    j["started"] = h.started;
-    j["frames_description"] = h.scene;
-    j["parameters"] = {{"frames", h.config.frames},     {"variants", h.config.variants},
-                       {"warmup", h.config.warmup},     {"threads", h.config.choice.threads},
-                       {"budget_s", h.config.budget_s}, {"reference", r.reference},
-                       {"clock", h.config.choice.clock == BenchClock::Cpu ? "cpu" : "wall"}};
-    for (const auto& [k, secs] : h.config.budget_for) j["parameters"]["budget_for_s"][k] = secs;
-    for (const auto& [k, v] : h.machine) j["machine"][k] = v;
-    j["total_s"] = r.total_s;
-    j["not_built"] = r.missing;
-    for (std::size_t i = 0; i < r.keys.size(); ++i)
-      j["systems"].push_back({{"key", r.keys[i]}, {"label", r.labels[i]}, {"kind", kind(i)}});
-    for (const auto& row : r.rows) {
-      nlohmann::json jr = {{"n", row.n}, {"reference_pairs", row.median_pairs}};
-      for (std::size_t i = 0; i < row.cells.size(); ++i) {
-        const CellResult& c = row.cells[i];
-        jr["systems"][r.keys[i]] = {{"status", status_name(c.status)},
-                                    {"median_ms", c.median_ms},
-                                    {"min_ms", c.min_ms},
-                                    {"max_ms", c.max_ms},
-                                    {"p99_ms", c.p99_ms},
-                                    {"pairs_per_s", c.pairs_per_s},
-                                    {"peak_bytes", c.memory_measured ? nlohmann::json(c.peak_bytes)
-                                                                     : nlohmann::json(nullptr)},
-                                    {"projected_ms", c.projected_ms},
-                                    {"projected_setup_s", c.projected_setup_s},
-                                    {"median_wall_ms", c.median_wall_ms},
-                                    {"median_cpu_ms", c.median_cpu_ms},
-                                    {"setup_s", c.setup_s},
-                                    {"frames", c.frames},
-                                    {"mismatched_frames", c.mismatched_frames},
-                                    {"median_raw_pairs", c.median_raw_pairs},
-                                    {"note", c.note}};
-      }
-      if (const PaperTable4Row* p = paper_table4_row(row.n); p && h.paper) {
-        auto num = [](double v) { return std::isnan(v) ? nlohmann::json(nullptr) : nlohmann::json(v); };
-        jr["paper_table4"] = {{"cpu", num(p->cpu_ms)},
-                              {"gpu", num(p->gpu_ms)},
-                              {"ae_none", num(or_nan(p->area_efficient_none))},
-                              {"ae_1024", num(or_nan(p->area_efficient_1024))},
-                              {"mo_none", num(or_nan(p->many_object_none))},
-                              {"mo_1024", num(or_nan(p->many_object_cells[0]))},
-                              {"mo_2048", num(or_nan(p->many_object_cells[1]))},
-                              {"mo_4096", num(or_nan(p->many_object_cells[2]))},
-                              {"mo_8192", num(or_nan(p->many_object_cells[3]))},
-                              {"mo_16384", num(or_nan(p->many_object_cells[4]))}};
-      }
-      j["rows"].push_back(jr);
-    }
-    j["mismatches"] = nlohmann::json::array();
-    for (const auto& m : r.mismatches)
-      j["mismatches"].push_back({{"n", m.n},
-                                 {"variant", m.variant},
-                                 {"frame", m.frame},
-                                 {"system", m.system},
-                                 {"reference", m.reference},
-                                 {"summary", m.summary}});
-    j["samples"] = nlohmann::json::array();
-    for (const auto& s : r.samples)
-      j["samples"].push_back({{"n", s.n},
-                              {"variant", s.variant},
-                              {"frame", s.frame},
-                              {"system", r.keys[s.system]},
-                              {"ms", s.reported_ms},
-                              {"wall_ms", s.wall_ms},
-                              {"cpu_ms", s.cpu_ms},
-                              {"raw_pairs", s.raw_pairs},
-                              {"exact_pairs", s.exact_pairs},
-                              {"match", s.match}});
-    auto f = open("report.json");
-    f << j.dump(1) << "\n";
-  }
-  // Plot data: whitespace-separated, "?" for a missing value, quoted titles.
-  {
-    // Systems projected somewhere get a second column: the projected
-    // medians, starting at the last measured row so the curve continues.
-    std::vector<std::size_t> projected;
-    for (std::size_t i = 0; i < r.keys.size(); ++i)
-      for (const auto& row : r.rows)
-        if (row.cells[i].status == CellStatus::Projected) {
-          projected.push_back(i);
-          break;
-        }
-    auto f = open("times.dat");
-    f << "n";
-    for (std::size_t i = 0; i < r.keys.size(); ++i) f << " \"" << column_label(r, i) << "\"";
-    if (h.paper) f << " \"paper CPU (DBVT)\" \"paper AE best (model)\"";
-    for (std::size_t i : projected) f << " \"" << r.labels[i] << " (projected)\"";
-    f << "\n";
-    for (std::size_t k = 0; k < r.rows.size(); ++k) {
-      const RowResult& row = r.rows[k];
-      f << row.n;
-      for (const auto& key : r.keys) {
-        const double v = median_of(r, row, key);
-        f << " " << (std::isnan(v) ? std::string("?") : fmt("%.9g", v));
-      }
-      if (h.paper) {
-        const PaperTable4Row* p = paper_table4_row(row.n);
-        f << " " << (p ? fmt("%.9g", p->cpu_ms) : "?") << " " << (p ? fmt("%.9g", paper_ae_best(*p)) : "?");
-      }
-      for (std::size_t i : projected) {
-        const CellResult& c = row.cells[i];
-        const bool next_projected = k + 1 < r.rows.size() && r.rows[k + 1].cells[i].status == CellStatus::Projected;
-        if (c.status == CellStatus::Projected) f << " " << fmt("%.9g", c.projected_ms);
-        else if (c.status == CellStatus::Ran && c.frames > 0 && next_projected) f << " " << fmt("%.9g", c.median_ms);
-        else f << " ?";
-      }
-      f << "\n";
-    }
-  }
-  {
-    auto f = open("accel.dat");
-    f << "n";
-    for (std::size_t i = 0; i < r.keys.size(); ++i)
-      if (r.keys[i] != "bullet-dbvt") f << " \"" << column_label(r, i) << "\"";
-    f << " \"AE best (model)\" \"MO best (model)\"";
-    if (h.paper) f << " \"paper: AE best vs CPU\" \"paper: AE best vs GPU\"";
-    f << "\n";
-    for (const auto& row : r.rows) {
-      const double base = median_of(r, row, "bullet-dbvt");
-      auto factor = [&](double v) {
-        return std::isnan(base) || std::isnan(v) ? std::string("?") : fmt("%.9g", base / v);
-      };
-      f << row.n;
-      for (const auto& key : r.keys)
-        if (key != "bullet-dbvt") f << " " << factor(median_of(r, row, key));
-      f << " " << factor(ours_ae_best(r, row)) << " " << factor(ours_mo_best(r, row));
-      if (h.paper) {
-        const PaperTable4Row* p = paper_table4_row(row.n);
-        f << " " << (p ? fmt("%.9g", p->cpu_ms / paper_ae_best(*p)) : "?") << " "
-          << (p ? fmt("%.9g", p->gpu_ms / paper_ae_best(*p)) : "?");
-      }
-      f << "\n";
-    }
+    write(f, r, h);
+    f.close();
+    if (!f) throw FileError("cannot write '" + path + "' (disk full?)");
   }
   return written;
 }

@@ -7,6 +7,7 @@
 #include <exception>
 
 #include "bench_memory.hpp"
+#include "duration_text.hpp"
 #include "hbp/error.hpp"
 #include "support/clock.hpp"
 #include "support/percentile.hpp"
@@ -21,14 +22,6 @@ double default_frame_exponent(const std::string& key) { return key == "brute" ? 
 double setup_exponent(const std::string& key) { return key == "bullet-axis-sweep" ? 2.0 : 1.2; }
 
 }  // namespace
-
-std::string format_duration(double s) {
-  char buf[32];
-  if (s < 90) std::snprintf(buf, sizeof buf, "%.0f s", s);
-  else if (s < 5400) std::snprintf(buf, sizeof buf, "%.0f min", s / 60);
-  else std::snprintf(buf, sizeof buf, "%.1f h", s / 3600);
-  return buf;
-}
 
 BenchRunner::BenchRunner(const BenchConfig& config, Progress progress, Log log)
     : config_(config), progress_(std::move(progress)), log_(std::move(log)) {

@@ -131,7 +131,4 @@ class BenchRunner {
   double work_total_ = 0, work_done_ = 0;
 };
 
-// "31 min", "45 s", "2.1 h".
-std::string format_duration(double seconds);
-
 }  // namespace hbp::cli

@@ -250,77 +250,110 @@ struct ExploreOptions {
   bool json = false;
 };
 
-void run_explore(const ExploreOptions& o) {
-  if (o.csv && o.json) throw InvalidInput("hw explore: choose one of --csv and --json");
+// One point of the grid: a design at one m and one n.
+struct ExploreRow {
+  Design design;
+  std::uint64_t n;
+  ModelConfig cfg;
+  std::uint64_t capacity;
+  hw::Counters counters;  // analytic
+  double modelled_ms;
+  hw::Resources resources;
+  std::uint32_t comparators;  // >= and <= together
+  std::uint32_t comparisons_per_cycle;
+};
+
+// Validates every m before computing anything, so a bad grid prints nothing.
+std::vector<ExploreRow> explore_rows(const ExploreOptions& o) {
   const std::vector<std::uint64_t> ns = parse_range(o.n, "--n");
   const std::vector<std::uint64_t> ms = parse_range(o.m, "--m");
   const std::vector<Design> designs = parse_designs(o.design);
-  nlohmann::json json = nlohmann::json::array();
-  if (o.csv) {
-    std::printf("design,n,m,depth,capacity,fits,cycles,sequence,restart,drain,load,modelled_ms,utilisation,"
-                "comparisons_per_cycle,memories,memory_bits,comparators,and_gates,multiplexers\n");
-  } else if (!o.json) {
-    std::printf("%-15s %7s %3s %9s %4s %12s %12s %6s %5s %5s %6s\n", "design", "n", "m", "capacity", "fits", "cycles",
-                "modelled ms", "util", "cmp/c", "mems", "comps");
+  std::vector<ModelConfig> configs;
+  for (std::uint64_t m : ms) {
+    ModelConfig cfg;
+    if (m > hw::kMaxExtensibility) throw InvalidInput("--m: " + std::to_string(m) + " is above 64");
+    cfg.m = static_cast<std::uint32_t>(m);
+    cfg.depth = o.depth;
+    cfg.clock_hz = o.clock_hz;
+    cfg.count_load = o.count_load;
+    hw::validate(cfg);
+    configs.push_back(cfg);
   }
+  std::vector<ExploreRow> rows;
   for (Design d : designs) {
-    for (std::uint64_t m : ms) {
-      ModelConfig cfg;
-      if (m > hw::kMaxExtensibility) throw InvalidInput("--m: " + std::to_string(m) + " is above 64");
-      cfg.m = static_cast<std::uint32_t>(m);
-      cfg.depth = o.depth;
-      cfg.clock_hz = o.clock_hz;
-      cfg.count_load = o.count_load;
-      hw::validate(cfg);
+    for (const ModelConfig& cfg : configs) {
       const hw::Resources res = hw::resources(d, cfg);
       const std::uint64_t capacity = hw::buffer_capacity(d, cfg);
       for (std::uint64_t n : ns) {
         const hw::Counters k = hw::analytic_counters(d, n, cfg);
-        const std::uint64_t cycles = k.cycles.total();
-        const double ms_time = modelled_ms(cycles, cfg.clock_hz);
-        const bool fits = n <= capacity;
-        const std::uint32_t comparators = res.ge_comparators + res.le_comparators;
-        if (o.json) {
-          json.push_back({{"design", hw::design_name(d)},
-                          {"n", n},
-                          {"m", m},
-                          {"depth", cfg.depth},
-                          {"capacity", capacity},
-                          {"fits", fits},
-                          {"cycles", cycles},
-                          {"cycles_by_phase",
-                           {{"load", k.cycles.load},
-                            {"sequence", k.cycles.sequence},
-                            {"restart", k.cycles.restart},
-                            {"drain", k.cycles.drain}}},
-                          {"modelled_ms", ms_time},
-                          {"utilisation", k.utilisation()},
-                          {"comparisons_per_cycle", hw::comparisons_per_cycle(d, cfg.m)},
-                          {"memories", res.memories},
-                          {"memory_bits", res.memory_bits},
-                          {"comparators", comparators},
-                          {"and_gates", res.and_gates},
-                          {"multiplexers", res.multiplexers}});
-        } else if (o.csv) {
-          std::printf("%s,%llu,%llu,%u,%llu,%d,%llu,%llu,%llu,%llu,%llu,%.9g,%.6f,%u,%u,%llu,%u,%u,%u\n",
-                      hw::design_name(d), static_cast<unsigned long long>(n), static_cast<unsigned long long>(m),
-                      cfg.depth, static_cast<unsigned long long>(capacity), fits ? 1 : 0,
-                      static_cast<unsigned long long>(cycles), static_cast<unsigned long long>(k.cycles.sequence),
-                      static_cast<unsigned long long>(k.cycles.restart), static_cast<unsigned long long>(k.cycles.drain),
-                      static_cast<unsigned long long>(k.cycles.load), ms_time, k.utilisation(),
-                      hw::comparisons_per_cycle(d, cfg.m), res.memories,
-                      static_cast<unsigned long long>(res.memory_bits), comparators, res.and_gates, res.multiplexers);
-        } else {
-          std::printf("%-15s %7llu %3llu %9llu %4s %12llu %12.5f %6.3f %5u %5u %6u\n", hw::design_name(d),
-                      static_cast<unsigned long long>(n), static_cast<unsigned long long>(m),
-                      static_cast<unsigned long long>(capacity), fits ? "yes" : "NO",
-                      static_cast<unsigned long long>(cycles), ms_time, k.utilisation(),
-                      hw::comparisons_per_cycle(d, cfg.m), res.memories, comparators);
-        }
+        rows.push_back({d, n, cfg, capacity, k, modelled_ms(k.cycles.total(), cfg.clock_hz), res,
+                        res.ge_comparators + res.le_comparators, hw::comparisons_per_cycle(d, cfg.m)});
       }
     }
   }
-  if (o.json) std::printf("%s\n", json.dump(2).c_str());
+  return rows;
+}
+
+void print_explore_json(const std::vector<ExploreRow>& rows) {
+  nlohmann::json json = nlohmann::json::array();
+  for (const ExploreRow& r : rows) {
+    const hw::CycleBreakdown& c = r.counters.cycles;
+    json.push_back({{"design", hw::design_name(r.design)},
+                    {"n", r.n},
+                    {"m", static_cast<std::uint64_t>(r.cfg.m)},
+                    {"depth", r.cfg.depth},
+                    {"capacity", r.capacity},
+                    {"fits", r.n <= r.capacity},
+                    {"cycles", c.total()},
+                    {"cycles_by_phase",
+                     {{"load", c.load}, {"sequence", c.sequence}, {"restart", c.restart}, {"drain", c.drain}}},
+                    {"modelled_ms", r.modelled_ms},
+                    {"utilisation", r.counters.utilisation()},
+                    {"comparisons_per_cycle", r.comparisons_per_cycle},
+                    {"memories", r.resources.memories},
+                    {"memory_bits", r.resources.memory_bits},
+                    {"comparators", r.comparators},
+                    {"and_gates", r.resources.and_gates},
+                    {"multiplexers", r.resources.multiplexers}});
+  }
+  std::printf("%s\n", json.dump(2).c_str());
+}
+
+void print_explore_csv(const std::vector<ExploreRow>& rows) {
+  std::printf("design,n,m,depth,capacity,fits,cycles,sequence,restart,drain,load,modelled_ms,utilisation,"
+              "comparisons_per_cycle,memories,memory_bits,comparators,and_gates,multiplexers\n");
+  for (const ExploreRow& r : rows) {
+    const hw::CycleBreakdown& c = r.counters.cycles;
+    std::printf("%s,%llu,%llu,%u,%llu,%d,%llu,%llu,%llu,%llu,%llu,%.9g,%.6f,%u,%u,%llu,%u,%u,%u\n",
+                hw::design_name(r.design), static_cast<unsigned long long>(r.n),
+                static_cast<unsigned long long>(r.cfg.m), r.cfg.depth, static_cast<unsigned long long>(r.capacity),
+                r.n <= r.capacity ? 1 : 0, static_cast<unsigned long long>(c.total()),
+                static_cast<unsigned long long>(c.sequence), static_cast<unsigned long long>(c.restart),
+                static_cast<unsigned long long>(c.drain), static_cast<unsigned long long>(c.load), r.modelled_ms,
+                r.counters.utilisation(), r.comparisons_per_cycle, r.resources.memories,
+                static_cast<unsigned long long>(r.resources.memory_bits), r.comparators, r.resources.and_gates,
+                r.resources.multiplexers);
+  }
+}
+
+void print_explore_text(const std::vector<ExploreRow>& rows) {
+  std::printf("%-15s %7s %3s %9s %4s %12s %12s %6s %5s %5s %6s\n", "design", "n", "m", "capacity", "fits", "cycles",
+              "modelled ms", "util", "cmp/c", "mems", "comps");
+  for (const ExploreRow& r : rows) {
+    std::printf("%-15s %7llu %3llu %9llu %4s %12llu %12.5f %6.3f %5u %5u %6u\n", hw::design_name(r.design),
+                static_cast<unsigned long long>(r.n), static_cast<unsigned long long>(r.cfg.m),
+                static_cast<unsigned long long>(r.capacity), r.n <= r.capacity ? "yes" : "NO",
+                static_cast<unsigned long long>(r.counters.cycles.total()), r.modelled_ms, r.counters.utilisation(),
+                r.comparisons_per_cycle, r.resources.memories, r.comparators);
+  }
+}
+
+void run_explore(const ExploreOptions& o) {
+  if (o.csv && o.json) throw InvalidInput("hw explore: choose one of --csv and --json");
+  const std::vector<ExploreRow> rows = explore_rows(o);
+  if (o.json) print_explore_json(rows);
+  else if (o.csv) print_explore_csv(rows);
+  else print_explore_text(rows);
 }
 
 // ---------------------------------------------------------------- trace
@@ -401,7 +434,19 @@ struct RunOptions {
   bool json = false;
 };
 
-void run_run(const RunOptions& o) {
+// One scene through the cycle-by-cycle model, checked against the oracle
+// and the analytic cycle count.
+struct HwRunResult {
+  Design design;
+  ModelConfig cfg;
+  hw::Counters counters;
+  PairSetDiff diff;  // against brute force
+  bool analytic_ok;  // simulated cycles == analytic cycles
+  double seconds;    // simulator wall time
+  double slots_per_second;
+};
+
+HwRunResult simulate(const RunOptions& o) {
   const Design d = hw::parse_design(o.design);
   ModelConfig cfg;
   cfg.m = o.m;
@@ -428,49 +473,61 @@ void run_run(const RunOptions& o) {
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::vector<Pair> sorted = pairs;
   canonicalize(sorted);
-  const PairSetDiff diff = diff_pairs(brute_force_pairs(boxes), sorted);
+  PairSetDiff diff = diff_pairs(brute_force_pairs(boxes), sorted);
   const bool analytic_ok = k.cycles == hw::analytic_cycles(d, o.n, cfg);
   const double slots_per_second = seconds > 0 ? static_cast<double>(k.comparator_slots) / seconds : 0.0;
+  return {d, cfg, k, std::move(diff), analytic_ok, seconds, slots_per_second};
+}
 
-  if (o.json) {
-    nlohmann::json j = {{"design", hw::design_name(d)},
-                        {"n", o.n},
-                        {"m", o.m},
-                        {"depth", o.depth},
-                        {"cycles",
-                         {{"load", k.cycles.load},
-                          {"sequence", k.cycles.sequence},
-                          {"restart", k.cycles.restart},
-                          {"drain", k.cycles.drain},
-                          {"total", k.cycles.total()}}},
-                        {"modelled_ms", modelled_ms(k.cycles.total(), cfg.clock_hz)},
-                        {"comparator_slots", k.comparator_slots},
-                        {"comparisons_performed", k.comparisons_performed},
-                        {"comparisons_discarded", k.comparisons_discarded},
-                        {"pairs_written", k.pairs_written},
-                        {"utilisation", k.utilisation()},
-                        {"matches_oracle", diff.empty()},
-                        {"matches_analytic", analytic_ok},
-                        {"simulation_seconds", seconds},
-                        {"simulated_slots_per_second", slots_per_second}};
-    std::printf("%s\n", j.dump(2).c_str());
-  } else {
-    std::printf("%s microarchitecture, m = %u, depth = %u, %s scene, n = %u\n", hw::design_name(d), o.m, o.depth,
-                o.kind.c_str(), o.n);
-    std::printf("cycles:      load %llu + sequence %llu + restart %llu + drain %llu = %llu (%.4f ms at %.0f MHz)\n",
-                static_cast<unsigned long long>(k.cycles.load), static_cast<unsigned long long>(k.cycles.sequence),
-                static_cast<unsigned long long>(k.cycles.restart), static_cast<unsigned long long>(k.cycles.drain),
-                static_cast<unsigned long long>(k.cycles.total()), modelled_ms(k.cycles.total(), cfg.clock_hz),
-                cfg.clock_hz / 1e6);
-    std::printf("comparisons: %llu performed, %llu discarded, utilisation %.4f\n",
-                static_cast<unsigned long long>(k.comparisons_performed),
-                static_cast<unsigned long long>(k.comparisons_discarded), k.utilisation());
-    std::printf("pairs:       %llu lines written; oracle: %s; analytic cycles: %s\n",
-                static_cast<unsigned long long>(k.pairs_written), diff.empty() ? "identical" : diff.summary().c_str(),
-                analytic_ok ? "equal" : "DIFFERENT");
-    std::printf("simulator:   %.3f s, %.3g comparator slots per second\n", seconds, slots_per_second);
-  }
-  if (!diff.empty() || !analytic_ok) throw Error("hw run: the model disagrees with the oracle or its analytic cycles");
+void print_run_json(const RunOptions& o, const HwRunResult& r) {
+  const hw::Counters& k = r.counters;
+  nlohmann::json j = {{"design", hw::design_name(r.design)},
+                      {"n", o.n},
+                      {"m", o.m},
+                      {"depth", o.depth},
+                      {"cycles",
+                       {{"load", k.cycles.load},
+                        {"sequence", k.cycles.sequence},
+                        {"restart", k.cycles.restart},
+                        {"drain", k.cycles.drain},
+                        {"total", k.cycles.total()}}},
+                      {"modelled_ms", modelled_ms(k.cycles.total(), r.cfg.clock_hz)},
+                      {"comparator_slots", k.comparator_slots},
+                      {"comparisons_performed", k.comparisons_performed},
+                      {"comparisons_discarded", k.comparisons_discarded},
+                      {"pairs_written", k.pairs_written},
+                      {"utilisation", k.utilisation()},
+                      {"matches_oracle", r.diff.empty()},
+                      {"matches_analytic", r.analytic_ok},
+                      {"simulation_seconds", r.seconds},
+                      {"simulated_slots_per_second", r.slots_per_second}};
+  std::printf("%s\n", j.dump(2).c_str());
+}
+
+void print_run_text(const RunOptions& o, const HwRunResult& r) {
+  const hw::Counters& k = r.counters;
+  std::printf("%s microarchitecture, m = %u, depth = %u, %s scene, n = %u\n", hw::design_name(r.design), o.m,
+              o.depth, o.kind.c_str(), o.n);
+  std::printf("cycles:      load %llu + sequence %llu + restart %llu + drain %llu = %llu (%.4f ms at %.0f MHz)\n",
+              static_cast<unsigned long long>(k.cycles.load), static_cast<unsigned long long>(k.cycles.sequence),
+              static_cast<unsigned long long>(k.cycles.restart), static_cast<unsigned long long>(k.cycles.drain),
+              static_cast<unsigned long long>(k.cycles.total()), modelled_ms(k.cycles.total(), r.cfg.clock_hz),
+              r.cfg.clock_hz / 1e6);
+  std::printf("comparisons: %llu performed, %llu discarded, utilisation %.4f\n",
+              static_cast<unsigned long long>(k.comparisons_performed),
+              static_cast<unsigned long long>(k.comparisons_discarded), k.utilisation());
+  std::printf("pairs:       %llu lines written; oracle: %s; analytic cycles: %s\n",
+              static_cast<unsigned long long>(k.pairs_written),
+              r.diff.empty() ? "identical" : r.diff.summary().c_str(), r.analytic_ok ? "equal" : "DIFFERENT");
+  std::printf("simulator:   %.3f s, %.3g comparator slots per second\n", r.seconds, r.slots_per_second);
+}
+
+void run_run(const RunOptions& o) {
+  const HwRunResult r = simulate(o);
+  if (o.json) print_run_json(o, r);
+  else print_run_text(o, r);
+  if (!r.diff.empty() || !r.analytic_ok)
+    throw Error("hw run: the model disagrees with the oracle or its analytic cycles");
 }
 
 // ---------------------------------------------------------------- setup

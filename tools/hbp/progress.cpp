@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "duration_text.hpp"
+
 namespace hbp::cli {
 
 namespace {
@@ -12,17 +14,6 @@ namespace {
 constexpr double kFirstDrawAfterS = 0.5;  // no bar at all for short operations
 constexpr double kRedrawEveryS = 0.1;
 constexpr int kBarWidth = 30;
-
-std::string duration_text(double s) {
-  if (!std::isfinite(s) || s < 0) return "--:--";
-  const auto total = static_cast<long long>(s + 0.5);
-  char buf[32];
-  if (total >= 3600)
-    std::snprintf(buf, sizeof buf, "%lld:%02lld:%02lld", total / 3600, total / 60 % 60, total % 60);
-  else
-    std::snprintf(buf, sizeof buf, "%lld:%02lld", total / 60, total % 60);
-  return buf;
-}
 
 }  // namespace
 
@@ -52,7 +43,7 @@ std::string ProgressBar::render(double elapsed_s) const {
   std::snprintf(buf, sizeof buf, "] %3d%% %llu/%llu%s%s  %.1f/s  %s %s", static_cast<int>(fraction * 100.0),
                 static_cast<unsigned long long>(done_), static_cast<unsigned long long>(total_),
                 unit_.empty() ? "" : " ", unit_.c_str(), rate, done_ >= total_ ? "took" : "ETA",
-                duration_text(done_ >= total_ ? elapsed_s : eta).c_str());
+                format_duration(done_ >= total_ ? elapsed_s : eta, DurationStyle::Clock).c_str());
   return line + buf;
 }
 
