@@ -1,29 +1,14 @@
 #include <immintrin.h>
 
+#include "dedup/ownership_avx2.hpp"
 #include "engines/box_kernels.hpp"
 
 namespace hbp::kernels {
 
 namespace {
 
-struct RegionVec {
-  __m256 lo[3], hi[3];
-};
-
-inline RegionVec load_region(const CellRegion& r) {
-  RegionVec v;
-  for (int k = 0; k < 3; ++k) {
-    v.lo[k] = _mm256_set1_ps(r.lo[k]);
-    v.hi[k] = _mm256_set1_ps(r.hi[k]);
-  }
-  return v;
-}
-
-inline __m256 owned(const RegionVec& r, __m256 px, __m256 py, __m256 pz) {
-  __m256 m = _mm256_and_ps(_mm256_cmp_ps(px, r.lo[0], _CMP_GE_OQ), _mm256_cmp_ps(px, r.hi[0], _CMP_LT_OQ));
-  m = _mm256_and_ps(m, _mm256_and_ps(_mm256_cmp_ps(py, r.lo[1], _CMP_GE_OQ), _mm256_cmp_ps(py, r.hi[1], _CMP_LT_OQ)));
-  return _mm256_and_ps(m, _mm256_and_ps(_mm256_cmp_ps(pz, r.lo[2], _CMP_GE_OQ), _mm256_cmp_ps(pz, r.hi[2], _CMP_LT_OQ)));
-}
+using dedup::avx2::load_region;
+using RegionVec = dedup::avx2::RegionLanes;
 
 // Where a row's hits go: stored (row id, candidate id), or only counted.
 struct Store {
@@ -63,7 +48,7 @@ inline void sweep_row(const KernelInput& in, const RegionVec& rv, std::uint32_t 
     c = _mm256_and_ps(c, _mm256_cmp_ps(_mm256_loadu_ps(maxz + j), lz, _CMP_GE_OQ));
     c = _mm256_and_ps(c, _mm256_cmp_ps(vminz, hz, _CMP_LE_OQ));
     if (_mm256_movemask_ps(c)) {
-      c = _mm256_and_ps(c, owned(rv, vminx, _mm256_max_ps(vminy, ly), _mm256_max_ps(vminz, lz)));
+      c = _mm256_and_ps(c, dedup::avx2::owns_sorted_x(rv, ly, lz, vminx, vminy, vminz));
       out.emit(in.ids[i], in.ids + j, static_cast<unsigned>(_mm256_movemask_ps(c)));
     }
     if (mx != 0xFF) break;
@@ -87,7 +72,7 @@ inline void allpairs_row(const KernelInput& in, const RegionVec& rv, std::uint32
     c = _mm256_and_ps(c, _mm256_cmp_ps(_mm256_loadu_ps(maxz + j), lz, _CMP_GE_OQ));
     c = _mm256_and_ps(c, _mm256_cmp_ps(vminz, hz, _CMP_LE_OQ));
     if (_mm256_movemask_ps(c)) {
-      c = _mm256_and_ps(c, owned(rv, _mm256_max_ps(vminx, lx), _mm256_max_ps(vminy, ly), _mm256_max_ps(vminz, lz)));
+      c = _mm256_and_ps(c, dedup::avx2::owns(rv, lx, ly, lz, vminx, vminy, vminz));
       out.emit(in.ids[i], in.ids + j, static_cast<unsigned>(_mm256_movemask_ps(c)));
     }
   }

@@ -3,33 +3,15 @@
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #include <immintrin.h>
 
+#include "dedup/ownership_avx512.hpp"
 #include "engines/box_kernels.hpp"
 
 namespace hbp::kernels {
 
 namespace {
 
-struct RegionVec {
-  __m512 lo[3], hi[3];
-};
-
-inline RegionVec load_region(const CellRegion& r) {
-  RegionVec v;
-  for (int k = 0; k < 3; ++k) {
-    v.lo[k] = _mm512_set1_ps(r.lo[k]);
-    v.hi[k] = _mm512_set1_ps(r.hi[k]);
-  }
-  return v;
-}
-
-inline __mmask16 owned(const RegionVec& r, __m512 px, __m512 py, __m512 pz) {
-  __mmask16 m = _mm512_cmp_ps_mask(px, r.lo[0], _CMP_GE_OQ);
-  m = _mm512_mask_cmp_ps_mask(m, px, r.hi[0], _CMP_LT_OQ);
-  m = _mm512_mask_cmp_ps_mask(m, py, r.lo[1], _CMP_GE_OQ);
-  m = _mm512_mask_cmp_ps_mask(m, py, r.hi[1], _CMP_LT_OQ);
-  m = _mm512_mask_cmp_ps_mask(m, pz, r.lo[2], _CMP_GE_OQ);
-  return _mm512_mask_cmp_ps_mask(m, pz, r.hi[2], _CMP_LT_OQ);
-}
+using dedup::avx512::load_region;
+using RegionVec = dedup::avx512::RegionLanes;
 
 // Where a row's hits go: stored (row id, candidate id), or only counted.
 struct Store {
@@ -69,7 +51,7 @@ inline void sweep_row(const KernelInput& in, const RegionVec& rv, std::uint32_t 
                          _mm512_cmp_ps_mask(vminy, hy, _CMP_LE_OQ);
     const __mmask16 mz = _mm512_cmp_ps_mask(_mm512_loadu_ps(maxz + j), lz, _CMP_GE_OQ) &
                          _mm512_cmp_ps_mask(vminz, hz, _CMP_LE_OQ);
-    const __mmask16 m = mx & my & mz & owned(rv, vminx, _mm512_max_ps(vminy, ly), _mm512_max_ps(vminz, lz));
+    const __mmask16 m = mx & my & mz & dedup::avx512::owns_sorted_x(rv, ly, lz, vminx, vminy, vminz);
     out.emit(id_i, in.ids + j, m);
     if (mx != 0xFFFF) break;
   }
@@ -93,7 +75,7 @@ inline void allpairs_row(const KernelInput& in, const RegionVec& rv, std::uint32
     m = _mm512_mask_cmp_ps_mask(m, _mm512_loadu_ps(maxz + j), lz, _CMP_GE_OQ);
     m = _mm512_mask_cmp_ps_mask(m, vminz, hz, _CMP_LE_OQ);
     if (m) {
-      m &= owned(rv, _mm512_max_ps(vminx, lx), _mm512_max_ps(vminy, ly), _mm512_max_ps(vminz, lz));
+      m &= dedup::avx512::owns(rv, lx, ly, lz, vminx, vminy, vminz);
       out.emit(id_i, in.ids + j, m);
     }
   }

@@ -1,0 +1,38 @@
+#pragma once
+// De-duplication: the ownership rule, the one place it is written.
+//
+// An object straddling a split plane is in every cell it overlaps, so a pair
+// of such objects is found in several cells. Each cell keeps only the pairs
+// it OWNS: those whose ownership point
+//
+//     p = max(min_a, min_b)   (per axis: the minimum corner of the boxes'
+//                              intersection)
+//
+// lies in the cell's half-open region [lo, hi) (CellRegion::contains). p lies
+// in both boxes, so the cell holding p received both objects (routing uses
+// the same half-open rule); the regions tile space, so exactly one cell holds
+// p. Every overlapping pair is reported once, with no global set and no sort.
+//
+// Callers: filter_owned (owned_pairs.hpp: CellEngine::find_owned_pairs for
+// brute force and the hardware models' simulation), the scalar kernel, and
+// the SIMD kernels (engines/box_kernels_*.cpp), which test the rule on the
+// candidate lanes they already hold with the vector forms beside this file
+// (ownership_avx2.hpp, ownership_avx512.hpp): the same point, the same
+// comparisons, a lane at a time.
+//
+// Plain inline C on floats (no std templates): kernels compiled for other
+// instruction sets sit next to its callers (see engines/box_kernels.hpp).
+#include "hbp/cell_region.hpp"
+
+namespace hbp::dedup {
+
+// The ownership point's coordinate on one axis: the larger of the two minima.
+inline float ownership_coord(float min_a, float min_b) { return min_a > min_b ? min_a : min_b; }
+
+// True when the cell of region r reports the pair of boxes whose minimum
+// corners are (ax, ay, az) and (bx, by, bz) (the boxes are known to overlap).
+inline bool owns(const CellRegion& r, float ax, float ay, float az, float bx, float by, float bz) {
+  return r.contains(ownership_coord(ax, bx), ownership_coord(ay, by), ownership_coord(az, bz));
+}
+
+}  // namespace hbp::dedup
