@@ -35,4 +35,10 @@ inline bool owns(const CellRegion& r, float ax, float ay, float az, float bx, fl
   return r.contains(ownership_coord(ax, bx), ownership_coord(ay, by), ownership_coord(az, bz));
 }
 
+// The same when box b follows box a in min-x order (the sweep): b's min x is
+// already the larger, so p's x is b's.
+inline bool owns_sorted_x(const CellRegion& r, float ay, float az, float bx, float by, float bz) {
+  return r.contains(bx, ownership_coord(by, ay), ownership_coord(bz, az));
+}
+
 }  // namespace hbp::dedup

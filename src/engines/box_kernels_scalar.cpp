@@ -27,12 +27,12 @@ inline void sweep_row(const KernelInput& in, std::uint32_t i, Out& out) {
   const float *minx = in.min[0], *miny = in.min[1], *minz = in.min[2];
   const float *maxy = in.max[1], *maxz = in.max[2];
   const CellRegion& r = in.region;
-  const float lx = minx[i], bx = in.max[0][i], ly = miny[i], hy = maxy[i], lz = minz[i], hz = maxz[i];
+  const float bx = in.max[0][i], ly = miny[i], hy = maxy[i], lz = minz[i], hz = maxz[i];
   // Sorted by min x: min_x[j] >= min_x[i] and max_x[j] >= min_x[j], so only
   // min_x[j] <= max_x[i] remains to test on x, and it ends the scan.
   for (std::uint32_t j = i + 1; j < in.n && minx[j] <= bx; ++j) {
     if (maxy[j] >= ly && miny[j] <= hy && maxz[j] >= lz && minz[j] <= hz &&
-        dedup::owns(r, lx, ly, lz, minx[j], miny[j], minz[j]))
+        dedup::owns_sorted_x(r, ly, lz, minx[j], miny[j], minz[j]))
       out.emit(in.ids[i], in.ids[j]);
   }
 }
@@ -45,7 +45,7 @@ inline void allpairs_row(const KernelInput& in, std::uint32_t i, Out& out) {
   const float lx = minx[i], hx = maxx[i], ly = miny[i], hy = maxy[i], lz = minz[i], hz = maxz[i];
   for (std::uint32_t j = i + 1; j < in.n; ++j) {
     if (maxx[j] >= lx && minx[j] <= hx && maxy[j] >= ly && miny[j] <= hy && maxz[j] >= lz && minz[j] <= hz &&
-        dedup::owns(r, lx, ly, lz, minx[j], miny[j], minz[j]))
+        dedup::owns(r, minx[j], miny[j], minz[j], lx, ly, lz))
       out.emit(in.ids[i], in.ids[j]);
   }
 }
