@@ -1,6 +1,7 @@
 #include <immintrin.h>
 
 #include "dedup/ownership_avx2.hpp"
+#include "engines/box_kernel_rows.hpp"
 #include "engines/box_kernels.hpp"
 
 namespace hbp::kernels {
@@ -82,40 +83,22 @@ inline void allpairs_row(const KernelInput& in, const RegionVec& rv, std::uint32
 
 std::uint32_t sweep_avx2(const KernelInput& in, std::uint32_t row, KernelOutput& out) {
   const RegionVec rv = load_region(in.region);
-  Store s{out.first, out.second, out.count};
-  std::uint32_t i = row;
-  for (; i < in.n; ++i) {
-    if (out.capacity - s.count < std::size_t{in.n - i} + kOutputSlack) break;
-    sweep_row(in, rv, i, s);
-  }
-  out.count = s.count;
-  return i;
+  return store_rows<Store>(in, row, out, [&](std::uint32_t i, Store& s) { sweep_row(in, rv, i, s); });
 }
 
 std::uint32_t allpairs_avx2(const KernelInput& in, std::uint32_t row, KernelOutput& out) {
   const RegionVec rv = load_region(in.region);
-  Store s{out.first, out.second, out.count};
-  std::uint32_t i = row;
-  for (; i < in.n; ++i) {
-    if (out.capacity - s.count < std::size_t{in.n - i} + kOutputSlack) break;
-    allpairs_row(in, rv, i, s);
-  }
-  out.count = s.count;
-  return i;
+  return store_rows<Store>(in, row, out, [&](std::uint32_t i, Store& s) { allpairs_row(in, rv, i, s); });
 }
 
 std::uint64_t sweep_count_avx2(const KernelInput& in, std::uint32_t row) {
   const RegionVec rv = load_region(in.region);
-  Count c;
-  for (std::uint32_t i = row; i < in.n; ++i) sweep_row(in, rv, i, c);
-  return c.count;
+  return count_rows<Count>(in, row, [&](std::uint32_t i, Count& c) { sweep_row(in, rv, i, c); });
 }
 
 std::uint64_t allpairs_count_avx2(const KernelInput& in, std::uint32_t row) {
   const RegionVec rv = load_region(in.region);
-  Count c;
-  for (std::uint32_t i = row; i < in.n; ++i) allpairs_row(in, rv, i, c);
-  return c.count;
+  return count_rows<Count>(in, row, [&](std::uint32_t i, Count& c) { allpairs_row(in, rv, i, c); });
 }
 
 }  // namespace hbp::kernels

@@ -1,4 +1,5 @@
 #include "dedup/ownership.hpp"
+#include "engines/box_kernel_rows.hpp"
 #include "engines/box_kernels.hpp"
 
 namespace hbp::kernels {
@@ -53,37 +54,19 @@ inline void allpairs_row(const KernelInput& in, std::uint32_t i, Out& out) {
 }  // namespace
 
 std::uint32_t sweep_scalar(const KernelInput& in, std::uint32_t row, KernelOutput& out) {
-  Store s{out.first, out.second, out.count};
-  std::uint32_t i = row;
-  for (; i < in.n; ++i) {
-    if (out.capacity - s.count < std::size_t{in.n - i} + kOutputSlack) break;
-    sweep_row(in, i, s);
-  }
-  out.count = s.count;
-  return i;
+  return store_rows<Store>(in, row, out, [&](std::uint32_t i, Store& s) { sweep_row(in, i, s); });
 }
 
 std::uint32_t allpairs_scalar(const KernelInput& in, std::uint32_t row, KernelOutput& out) {
-  Store s{out.first, out.second, out.count};
-  std::uint32_t i = row;
-  for (; i < in.n; ++i) {
-    if (out.capacity - s.count < std::size_t{in.n - i} + kOutputSlack) break;
-    allpairs_row(in, i, s);
-  }
-  out.count = s.count;
-  return i;
+  return store_rows<Store>(in, row, out, [&](std::uint32_t i, Store& s) { allpairs_row(in, i, s); });
 }
 
 std::uint64_t sweep_count_scalar(const KernelInput& in, std::uint32_t row) {
-  Count c;
-  for (std::uint32_t i = row; i < in.n; ++i) sweep_row(in, i, c);
-  return c.count;
+  return count_rows<Count>(in, row, [&](std::uint32_t i, Count& c) { sweep_row(in, i, c); });
 }
 
 std::uint64_t allpairs_count_scalar(const KernelInput& in, std::uint32_t row) {
-  Count c;
-  for (std::uint32_t i = row; i < in.n; ++i) allpairs_row(in, i, c);
-  return c.count;
+  return count_rows<Count>(in, row, [&](std::uint32_t i, Count& c) { allpairs_row(in, i, c); });
 }
 
 void canonical_pairs_scalar(const std::uint32_t* first, const std::uint32_t* second, std::size_t count,
