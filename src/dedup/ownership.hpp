@@ -14,7 +14,8 @@
 // p. Every overlapping pair is reported once, with no global set and no sort.
 //
 // Callers: filter_owned (owned_pairs.hpp: CellEngine::find_owned_pairs for
-// brute force and the hardware models' simulation), the scalar kernel, and
+// brute force and the hardware models' simulation), the distributed broad
+// phase's rank filter (sides/owns_sides below), the scalar kernel, and
 // the SIMD kernels (engines/box_kernels_*.cpp), which test the rule on the
 // candidate lanes they already hold with the vector forms beside this file
 // (ownership_avx2.hpp, ownership_avx512.hpp): the same point, the same
@@ -40,5 +41,21 @@ inline bool owns(const CellRegion& r, float ax, float ay, float az, float bx, fl
 inline bool owns_sorted_x(const CellRegion& r, float ay, float az, float bx, float by, float bz) {
   return r.contains(bx, ownership_coord(by, ay), ownership_coord(bz, az));
 }
+
+// The same rule taken apart per object, for many pairs against one region
+// (a rank's domain, distributed_broadphase.cpp): on each axis max(a, b) >= lo
+// iff a >= lo or b >= lo, and max(a, b) < hi iff a < hi and b < hi. So one
+// byte per object, sides(), decides every pair: owns_sides(). Bits 0-2: min
+// >= lo on x, y, z; bits 3-5: min < hi. (Written out per axis: GCC 12.2 at
+// -O1 -fsanitize=undefined miscompiled the loop form `bits |= (m >= lo[k] ?
+// 1u : 0u) << k`, every bit set; the MPI tests caught it as pairs reported
+// twice.)
+inline unsigned char sides(const CellRegion& r, float x, float y, float z) {
+  const unsigned ge = unsigned{x >= r.lo[0]} | unsigned{y >= r.lo[1]} * 2u | unsigned{z >= r.lo[2]} * 4u;
+  const unsigned lt = unsigned{x < r.hi[0]} | unsigned{y < r.hi[1]} * 2u | unsigned{z < r.hi[2]} * 4u;
+  return static_cast<unsigned char>(ge | lt * 8u);
+}
+
+inline bool owns_sides(unsigned a, unsigned b) { return ((a | b) & 7u) == 7u && (a & b & 56u) == 56u; }
 
 }  // namespace hbp::dedup
