@@ -17,9 +17,10 @@
 // brute force and the hardware models' simulation), the distributed broad
 // phase's rank filter (sides/owns_sides below), the scalar kernel, and
 // the SIMD kernels (engines/box_kernels_*.cpp), which test the rule on the
-// candidate lanes they already hold with the vector forms beside this file
-// (ownership_avx2.hpp, ownership_avx512.hpp): the same point, the same
-// comparisons, a lane at a time.
+// candidate lanes they already hold with the vector form beside this file
+// (ownership_lanes.hpp, one template; ownership_avx2.hpp and
+// ownership_avx512.hpp give it each ISA's compares): the same point, the
+// same comparisons, a lane at a time.
 //
 // Plain inline C on floats (no std templates): kernels compiled for other
 // instruction sets sit next to its callers (see engines/box_kernels.hpp).

@@ -8,8 +8,9 @@ namespace hbp::kernels {
 
 namespace {
 
-using dedup::avx2::load_region;
-using RegionVec = dedup::avx2::RegionLanes;
+using Lanes = dedup::Avx2Lanes;
+using RegionVec = dedup::RegionLanes<Lanes>;
+inline RegionVec load_region(const CellRegion& r) { return dedup::load_region<Lanes>(r); }
 
 // Where a row's hits go: stored (row id, candidate id), or only counted.
 struct Store {
@@ -49,7 +50,7 @@ inline void sweep_row(const KernelInput& in, const RegionVec& rv, std::uint32_t 
     c = _mm256_and_ps(c, _mm256_cmp_ps(_mm256_loadu_ps(maxz + j), lz, _CMP_GE_OQ));
     c = _mm256_and_ps(c, _mm256_cmp_ps(vminz, hz, _CMP_LE_OQ));
     if (_mm256_movemask_ps(c)) {
-      c = _mm256_and_ps(c, dedup::avx2::owns_sorted_x(rv, ly, lz, vminx, vminy, vminz));
+      c = _mm256_and_ps(c, dedup::owns_sorted_x(rv, ly, lz, vminx, vminy, vminz));
       out.emit(in.ids[i], in.ids + j, static_cast<unsigned>(_mm256_movemask_ps(c)));
     }
     if (mx != 0xFF) break;
@@ -73,7 +74,7 @@ inline void allpairs_row(const KernelInput& in, const RegionVec& rv, std::uint32
     c = _mm256_and_ps(c, _mm256_cmp_ps(_mm256_loadu_ps(maxz + j), lz, _CMP_GE_OQ));
     c = _mm256_and_ps(c, _mm256_cmp_ps(vminz, hz, _CMP_LE_OQ));
     if (_mm256_movemask_ps(c)) {
-      c = _mm256_and_ps(c, dedup::avx2::owns(rv, lx, ly, lz, vminx, vminy, vminz));
+      c = _mm256_and_ps(c, dedup::owns(rv, lx, ly, lz, vminx, vminy, vminz));
       out.emit(in.ids[i], in.ids + j, static_cast<unsigned>(_mm256_movemask_ps(c)));
     }
   }

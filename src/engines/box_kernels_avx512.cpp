@@ -11,8 +11,9 @@ namespace hbp::kernels {
 
 namespace {
 
-using dedup::avx512::load_region;
-using RegionVec = dedup::avx512::RegionLanes;
+using Lanes = dedup::Avx512Lanes;
+using RegionVec = dedup::RegionLanes<Lanes>;
+inline RegionVec load_region(const CellRegion& r) { return dedup::load_region<Lanes>(r); }
 
 // Where a row's hits go: stored (row id, candidate id), or only counted.
 struct Store {
@@ -52,7 +53,7 @@ inline void sweep_row(const KernelInput& in, const RegionVec& rv, std::uint32_t 
                          _mm512_cmp_ps_mask(vminy, hy, _CMP_LE_OQ);
     const __mmask16 mz = _mm512_cmp_ps_mask(_mm512_loadu_ps(maxz + j), lz, _CMP_GE_OQ) &
                          _mm512_cmp_ps_mask(vminz, hz, _CMP_LE_OQ);
-    const __mmask16 m = mx & my & mz & dedup::avx512::owns_sorted_x(rv, ly, lz, vminx, vminy, vminz);
+    const __mmask16 m = mx & my & mz & dedup::owns_sorted_x(rv, ly, lz, vminx, vminy, vminz);
     out.emit(id_i, in.ids + j, m);
     if (mx != 0xFFFF) break;
   }
@@ -76,7 +77,7 @@ inline void allpairs_row(const KernelInput& in, const RegionVec& rv, std::uint32
     m = _mm512_mask_cmp_ps_mask(m, _mm512_loadu_ps(maxz + j), lz, _CMP_GE_OQ);
     m = _mm512_mask_cmp_ps_mask(m, vminz, hz, _CMP_LE_OQ);
     if (m) {
-      m &= dedup::avx512::owns(rv, lx, ly, lz, vminx, vminy, vminz);
+      m &= dedup::owns(rv, lx, ly, lz, vminx, vminy, vminz);
       out.emit(id_i, in.ids + j, m);
     }
   }
