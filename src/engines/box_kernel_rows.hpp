@@ -3,9 +3,10 @@
 // loop over rows, stopping before a row whose hits might not fit the output
 // (box_kernels.hpp), the loop that only counts, and the ISA's KernelSet made
 // of them. Each ISA's file supplies its rows (the vector loop over
-// candidates) and its hit sinks, and instantiates these once. Everything here is in an anonymous namespace:
-// each ISA's translation unit keeps its own copy, compiled with its own
-// flags (no one-definition merging across ISAs, see box_kernels.hpp).
+// candidates) and its hit sinks, and instantiates these once. Everything
+// here is in an anonymous namespace: each ISA's translation unit keeps its
+// own copy, compiled with its own flags (no one-definition merging across
+// ISAs, see box_kernels.hpp).
 #include <cstddef>
 #include <cstdint>
 
