@@ -107,7 +107,7 @@ std::vector<CellEntry> random_entries(std::mt19937& rng, std::uint32_t count, st
       out[i].max[k] = out[i].min[k] + size(rng);
     }
     out[i].id = i * id_stride;
-    out[i].unused = 0;
+    out[i].build_tag = 0;
   }
   return out;
 }

@@ -32,7 +32,11 @@ struct BroadPhaseOptions {
 
 struct FrameStats {
   std::uint64_t pairs = 0;
-  std::uint64_t candidate_pairs = 0;  // before de-duplication
+  // Pairs the engine calls returned, summed over calls. Each call already
+  // applies the ownership test (find_owned_pairs), so this equals `pairs`
+  // except in over-full cells processed in tiles, where a block's own pairs
+  // come back from several calls and all but one copy are dropped.
+  std::uint64_t candidate_pairs = 0;
   std::uint32_t cells = 0;
   std::uint32_t min_cell = 0, median_cell = 0, max_cell = 0;
   double duplication = 1.0;  // cell entries / objects
@@ -43,14 +47,18 @@ struct FrameStats {
   // to wall_ms:
   //   partition_ms  validation, tree maintenance, routing (0 on a shared
   //                 partition and on one-cell frames, see below)
-  //   engine_ms     every cell through the engine, de-duplication fused in
+  //   engine_ms     every cell through the engine, de-duplication included:
+  //                 the ownership test (src/dedup/) runs on each candidate
+  //                 as the engine finds it, so it has no time of its own
   //   merge_ms      writing the frame's pair list from the cells (copies;
   //                 pair-dense cells re-run their kernel straight into it)
   //   sort_ms       sorting it by (a, b) (0 when options().sorted is false)
   double wall_ms = 0, partition_ms = 0, engine_ms = 0, merge_ms = 0, sort_ms = 0;
-  // Deprecated name kept for readers of older output: merge_ms + sort_ms
-  // (de-duplication has no stage of its own; it is fused into the engine).
-  double dedup_ms = 0;
+  // The stages after the engines, merge_ms + sort_ms: what `hbp run --json`
+  // prints as "dedup_ms" (the paper's name for the stage after the cell
+  // engine; the key is read by outside programs). It does not contain the
+  // de-duplication itself, which is in engine_ms (above).
+  double after_engines_ms() const { return merge_ms + sort_ms; }
   // Frames of at most cell_limit objects skip the partition: one cell, run
   // on the calling thread (the partition would make exactly that cell).
   bool one_cell = false;

@@ -14,6 +14,7 @@
 //
 // Routing uses half-open cell regions: a box goes left when min < split and
 // right when max >= split.
+#include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -43,8 +44,13 @@ struct CellEntry {
   float min[3];
   float max[3];
   std::uint32_t id;
-  std::uint32_t unused;
+  // A builder's word per copy, 0 in the cells the partition publishes: the
+  // k-d build's fork/owner tag (kd_build.hpp), the cell BVH build's entry
+  // index (cell_bvh.cpp). It fills the entry to 32 bytes.
+  std::uint32_t build_tag;
 };
+static_assert(sizeof(CellEntry) == 32 && alignof(CellEntry) == 4, "CellEntry is 32 bytes, eight 4-byte words");
+static_assert(offsetof(CellEntry, max) == 12 && offsetof(CellEntry, id) == 24 && offsetof(CellEntry, build_tag) == 28);
 
 // The tree's node, shared by the partition and its builder (kd_build.cpp).
 struct KdTreeNode {

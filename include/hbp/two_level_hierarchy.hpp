@@ -14,6 +14,7 @@
 // gained or lost a few objects has them removed/inserted (then refitted); a
 // new cell, a cell with many changes, or a BVH whose SAH cost degraded past
 // `rebuild_ratio` times its cost when built, is rebuilt (binned SAH).
+#include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <span>
@@ -37,6 +38,8 @@ struct BvhNode {
   static constexpr std::uint32_t kInternal = 0xFFFFFFFFu;
   bool leaf() const { return object != kInternal; }
 };
+static_assert(sizeof(BvhNode) == 32 && offsetof(BvhNode, right) == 24 && offsetof(BvhNode, object) == 28,
+              "BvhNode is 32 bytes, eight 4-byte words");
 
 // A node of the top level (the k-d tree over the cells): axis -1 is a leaf
 // holding `cell`; otherwise children are `child` (below `split`) and

@@ -13,6 +13,7 @@
 #include <numeric>
 #include <string>
 
+#include "dedup/ownership.hpp"
 #include "distributed/rank_domains.hpp"
 #include "hbp/error.hpp"
 #include "support/clock.hpp"
@@ -421,30 +422,18 @@ struct DistributedBroadPhase::Impl {
     stats.local_ms = ms_since(t);
     t = SteadyClock::now();
     stats.local_pairs = found.size();
-    // p = max(min_a, min_b) lies in [lo, hi) iff on every axis min_a >= lo
-    // or min_b >= lo, and both min_a < hi and min_b < hi: one byte per object
+    // The ownership rule per object (dedup::sides): one byte per object
     // instead of six floats per pair end.
     const CellRegion mine = domains.region(rank);
     inside.resize(local_ids.size());
-    // Written out per axis: GCC 12.2 at -O1 -fsanitize=undefined (make
-    // test-sanitize) miscompiled the loop form `bits |= (m >= lo[k] ? 1u :
-    // 0u) << k` (every bit set), which the MPI tests caught as pairs reported
-    // twice.
     const float* mx = local_boxes.min(0);
     const float* my = local_boxes.min(1);
     const float* mz = local_boxes.min(2);
-    for (std::size_t i = 0; i < local_ids.size(); ++i) {
-      const unsigned ge = unsigned{mx[i] >= mine.lo[0]} | unsigned{my[i] >= mine.lo[1]} * 2u |
-                          unsigned{mz[i] >= mine.lo[2]} * 4u;
-      const unsigned lt = unsigned{mx[i] < mine.hi[0]} | unsigned{my[i] < mine.hi[1]} * 2u |
-                          unsigned{mz[i] < mine.hi[2]} * 4u;
-      inside[i] = static_cast<unsigned char>(ge | lt * 8u);
-    }
+    for (std::size_t i = 0; i < local_ids.size(); ++i) inside[i] = dedup::sides(mine, mx[i], my[i], mz[i]);
     result.clear();
     for (const Pair& p : found) {
-      const unsigned a = inside[p.a], b = inside[p.b];
       // Local indices are in id order, so the mapped pairs stay canonical and sorted.
-      if (((a | b) & 7u) == 7u && (a & b & 56u) == 56u) result.push_back({local_ids[p.a], local_ids[p.b]});
+      if (dedup::owns_sides(inside[p.a], inside[p.b])) result.push_back({local_ids[p.a], local_ids[p.b]});
     }
     stats.pairs = result.size();
     stats.filter_ms = ms_since(t);

@@ -49,20 +49,22 @@ using CountKernel = std::uint64_t (*)(const KernelInput& in, std::uint32_t row);
 using CanonicalPairs = void (*)(const std::uint32_t* first, const std::uint32_t* second, std::size_t count,
                                 std::uint32_t* pairs);
 
-std::uint32_t sweep_scalar(const KernelInput&, std::uint32_t, KernelOutput&);
-std::uint32_t sweep_avx2(const KernelInput&, std::uint32_t, KernelOutput&);
-std::uint32_t sweep_avx512(const KernelInput&, std::uint32_t, KernelOutput&);
-std::uint32_t allpairs_scalar(const KernelInput&, std::uint32_t, KernelOutput&);
-std::uint32_t allpairs_avx2(const KernelInput&, std::uint32_t, KernelOutput&);
-std::uint32_t allpairs_avx512(const KernelInput&, std::uint32_t, KernelOutput&);
-std::uint64_t sweep_count_scalar(const KernelInput&, std::uint32_t);
-std::uint64_t sweep_count_avx2(const KernelInput&, std::uint32_t);
-std::uint64_t sweep_count_avx512(const KernelInput&, std::uint32_t);
-std::uint64_t allpairs_count_scalar(const KernelInput&, std::uint32_t);
-std::uint64_t allpairs_count_avx2(const KernelInput&, std::uint32_t);
-std::uint64_t allpairs_count_avx512(const KernelInput&, std::uint32_t);
+// One instruction set's kernels, each defined in box_kernels_<isa>.cpp
+// (compiled for that ISA only).
+struct KernelSet {
+  Kernel sweep;
+  Kernel allpairs;
+  CountKernel sweep_count;
+  CountKernel allpairs_count;
+  CanonicalPairs canonical_pairs;
+};
+// The pair writers: AVX-512 has its own, the others share the scalar loop
+// (it vectorises well enough without AVX-512's permutes).
 void canonical_pairs_scalar(const std::uint32_t*, const std::uint32_t*, std::size_t, std::uint32_t*);
 void canonical_pairs_avx512(const std::uint32_t*, const std::uint32_t*, std::size_t, std::uint32_t*);
+extern const KernelSet kScalarKernels;
+extern const KernelSet kAvx2Kernels;
+extern const KernelSet kAvx512Kernels;
 
 enum class Isa { Scalar, Avx2, Avx512 };
 // Best ISA this CPU supports, unless HBP_SIMD=scalar|avx2|avx512 says otherwise
@@ -73,6 +75,8 @@ Isa selected_isa();
 // The choice itself: `request` is HBP_SIMD's value (null or empty: unset).
 Isa isa_for_request(const char* request, Isa best);
 const char* isa_name(Isa isa);
+const KernelSet& kernel_set(Isa isa);
+// Its members one by one.
 Kernel sweep_kernel(Isa isa);
 Kernel allpairs_kernel(Isa isa);
 CountKernel sweep_count_kernel(Isa isa);

@@ -1,29 +1,15 @@
 #include <immintrin.h>
 
+#include "dedup/ownership_avx2.hpp"
+#include "engines/box_kernel_rows.hpp"
 #include "engines/box_kernels.hpp"
 
 namespace hbp::kernels {
 
 namespace {
 
-struct RegionVec {
-  __m256 lo[3], hi[3];
-};
-
-inline RegionVec load_region(const CellRegion& r) {
-  RegionVec v;
-  for (int k = 0; k < 3; ++k) {
-    v.lo[k] = _mm256_set1_ps(r.lo[k]);
-    v.hi[k] = _mm256_set1_ps(r.hi[k]);
-  }
-  return v;
-}
-
-inline __m256 owned(const RegionVec& r, __m256 px, __m256 py, __m256 pz) {
-  __m256 m = _mm256_and_ps(_mm256_cmp_ps(px, r.lo[0], _CMP_GE_OQ), _mm256_cmp_ps(px, r.hi[0], _CMP_LT_OQ));
-  m = _mm256_and_ps(m, _mm256_and_ps(_mm256_cmp_ps(py, r.lo[1], _CMP_GE_OQ), _mm256_cmp_ps(py, r.hi[1], _CMP_LT_OQ)));
-  return _mm256_and_ps(m, _mm256_and_ps(_mm256_cmp_ps(pz, r.lo[2], _CMP_GE_OQ), _mm256_cmp_ps(pz, r.hi[2], _CMP_LT_OQ)));
-}
+using Lanes = dedup::Avx2Lanes;
+using RegionVec = dedup::RegionLanes<Lanes>;
 
 // Where a row's hits go: stored (row id, candidate id), or only counted.
 struct Store {
@@ -45,92 +31,61 @@ struct Count {
   void emit(std::uint32_t, const std::uint32_t*, unsigned mask) { count += static_cast<std::uint64_t>(__builtin_popcount(mask)); }
 };
 
-template <class Out>
-inline void sweep_row(const KernelInput& in, const RegionVec& rv, std::uint32_t i, Out& out) {
-  const float *minx = in.min[0], *miny = in.min[1], *minz = in.min[2];
-  const float *maxy = in.max[1], *maxz = in.max[2];
-  const __m256 bx = _mm256_set1_ps(in.max[0][i]);
-  const __m256 ly = _mm256_set1_ps(miny[i]), hy = _mm256_set1_ps(maxy[i]);
-  const __m256 lz = _mm256_set1_ps(minz[i]), hz = _mm256_set1_ps(maxz[i]);
-  for (std::uint32_t j = i + 1;; j += 8) {
-    const __m256 vminx = _mm256_loadu_ps(minx + j);
-    const __m256 cx = _mm256_cmp_ps(vminx, bx, _CMP_LE_OQ);
-    const unsigned mx = static_cast<unsigned>(_mm256_movemask_ps(cx));
-    if (!mx) break;
-    const __m256 vminy = _mm256_loadu_ps(miny + j), vminz = _mm256_loadu_ps(minz + j);
-    __m256 c = _mm256_and_ps(cx, _mm256_cmp_ps(_mm256_loadu_ps(maxy + j), ly, _CMP_GE_OQ));
-    c = _mm256_and_ps(c, _mm256_cmp_ps(vminy, hy, _CMP_LE_OQ));
-    c = _mm256_and_ps(c, _mm256_cmp_ps(_mm256_loadu_ps(maxz + j), lz, _CMP_GE_OQ));
-    c = _mm256_and_ps(c, _mm256_cmp_ps(vminz, hz, _CMP_LE_OQ));
-    if (_mm256_movemask_ps(c)) {
-      c = _mm256_and_ps(c, owned(rv, vminx, _mm256_max_ps(vminy, ly), _mm256_max_ps(vminz, lz)));
-      out.emit(in.ids[i], in.ids + j, static_cast<unsigned>(_mm256_movemask_ps(c)));
-    }
-    if (mx != 0xFF) break;
-  }
-}
+// This ISA's rows, for KernelsOf (box_kernel_rows.hpp).
+struct Rows {
+  static RegionVec region(const CellRegion& r) { return dedup::load_region<Lanes>(r); }
 
-template <class Out>
-inline void allpairs_row(const KernelInput& in, const RegionVec& rv, std::uint32_t i, Out& out) {
-  const float *minx = in.min[0], *miny = in.min[1], *minz = in.min[2];
-  const float *maxx = in.max[0], *maxy = in.max[1], *maxz = in.max[2];
-  const __m256 lx = _mm256_set1_ps(minx[i]), hx = _mm256_set1_ps(maxx[i]);
-  const __m256 ly = _mm256_set1_ps(miny[i]), hy = _mm256_set1_ps(maxy[i]);
-  const __m256 lz = _mm256_set1_ps(minz[i]), hz = _mm256_set1_ps(maxz[i]);
-  for (std::uint32_t j = i + 1; j < in.n; j += 8) {
-    const __m256 vminx = _mm256_loadu_ps(minx + j), vminy = _mm256_loadu_ps(miny + j),
-                 vminz = _mm256_loadu_ps(minz + j);
-    __m256 c = _mm256_and_ps(_mm256_cmp_ps(_mm256_loadu_ps(maxx + j), lx, _CMP_GE_OQ),
-                             _mm256_cmp_ps(vminx, hx, _CMP_LE_OQ));
-    c = _mm256_and_ps(c, _mm256_cmp_ps(_mm256_loadu_ps(maxy + j), ly, _CMP_GE_OQ));
-    c = _mm256_and_ps(c, _mm256_cmp_ps(vminy, hy, _CMP_LE_OQ));
-    c = _mm256_and_ps(c, _mm256_cmp_ps(_mm256_loadu_ps(maxz + j), lz, _CMP_GE_OQ));
-    c = _mm256_and_ps(c, _mm256_cmp_ps(vminz, hz, _CMP_LE_OQ));
-    if (_mm256_movemask_ps(c)) {
-      c = _mm256_and_ps(c, owned(rv, _mm256_max_ps(vminx, lx), _mm256_max_ps(vminy, ly), _mm256_max_ps(vminz, lz)));
-      out.emit(in.ids[i], in.ids + j, static_cast<unsigned>(_mm256_movemask_ps(c)));
+  template <class Out>
+  static void sweep_row(const KernelInput& in, const RegionVec& rv, std::uint32_t i, Out& out) {
+    const float *minx = in.min[0], *miny = in.min[1], *minz = in.min[2];
+    const float *maxy = in.max[1], *maxz = in.max[2];
+    const __m256 bx = _mm256_set1_ps(in.max[0][i]);
+    const __m256 ly = _mm256_set1_ps(miny[i]), hy = _mm256_set1_ps(maxy[i]);
+    const __m256 lz = _mm256_set1_ps(minz[i]), hz = _mm256_set1_ps(maxz[i]);
+    for (std::uint32_t j = i + 1;; j += 8) {
+      const __m256 vminx = _mm256_loadu_ps(minx + j);
+      const __m256 cx = _mm256_cmp_ps(vminx, bx, _CMP_LE_OQ);
+      const unsigned mx = static_cast<unsigned>(_mm256_movemask_ps(cx));
+      if (!mx) break;
+      const __m256 vminy = _mm256_loadu_ps(miny + j), vminz = _mm256_loadu_ps(minz + j);
+      __m256 c = _mm256_and_ps(cx, _mm256_cmp_ps(_mm256_loadu_ps(maxy + j), ly, _CMP_GE_OQ));
+      c = _mm256_and_ps(c, _mm256_cmp_ps(vminy, hy, _CMP_LE_OQ));
+      c = _mm256_and_ps(c, _mm256_cmp_ps(_mm256_loadu_ps(maxz + j), lz, _CMP_GE_OQ));
+      c = _mm256_and_ps(c, _mm256_cmp_ps(vminz, hz, _CMP_LE_OQ));
+      if (_mm256_movemask_ps(c)) {
+        c = _mm256_and_ps(c, dedup::owns_sorted_x(rv, ly, lz, vminx, vminy, vminz));
+        out.emit(in.ids[i], in.ids + j, static_cast<unsigned>(_mm256_movemask_ps(c)));
+      }
+      if (mx != 0xFF) break;
     }
   }
-}
+
+  template <class Out>
+  static void allpairs_row(const KernelInput& in, const RegionVec& rv, std::uint32_t i, Out& out) {
+    const float *minx = in.min[0], *miny = in.min[1], *minz = in.min[2];
+    const float *maxx = in.max[0], *maxy = in.max[1], *maxz = in.max[2];
+    const __m256 lx = _mm256_set1_ps(minx[i]), hx = _mm256_set1_ps(maxx[i]);
+    const __m256 ly = _mm256_set1_ps(miny[i]), hy = _mm256_set1_ps(maxy[i]);
+    const __m256 lz = _mm256_set1_ps(minz[i]), hz = _mm256_set1_ps(maxz[i]);
+    for (std::uint32_t j = i + 1; j < in.n; j += 8) {
+      const __m256 vminx = _mm256_loadu_ps(minx + j), vminy = _mm256_loadu_ps(miny + j),
+                   vminz = _mm256_loadu_ps(minz + j);
+      __m256 c = _mm256_and_ps(_mm256_cmp_ps(_mm256_loadu_ps(maxx + j), lx, _CMP_GE_OQ),
+                               _mm256_cmp_ps(vminx, hx, _CMP_LE_OQ));
+      c = _mm256_and_ps(c, _mm256_cmp_ps(_mm256_loadu_ps(maxy + j), ly, _CMP_GE_OQ));
+      c = _mm256_and_ps(c, _mm256_cmp_ps(vminy, hy, _CMP_LE_OQ));
+      c = _mm256_and_ps(c, _mm256_cmp_ps(_mm256_loadu_ps(maxz + j), lz, _CMP_GE_OQ));
+      c = _mm256_and_ps(c, _mm256_cmp_ps(vminz, hz, _CMP_LE_OQ));
+      if (_mm256_movemask_ps(c)) {
+        c = _mm256_and_ps(c, dedup::owns(rv, lx, ly, lz, vminx, vminy, vminz));
+        out.emit(in.ids[i], in.ids + j, static_cast<unsigned>(_mm256_movemask_ps(c)));
+      }
+    }
+  }
+};
 
 }  // namespace
 
-std::uint32_t sweep_avx2(const KernelInput& in, std::uint32_t row, KernelOutput& out) {
-  const RegionVec rv = load_region(in.region);
-  Store s{out.first, out.second, out.count};
-  std::uint32_t i = row;
-  for (; i < in.n; ++i) {
-    if (out.capacity - s.count < std::size_t{in.n - i} + kOutputSlack) break;
-    sweep_row(in, rv, i, s);
-  }
-  out.count = s.count;
-  return i;
-}
-
-std::uint32_t allpairs_avx2(const KernelInput& in, std::uint32_t row, KernelOutput& out) {
-  const RegionVec rv = load_region(in.region);
-  Store s{out.first, out.second, out.count};
-  std::uint32_t i = row;
-  for (; i < in.n; ++i) {
-    if (out.capacity - s.count < std::size_t{in.n - i} + kOutputSlack) break;
-    allpairs_row(in, rv, i, s);
-  }
-  out.count = s.count;
-  return i;
-}
-
-std::uint64_t sweep_count_avx2(const KernelInput& in, std::uint32_t row) {
-  const RegionVec rv = load_region(in.region);
-  Count c;
-  for (std::uint32_t i = row; i < in.n; ++i) sweep_row(in, rv, i, c);
-  return c.count;
-}
-
-std::uint64_t allpairs_count_avx2(const KernelInput& in, std::uint32_t row) {
-  const RegionVec rv = load_region(in.region);
-  Count c;
-  for (std::uint32_t i = row; i < in.n; ++i) allpairs_row(in, rv, i, c);
-  return c.count;
-}
+constinit const KernelSet kAvx2Kernels = KernelsOf<Rows, Store, Count>::set(canonical_pairs_scalar);
 
 }  // namespace hbp::kernels

@@ -3,33 +3,16 @@
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #include <immintrin.h>
 
+#include "dedup/ownership_avx512.hpp"
+#include "engines/box_kernel_rows.hpp"
 #include "engines/box_kernels.hpp"
 
 namespace hbp::kernels {
 
 namespace {
 
-struct RegionVec {
-  __m512 lo[3], hi[3];
-};
-
-inline RegionVec load_region(const CellRegion& r) {
-  RegionVec v;
-  for (int k = 0; k < 3; ++k) {
-    v.lo[k] = _mm512_set1_ps(r.lo[k]);
-    v.hi[k] = _mm512_set1_ps(r.hi[k]);
-  }
-  return v;
-}
-
-inline __mmask16 owned(const RegionVec& r, __m512 px, __m512 py, __m512 pz) {
-  __mmask16 m = _mm512_cmp_ps_mask(px, r.lo[0], _CMP_GE_OQ);
-  m = _mm512_mask_cmp_ps_mask(m, px, r.hi[0], _CMP_LT_OQ);
-  m = _mm512_mask_cmp_ps_mask(m, py, r.lo[1], _CMP_GE_OQ);
-  m = _mm512_mask_cmp_ps_mask(m, py, r.hi[1], _CMP_LT_OQ);
-  m = _mm512_mask_cmp_ps_mask(m, pz, r.lo[2], _CMP_GE_OQ);
-  return _mm512_mask_cmp_ps_mask(m, pz, r.hi[2], _CMP_LT_OQ);
-}
+using Lanes = dedup::Avx512Lanes;
+using RegionVec = dedup::RegionLanes<Lanes>;
 
 // Where a row's hits go: stored (row id, candidate id), or only counted.
 struct Store {
@@ -51,93 +34,62 @@ struct Count {
   void emit(__m512i, const std::uint32_t*, __mmask16 mask) { count += static_cast<std::uint64_t>(__builtin_popcount(mask)); }
 };
 
-template <class Out>
-inline void sweep_row(const KernelInput& in, const RegionVec& rv, std::uint32_t i, Out& out) {
-  const float *minx = in.min[0], *miny = in.min[1], *minz = in.min[2];
-  const float *maxy = in.max[1], *maxz = in.max[2];
-  const __m512 bx = _mm512_set1_ps(in.max[0][i]);
-  const __m512 ly = _mm512_set1_ps(miny[i]), hy = _mm512_set1_ps(maxy[i]);
-  const __m512 lz = _mm512_set1_ps(minz[i]), hz = _mm512_set1_ps(maxz[i]);
-  const __m512i id_i = _mm512_set1_epi32(static_cast<int>(in.ids[i]));
-  for (std::uint32_t j = i + 1;; j += 16) {
-    const __m512 vminx = _mm512_loadu_ps(minx + j);
-    const __m512 vminy = _mm512_loadu_ps(miny + j), vminz = _mm512_loadu_ps(minz + j);
-    // Padding boxes have min = +inf, so the scan always ends inside the lane.
-    const __mmask16 mx = _mm512_cmp_ps_mask(vminx, bx, _CMP_LE_OQ);
-    // Independent compares joined by kand: a short dependency chain.
-    const __mmask16 my = _mm512_cmp_ps_mask(_mm512_loadu_ps(maxy + j), ly, _CMP_GE_OQ) &
-                         _mm512_cmp_ps_mask(vminy, hy, _CMP_LE_OQ);
-    const __mmask16 mz = _mm512_cmp_ps_mask(_mm512_loadu_ps(maxz + j), lz, _CMP_GE_OQ) &
-                         _mm512_cmp_ps_mask(vminz, hz, _CMP_LE_OQ);
-    const __mmask16 m = mx & my & mz & owned(rv, vminx, _mm512_max_ps(vminy, ly), _mm512_max_ps(vminz, lz));
-    out.emit(id_i, in.ids + j, m);
-    if (mx != 0xFFFF) break;
-  }
-}
+// This ISA's rows, for KernelsOf (box_kernel_rows.hpp).
+struct Rows {
+  static RegionVec region(const CellRegion& r) { return dedup::load_region<Lanes>(r); }
 
-template <class Out>
-inline void allpairs_row(const KernelInput& in, const RegionVec& rv, std::uint32_t i, Out& out) {
-  const float *minx = in.min[0], *miny = in.min[1], *minz = in.min[2];
-  const float *maxx = in.max[0], *maxy = in.max[1], *maxz = in.max[2];
-  const __m512 lx = _mm512_set1_ps(minx[i]), hx = _mm512_set1_ps(maxx[i]);
-  const __m512 ly = _mm512_set1_ps(miny[i]), hy = _mm512_set1_ps(maxy[i]);
-  const __m512 lz = _mm512_set1_ps(minz[i]), hz = _mm512_set1_ps(maxz[i]);
-  const __m512i id_i = _mm512_set1_epi32(static_cast<int>(in.ids[i]));
-  for (std::uint32_t j = i + 1; j < in.n; j += 16) {
-    const __m512 vminx = _mm512_loadu_ps(minx + j), vminy = _mm512_loadu_ps(miny + j),
-                 vminz = _mm512_loadu_ps(minz + j);
-    __mmask16 m = _mm512_cmp_ps_mask(_mm512_loadu_ps(maxx + j), lx, _CMP_GE_OQ);
-    m = _mm512_mask_cmp_ps_mask(m, vminx, hx, _CMP_LE_OQ);
-    m = _mm512_mask_cmp_ps_mask(m, _mm512_loadu_ps(maxy + j), ly, _CMP_GE_OQ);
-    m = _mm512_mask_cmp_ps_mask(m, vminy, hy, _CMP_LE_OQ);
-    m = _mm512_mask_cmp_ps_mask(m, _mm512_loadu_ps(maxz + j), lz, _CMP_GE_OQ);
-    m = _mm512_mask_cmp_ps_mask(m, vminz, hz, _CMP_LE_OQ);
-    if (m) {
-      m &= owned(rv, _mm512_max_ps(vminx, lx), _mm512_max_ps(vminy, ly), _mm512_max_ps(vminz, lz));
+  template <class Out>
+  static void sweep_row(const KernelInput& in, const RegionVec& rv, std::uint32_t i, Out& out) {
+    const float *minx = in.min[0], *miny = in.min[1], *minz = in.min[2];
+    const float *maxy = in.max[1], *maxz = in.max[2];
+    const __m512 bx = _mm512_set1_ps(in.max[0][i]);
+    const __m512 ly = _mm512_set1_ps(miny[i]), hy = _mm512_set1_ps(maxy[i]);
+    const __m512 lz = _mm512_set1_ps(minz[i]), hz = _mm512_set1_ps(maxz[i]);
+    const __m512i id_i = _mm512_set1_epi32(static_cast<int>(in.ids[i]));
+    for (std::uint32_t j = i + 1;; j += 16) {
+      const __m512 vminx = _mm512_loadu_ps(minx + j);
+      const __m512 vminy = _mm512_loadu_ps(miny + j), vminz = _mm512_loadu_ps(minz + j);
+      // Padding boxes have min = +inf, so the scan always ends inside the lane.
+      const __mmask16 mx = _mm512_cmp_ps_mask(vminx, bx, _CMP_LE_OQ);
+      // Independent compares joined by kand: a short dependency chain.
+      const __mmask16 my = _mm512_cmp_ps_mask(_mm512_loadu_ps(maxy + j), ly, _CMP_GE_OQ) &
+                           _mm512_cmp_ps_mask(vminy, hy, _CMP_LE_OQ);
+      const __mmask16 mz = _mm512_cmp_ps_mask(_mm512_loadu_ps(maxz + j), lz, _CMP_GE_OQ) &
+                           _mm512_cmp_ps_mask(vminz, hz, _CMP_LE_OQ);
+      const __mmask16 m = mx & my & mz & dedup::owns_sorted_x(rv, ly, lz, vminx, vminy, vminz);
       out.emit(id_i, in.ids + j, m);
+      if (mx != 0xFFFF) break;
     }
   }
-}
+
+  template <class Out>
+  static void allpairs_row(const KernelInput& in, const RegionVec& rv, std::uint32_t i, Out& out) {
+    const float *minx = in.min[0], *miny = in.min[1], *minz = in.min[2];
+    const float *maxx = in.max[0], *maxy = in.max[1], *maxz = in.max[2];
+    const __m512 lx = _mm512_set1_ps(minx[i]), hx = _mm512_set1_ps(maxx[i]);
+    const __m512 ly = _mm512_set1_ps(miny[i]), hy = _mm512_set1_ps(maxy[i]);
+    const __m512 lz = _mm512_set1_ps(minz[i]), hz = _mm512_set1_ps(maxz[i]);
+    const __m512i id_i = _mm512_set1_epi32(static_cast<int>(in.ids[i]));
+    for (std::uint32_t j = i + 1; j < in.n; j += 16) {
+      const __m512 vminx = _mm512_loadu_ps(minx + j), vminy = _mm512_loadu_ps(miny + j),
+                   vminz = _mm512_loadu_ps(minz + j);
+      __mmask16 m = _mm512_cmp_ps_mask(_mm512_loadu_ps(maxx + j), lx, _CMP_GE_OQ);
+      m = _mm512_mask_cmp_ps_mask(m, vminx, hx, _CMP_LE_OQ);
+      m = _mm512_mask_cmp_ps_mask(m, _mm512_loadu_ps(maxy + j), ly, _CMP_GE_OQ);
+      m = _mm512_mask_cmp_ps_mask(m, vminy, hy, _CMP_LE_OQ);
+      m = _mm512_mask_cmp_ps_mask(m, _mm512_loadu_ps(maxz + j), lz, _CMP_GE_OQ);
+      m = _mm512_mask_cmp_ps_mask(m, vminz, hz, _CMP_LE_OQ);
+      if (m) {
+        m &= dedup::owns(rv, lx, ly, lz, vminx, vminy, vminz);
+        out.emit(id_i, in.ids + j, m);
+      }
+    }
+  }
+};
 
 }  // namespace
 
-std::uint32_t sweep_avx512(const KernelInput& in, std::uint32_t row, KernelOutput& out) {
-  const RegionVec rv = load_region(in.region);
-  Store s{out.first, out.second, out.count};
-  std::uint32_t i = row;
-  for (; i < in.n; ++i) {
-    if (out.capacity - s.count < std::size_t{in.n - i} + kOutputSlack) break;
-    sweep_row(in, rv, i, s);
-  }
-  out.count = s.count;
-  return i;
-}
-
-std::uint32_t allpairs_avx512(const KernelInput& in, std::uint32_t row, KernelOutput& out) {
-  const RegionVec rv = load_region(in.region);
-  Store s{out.first, out.second, out.count};
-  std::uint32_t i = row;
-  for (; i < in.n; ++i) {
-    if (out.capacity - s.count < std::size_t{in.n - i} + kOutputSlack) break;
-    allpairs_row(in, rv, i, s);
-  }
-  out.count = s.count;
-  return i;
-}
-
-std::uint64_t sweep_count_avx512(const KernelInput& in, std::uint32_t row) {
-  const RegionVec rv = load_region(in.region);
-  Count c;
-  for (std::uint32_t i = row; i < in.n; ++i) sweep_row(in, rv, i, c);
-  return c.count;
-}
-
-std::uint64_t allpairs_count_avx512(const KernelInput& in, std::uint32_t row) {
-  const RegionVec rv = load_region(in.region);
-  Count c;
-  for (std::uint32_t i = row; i < in.n; ++i) allpairs_row(in, rv, i, c);
-  return c.count;
-}
+constinit const KernelSet kAvx512Kernels = KernelsOf<Rows, Store, Count>::set(canonical_pairs_avx512);
 
 void canonical_pairs_avx512(const std::uint32_t* first, const std::uint32_t* second, std::size_t count,
                             std::uint32_t* pairs) {

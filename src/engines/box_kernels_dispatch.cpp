@@ -53,49 +53,19 @@ const char* isa_name(Isa isa) {
   return "scalar";
 }
 
-Kernel sweep_kernel(Isa isa) {
+const KernelSet& kernel_set(Isa isa) {
   switch (isa) {
-    case Isa::Avx512: return sweep_avx512;
-    case Isa::Avx2: return sweep_avx2;
+    case Isa::Avx512: return kAvx512Kernels;
+    case Isa::Avx2: return kAvx2Kernels;
     case Isa::Scalar: break;
   }
-  return sweep_scalar;
+  return kScalarKernels;
 }
 
-Kernel allpairs_kernel(Isa isa) {
-  switch (isa) {
-    case Isa::Avx512: return allpairs_avx512;
-    case Isa::Avx2: return allpairs_avx2;
-    case Isa::Scalar: break;
-  }
-  return allpairs_scalar;
-}
-
-}  // namespace hbp::kernels
-
-namespace hbp::kernels {
-
-CountKernel sweep_count_kernel(Isa isa) {
-  switch (isa) {
-    case Isa::Avx512: return sweep_count_avx512;
-    case Isa::Avx2: return sweep_count_avx2;
-    case Isa::Scalar: break;
-  }
-  return sweep_count_scalar;
-}
-
-CountKernel allpairs_count_kernel(Isa isa) {
-  switch (isa) {
-    case Isa::Avx512: return allpairs_count_avx512;
-    case Isa::Avx2: return allpairs_count_avx2;
-    case Isa::Scalar: break;
-  }
-  return allpairs_count_scalar;
-}
-
-CanonicalPairs canonical_pairs(Isa isa) {
-  // The scalar loop vectorises well enough without AVX-512's permutes.
-  return isa == Isa::Avx512 ? canonical_pairs_avx512 : canonical_pairs_scalar;
-}
+Kernel sweep_kernel(Isa isa) { return kernel_set(isa).sweep; }
+Kernel allpairs_kernel(Isa isa) { return kernel_set(isa).allpairs; }
+CountKernel sweep_count_kernel(Isa isa) { return kernel_set(isa).sweep_count; }
+CountKernel allpairs_count_kernel(Isa isa) { return kernel_set(isa).allpairs_count; }
+CanonicalPairs canonical_pairs(Isa isa) { return kernel_set(isa).canonical_pairs; }
 
 }  // namespace hbp::kernels

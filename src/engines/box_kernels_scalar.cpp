@@ -1,10 +1,10 @@
+#include "dedup/ownership.hpp"
+#include "engines/box_kernel_rows.hpp"
 #include "engines/box_kernels.hpp"
 
 namespace hbp::kernels {
 
 namespace {
-
-inline float max_of(float a, float b) { return a > b ? a : b; }
 
 // Where a row's hits go: stored (row id, candidate id), or only counted.
 struct Store {
@@ -23,69 +23,40 @@ struct Count {
   void emit(std::uint32_t, std::uint32_t) { ++count; }
 };
 
-template <class Out>
-inline void sweep_row(const KernelInput& in, std::uint32_t i, Out& out) {
-  const float *minx = in.min[0], *miny = in.min[1], *minz = in.min[2];
-  const float *maxy = in.max[1], *maxz = in.max[2];
-  const CellRegion& r = in.region;
-  const float bx = in.max[0][i], ly = miny[i], hy = maxy[i], lz = minz[i], hz = maxz[i];
-  // Sorted by min x: min_x[j] >= min_x[i] and max_x[j] >= min_x[j], so only
-  // min_x[j] <= max_x[i] remains to test on x, and it ends the scan.
-  for (std::uint32_t j = i + 1; j < in.n && minx[j] <= bx; ++j) {
-    if (maxy[j] >= ly && miny[j] <= hy && maxz[j] >= lz && minz[j] <= hz &&
-        r.contains(minx[j], max_of(miny[j], ly), max_of(minz[j], lz)))
-      out.emit(in.ids[i], in.ids[j]);
-  }
-}
+// This ISA's rows, for KernelsOf (box_kernel_rows.hpp).
+struct Rows {
+  static const CellRegion& region(const CellRegion& r) { return r; }
 
-template <class Out>
-inline void allpairs_row(const KernelInput& in, std::uint32_t i, Out& out) {
-  const float *minx = in.min[0], *miny = in.min[1], *minz = in.min[2];
-  const float *maxx = in.max[0], *maxy = in.max[1], *maxz = in.max[2];
-  const CellRegion& r = in.region;
-  const float lx = minx[i], hx = maxx[i], ly = miny[i], hy = maxy[i], lz = minz[i], hz = maxz[i];
-  for (std::uint32_t j = i + 1; j < in.n; ++j) {
-    if (maxx[j] >= lx && minx[j] <= hx && maxy[j] >= ly && miny[j] <= hy && maxz[j] >= lz && minz[j] <= hz &&
-        r.contains(max_of(minx[j], lx), max_of(miny[j], ly), max_of(minz[j], lz)))
-      out.emit(in.ids[i], in.ids[j]);
+  template <class Out>
+  static void sweep_row(const KernelInput& in, const CellRegion& r, std::uint32_t i, Out& out) {
+    const float *minx = in.min[0], *miny = in.min[1], *minz = in.min[2];
+    const float *maxy = in.max[1], *maxz = in.max[2];
+    const float bx = in.max[0][i], ly = miny[i], hy = maxy[i], lz = minz[i], hz = maxz[i];
+    // Sorted by min x: min_x[j] >= min_x[i] and max_x[j] >= min_x[j], so only
+    // min_x[j] <= max_x[i] remains to test on x, and it ends the scan.
+    for (std::uint32_t j = i + 1; j < in.n && minx[j] <= bx; ++j) {
+      if (maxy[j] >= ly && miny[j] <= hy && maxz[j] >= lz && minz[j] <= hz &&
+          dedup::owns_sorted_x(r, ly, lz, minx[j], miny[j], minz[j]))
+        out.emit(in.ids[i], in.ids[j]);
+    }
   }
-}
+
+  template <class Out>
+  static void allpairs_row(const KernelInput& in, const CellRegion& r, std::uint32_t i, Out& out) {
+    const float *minx = in.min[0], *miny = in.min[1], *minz = in.min[2];
+    const float *maxx = in.max[0], *maxy = in.max[1], *maxz = in.max[2];
+    const float lx = minx[i], hx = maxx[i], ly = miny[i], hy = maxy[i], lz = minz[i], hz = maxz[i];
+    for (std::uint32_t j = i + 1; j < in.n; ++j) {
+      if (maxx[j] >= lx && minx[j] <= hx && maxy[j] >= ly && miny[j] <= hy && maxz[j] >= lz && minz[j] <= hz &&
+          dedup::owns(r, minx[j], miny[j], minz[j], lx, ly, lz))
+        out.emit(in.ids[i], in.ids[j]);
+    }
+  }
+};
 
 }  // namespace
 
-std::uint32_t sweep_scalar(const KernelInput& in, std::uint32_t row, KernelOutput& out) {
-  Store s{out.first, out.second, out.count};
-  std::uint32_t i = row;
-  for (; i < in.n; ++i) {
-    if (out.capacity - s.count < std::size_t{in.n - i} + kOutputSlack) break;
-    sweep_row(in, i, s);
-  }
-  out.count = s.count;
-  return i;
-}
-
-std::uint32_t allpairs_scalar(const KernelInput& in, std::uint32_t row, KernelOutput& out) {
-  Store s{out.first, out.second, out.count};
-  std::uint32_t i = row;
-  for (; i < in.n; ++i) {
-    if (out.capacity - s.count < std::size_t{in.n - i} + kOutputSlack) break;
-    allpairs_row(in, i, s);
-  }
-  out.count = s.count;
-  return i;
-}
-
-std::uint64_t sweep_count_scalar(const KernelInput& in, std::uint32_t row) {
-  Count c;
-  for (std::uint32_t i = row; i < in.n; ++i) sweep_row(in, i, c);
-  return c.count;
-}
-
-std::uint64_t allpairs_count_scalar(const KernelInput& in, std::uint32_t row) {
-  Count c;
-  for (std::uint32_t i = row; i < in.n; ++i) allpairs_row(in, i, c);
-  return c.count;
-}
+constinit const KernelSet kScalarKernels = KernelsOf<Rows, Store, Count>::set(canonical_pairs_scalar);
 
 void canonical_pairs_scalar(const std::uint32_t* first, const std::uint32_t* second, std::size_t count,
                             std::uint32_t* pairs) {

@@ -4,6 +4,7 @@
 #include <cstddef>
 #include <numeric>
 
+#include "dedup/owned_pairs.hpp"
 #include "engines/box_kernels.hpp"
 #include "hbp/brute_force.hpp"
 #include "hbp/error.hpp"
@@ -129,15 +130,7 @@ CellRun BruteForceEngine::find_pairs(const BoxArray& cell, std::vector<Pair>& ou
 CellRun CellEngine::find_owned_pairs(const BoxArray& cell, const CellRegion& region, std::vector<Pair>& out) {
   const std::size_t base = out.size();
   const CellRun run = find_pairs(cell, out);
-  std::size_t keep = base;
-  for (std::size_t p = base; p < out.size(); ++p) {
-    const Pair q = out[p];
-    const float x = std::max(cell.min(0)[q.a], cell.min(0)[q.b]);
-    const float y = std::max(cell.min(1)[q.a], cell.min(1)[q.b]);
-    const float z = std::max(cell.min(2)[q.a], cell.min(2)[q.b]);
-    if (region.contains(x, y, z)) out[keep++] = q;
-  }
-  out.resize(keep);
+  dedup::filter_owned(cell, region, out, base);
   return run;
 }
 

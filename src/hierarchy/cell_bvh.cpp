@@ -62,7 +62,7 @@ void build_range(CellEntry* items, std::uint32_t count, BvhNode* nodes, std::uin
     n.max[k] = box.hi[k];
   }
   if (count == 1) {
-    n.right = items[0].unused;  // the entry index travels in `unused` while building
+    n.right = items[0].build_tag;  // the entry index travels in `build_tag` while building
     n.object = items[0].id;
     return;
   }
@@ -186,7 +186,7 @@ float cost_of(double internal_area, const BvhNode& root, std::size_t nodes) {
 
 void build(std::span<const CellEntry> entries, std::vector<BvhNode>& nodes, Scratch& scratch) {
   scratch.items.assign(entries.begin(), entries.end());
-  for (std::uint32_t i = 0; i < scratch.items.size(); ++i) scratch.items[i].unused = i;
+  for (std::uint32_t i = 0; i < scratch.items.size(); ++i) scratch.items[i].build_tag = i;
   build_items(scratch.items, nodes);
 }
 
@@ -200,7 +200,7 @@ void build(const BoxArray& boxes, std::vector<BvhNode>& nodes, Scratch& scratch)
       e.max[k] = boxes.max(k)[i];
     }
     e.id = i;
-    e.unused = i;
+    e.build_tag = i;
   }
   build_items(scratch.items, nodes);
 }

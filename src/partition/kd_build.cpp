@@ -123,9 +123,9 @@ void partition_entries(const CellEntry* e, std::uint32_t n, const Split& s, std:
     const bool l = c.min[a] < split;
     const bool r = c.max[a] >= split;
     if (l & r) {
-      if ((c.unused & kForkMask) == kNoFork) c.unused = (c.unused & kNotOwner) | fork_tag;
+      if ((c.build_tag & kForkMask) == kNoFork) c.build_tag = (c.build_tag & kNotOwner) | fork_tag;
       *left++ = c;
-      c.unused |= kNotOwner;
+      c.build_tag |= kNotOwner;
       *right++ = c;
       continue;
     }
@@ -148,7 +148,7 @@ void SubtreeBuilder::build(const CellEntry* items, std::uint32_t n, std::uint32_
   arena.truncate(n);
   if (n) std::memcpy(arena.data(), items, std::size_t{n} * sizeof(CellEntry));
   if (reset_tags)
-    for (std::uint32_t i = 0; i < n; ++i) arena[i].unused = kNoFork;
+    for (std::uint32_t i = 0; i < n; ++i) arena[i].build_tag = kNoFork;
   node(0, 0, n, depth);
 }
 
@@ -301,12 +301,12 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
       const std::uint32_t leaf = k == 0 ? root : node_base[t] + static_cast<std::uint32_t>(k) - 1;
       for (std::uint32_t i = local[k].first, end = local[k].first + local[k].size; i < end; ++i) {
         CellEntry e = from[i];
-        if (!(e.unused & kNotOwner)) {  // the object's one owner copy sets its home
-          const std::uint32_t fork = (e.unused & kForkMask) == kNoFork ? kNoFork : fork_node(e.unused, root, node_base[t]);
+        if (!(e.build_tag & kNotOwner)) {  // the object's one owner copy sets its home
+          const std::uint32_t fork = (e.build_tag & kForkMask) == kNoFork ? kNoFork : fork_node(e.build_tag, root, node_base[t]);
           home[e.id] = fork == kNoFork ? leaf : fork;
           if (fork != kNoFork) prev[e.id] = {{e.min[0], e.min[1], e.min[2]}, {e.max[0], e.max[1], e.max[2]}};
         }
-        e.unused = 0;
+        e.build_tag = 0;
         to[i] = e;
       }
     }

@@ -8,7 +8,7 @@
 // stable, so every leaf comes out sorted too: the cells' min-x order costs one
 // radix sort of the objects per build, not one sort per cell.
 //
-// While building, CellEntry::unused carries a tag per copy: the first node
+// While building, CellEntry::build_tag carries a tag per copy: the first node
 // where the object forked into both children (its "home": the deepest node
 // whose subtree holds all its cells) and whether this copy is the object's
 // owner copy (the one that always went left at forks), so homes are assigned
@@ -31,7 +31,7 @@ struct StoredBox {
 };
 
 inline constexpr std::uint32_t kNoHome = 0xFFFFFFFFu;
-// Tag bits in CellEntry::unused while building.
+// Tag bits in CellEntry::build_tag while building.
 inline constexpr std::uint32_t kNotOwner = 0x80000000u;
 inline constexpr std::uint32_t kLocalNode = 0x40000000u;  // fork index is local to a SubtreeBuilder
 inline constexpr std::uint32_t kForkMask = 0x3FFFFFFFu;

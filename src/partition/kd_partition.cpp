@@ -485,12 +485,12 @@ bool KdPartition::split_oversized() {
           s.margin[e.id] = 0;
           if (s.home[e.id] != leaf)
             s.prev[e.id] = {{e.min[0], e.min[1], e.min[2]}, {e.max[0], e.max[1], e.max[2]}};
-          if (!(e.unused & kd::kNotOwner) && s.home[e.id] == leaf) {
-            const bool forked = (e.unused & kd::kForkMask) != kd::kNoFork;
-            s.home[e.id] = forked ? kd::fork_node(e.unused, leaf, base) : global;
+          if (!(e.build_tag & kd::kNotOwner) && s.home[e.id] == leaf) {
+            const bool forked = (e.build_tag & kd::kForkMask) != kd::kNoFork;
+            s.home[e.id] = forked ? kd::fork_node(e.build_tag, leaf, base) : global;
             if (forked) s.prev[e.id] = {{e.min[0], e.min[1], e.min[2]}, {e.max[0], e.max[1], e.max[2]}};
           }
-          e.unused = 0;
+          e.build_tag = 0;
         }
         nd.first += entry_base;
       }

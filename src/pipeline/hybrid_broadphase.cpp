@@ -89,7 +89,7 @@ struct Worker {
 // What one cell produced this frame.
 struct CellOutcome {
   std::uint64_t pairs = 0;
-  std::uint64_t candidates = 0;  // before de-duplication (tiled cells: per engine call)
+  std::uint64_t candidates = 0;  // owned pairs the engine calls returned (tiled cells: summed over calls)
   std::uint64_t cycles = 0;
   // Two-pass output: where the cell's pairs wait for the second pass, or
   // nullptr when the cell is dense and writes them in the second pass.
@@ -505,7 +505,6 @@ struct HybridBroadPhase::Impl {
     stats.engine_ms = engine_ms;
     stats.merge_ms = merge_ms;
     stats.sort_ms = sort_ms;
-    stats.dedup_ms = merge_ms + sort_ms;
     stats.wall_ms = ms_since(t0);
   }
 

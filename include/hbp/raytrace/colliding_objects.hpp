@@ -1,8 +1,9 @@
 #pragma once
 // Which objects collide, found on the two-level hierarchy's own k-d cells (the
-// cells the collision engines read): all overlapping box pairs per cell, each
-// pair kept in the one cell owning it (CellRegion), then the exact narrow
-// phase. For `hbp render --highlight-collisions`.
+// cells the collision engines read): HybridBroadPhase::update(KdPartition)
+// finds the overlapping box pairs per cell, each kept in the one cell owning
+// it (src/dedup/ownership.hpp), then the exact narrow phase. For
+// `hbp render --highlight-collisions`.
 #include <cstdint>
 #include <vector>
 

@@ -1,0 +1,62 @@
+#pragma once
+// De-duplication: the ownership rule, the one place it is written.
+//
+// An object straddling a split plane is in every cell it overlaps, so a pair
+// of such objects is found in several cells. Each cell keeps only the pairs
+// it OWNS: those whose ownership point
+//
+//     p = max(min_a, min_b)   (per axis: the minimum corner of the boxes'
+//                              intersection)
+//
+// lies in the cell's half-open region [lo, hi) (CellRegion::contains). p lies
+// in both boxes, so the cell holding p received both objects (routing uses
+// the same half-open rule); the regions tile space, so exactly one cell holds
+// p. Every overlapping pair is reported once, with no global set and no sort.
+//
+// Callers: filter_owned (owned_pairs.hpp: CellEngine::find_owned_pairs for
+// brute force and the hardware models' simulation), the distributed broad
+// phase's rank filter (sides/owns_sides below), the scalar kernel, and
+// the SIMD kernels (engines/box_kernels_*.cpp), which test the rule on the
+// candidate lanes they already hold with the vector form beside this file
+// (ownership_lanes.hpp, one template; ownership_avx2.hpp and
+// ownership_avx512.hpp give it each ISA's compares): the same point, the
+// same comparisons, a lane at a time.
+//
+// Plain inline C on floats (no std templates): kernels compiled for other
+// instruction sets sit next to its callers (see engines/box_kernels.hpp).
+#include "hbp/cell_region.hpp"
+
+namespace hbp::dedup {
+
+// The ownership point's coordinate on one axis: the larger of the two minima.
+inline float ownership_coord(float min_a, float min_b) { return min_a > min_b ? min_a : min_b; }
+
+// True when the cell of region r reports the pair of boxes whose minimum
+// corners are (ax, ay, az) and (bx, by, bz) (the boxes are known to overlap).
+inline bool owns(const CellRegion& r, float ax, float ay, float az, float bx, float by, float bz) {
+  return r.contains(ownership_coord(ax, bx), ownership_coord(ay, by), ownership_coord(az, bz));
+}
+
+// The same when box b follows box a in min-x order (the sweep): b's min x is
+// already the larger, so p's x is b's.
+inline bool owns_sorted_x(const CellRegion& r, float ay, float az, float bx, float by, float bz) {
+  return r.contains(bx, ownership_coord(by, ay), ownership_coord(bz, az));
+}
+
+// The same rule taken apart per object, for many pairs against one region
+// (a rank's domain, distributed_broadphase.cpp): on each axis max(a, b) >= lo
+// iff a >= lo or b >= lo, and max(a, b) < hi iff a < hi and b < hi. So one
+// byte per object, sides(), decides every pair: owns_sides(). Bits 0-2: min
+// >= lo on x, y, z; bits 3-5: min < hi. (Written out per axis: GCC 12.2 at
+// -O1 -fsanitize=undefined miscompiled the loop form `bits |= (m >= lo[k] ?
+// 1u : 0u) << k`, every bit set; the MPI tests caught it as pairs reported
+// twice.)
+inline unsigned char sides(const CellRegion& r, float x, float y, float z) {
+  const unsigned ge = unsigned{x >= r.lo[0]} | unsigned{y >= r.lo[1]} * 2u | unsigned{z >= r.lo[2]} * 4u;
+  const unsigned lt = unsigned{x < r.hi[0]} | unsigned{y < r.hi[1]} * 2u | unsigned{z < r.hi[2]} * 4u;
+  return static_cast<unsigned char>(ge | lt * 8u);
+}
+
+inline bool owns_sides(unsigned a, unsigned b) { return ((a | b) & 7u) == 7u && (a & b & 56u) == 56u; }
+
+}  // namespace hbp::dedup
