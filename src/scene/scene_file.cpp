@@ -325,7 +325,7 @@ struct SceneCodec {
   std::uint32_t min_frames;           // a finished scene has at least this many
   std::size_t scratch_floats;         // per-reader/writer transposition buffer
   SceneHeaderCounts (*read_header)(const unsigned char* h, std::uint64_t size, const std::string& path,
-                             SceneInfo& info);
+                                   SceneInfo& info);
   void (*write_header)(unsigned char* h, std::uint32_t object_count, const Aabb& world, const std::string& name,
                        const std::string& objects_type);
   void (*check_objects)(std::uint32_t object_count, const std::string& path);  // writer's limits
@@ -368,7 +368,7 @@ constexpr SceneCodec kBroadmarkCodec{SceneFormat::Broadmark,
                                      read_broadmark_frame,
                                      write_broadmark_frame};
 
-// Both headers fit the buffer the reader and writer use.
+// The reader and writer hold a header in a kNativeHeaderBytes buffer.
 static_assert(kNativeCodec.header_bytes <= kNativeHeaderBytes && kBroadmarkCodec.header_bytes <= kNativeHeaderBytes);
 
 const SceneCodec& codec_for(SceneFormat format) {
