@@ -74,7 +74,7 @@ module hbp_area_efficient #(
   localparam int LAT = 6;
 
   // No row restarts here: cyc_restart stays 0.
-  hbp_run_control #(.CAP(CAP), .NW(NW), .LAT(LAT)) u_ctl (
+  hbp_run_control #(.CAP(CAP), .NW(NW), .LAT(LAT), .RESTARTS(0)) u_ctl (
       .clk(clk), .rst(rst || clear), .load_valid(load_valid), .start(start),
       .seq_step(seq_step), .seq_bubble(1'b0), .seq_finish(seq_finish),
       .in_load(in_load), .loading(loading), .busy(busy), .done(done), .load_error(load_error),

@@ -7,7 +7,8 @@
 module hbp_run_control #(
     parameter int CAP = 1024,  // boxes the buffer holds
     parameter int NW  = 11,    // box count bits
-    parameter int LAT = 6      // register stages from step to pair line
+    parameter int LAT = 6,     // register stages from step to pair line
+    parameter bit RESTARTS = 1 // the sequencer has restart bubbles (else cyc_restart is a constant 0)
 ) (
     input  logic          clk,
     input  logic          rst,         // synchronous, active high (rst || clear)
@@ -46,7 +47,6 @@ module hbp_run_control #(
       cyc_load    <= '0;
       cyc_seq     <= '0;
       cyc_drain   <= '0;
-      cyc_restart <= '0;
       drain_left  <= '0;
     end else begin
       case (state)
@@ -61,7 +61,6 @@ module hbp_run_control #(
         end
         S_RUN: begin
           if (seq_step) cyc_seq <= cyc_seq + 1;
-          if (seq_bubble) cyc_restart <= cyc_restart + 1;
           if (seq_finish) begin
             // n < 2: nothing in flight, no drain. Otherwise this is drain
             // cycle 1 of LAT; done rises the cycle after the last one.
@@ -82,4 +81,18 @@ module hbp_run_control #(
       endcase
     end
   end
+
+  // Restart bubbles are counted in the run state only.
+  generate
+    if (RESTARTS) begin : g_restart
+      always_ff @(posedge clk) begin
+        if (rst) cyc_restart <= '0;
+        else if (state == S_RUN && seq_bubble) cyc_restart <= cyc_restart + 1;
+      end
+    end else begin : g_no_restart
+      assign cyc_restart = '0;
+      logic unused;
+      assign unused = seq_bubble;
+    end
+  endgenerate
 endmodule
