@@ -5,7 +5,7 @@
 
 #include <string>
 
-#include "baselines/baseline.hpp"
+#include "hbp/baselines/baseline.hpp"
 #include "hbp/scenario.hpp"
 
 namespace {

@@ -25,7 +25,6 @@
 #include <chrono>
 #include <ctime>
 #include <cmath>
-#include <random>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -36,28 +35,24 @@
 #include "hbp/broad_phase.hpp"
 #include "hbp/scenario.hpp"
 #include "pipeline/ray_segment.hpp"
+#include "support/clock.hpp"
+#include "support/percentile.hpp"
+#include "support/random.hpp"
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
+using hbp::median;
+using hbp::ms_since;
+using hbp::SteadyClock;
+using hbp::thread_cpu_ms;
+
 using hbp::Aabb;
 using hbp::BoxArray;
 using hbp::Handle;
 using hbp::Pair;
 
 // CPU time of the calling thread (all of the work when threads = 1).
-double thread_cpu_ms() {
-  timespec ts;
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-}
 
-double ms_since(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0 : v[v.size() / 2];
-}
 double worst(const std::vector<double>& v) { return v.empty() ? 0 : *std::max_element(v.begin(), v.end()); }
 
 void to_aabbs(const BoxArray& b, std::vector<Aabb>& out) {
@@ -137,7 +132,7 @@ void MostlyStatic(benchmark::State& state) {
     // Let the scenario's TBB workers go idle (they spin a while after a
     // parallel loop, taking a core from the timed code).
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
-    auto t0 = Clock::now();
+    auto t0 = SteadyClock::now();
     bp.move(hm, moved);
     move_ms.push_back(ms_since(t0));
     const double cpu0 = thread_cpu_ms();
@@ -147,7 +142,7 @@ void MostlyStatic(benchmark::State& state) {
     update_ms.push_back(bp.stats().wall_ms);
     if (!with_dbvt) return ours;
     std::this_thread::sleep_for(std::chrono::milliseconds(5));  // same for DBVT after our workers
-    t0 = Clock::now();
+    t0 = SteadyClock::now();
     for (std::uint32_t i = 0; i < moving; ++i)
       dbvt.setAabb(proxies[statics + i], hbp::baselines::bullet_min(all, statics + i),
                    hbp::baselines::bullet_max(all, statics + i), nullptr);
@@ -217,12 +212,12 @@ void AllMoving(benchmark::State& state) {
     double ours = 0, theirs = 0;
     for (int k = 0; k < 2; ++k) {
       if ((k == 0) == ours_first) {
-        const auto t0 = Clock::now();
+        const auto t0 = SteadyClock::now();
         bp.move(h, aabbs);
         bp.update();
         ours = ms_since(t0);
       } else {
-        const auto t0 = Clock::now();
+        const auto t0 = SteadyClock::now();
         whole.update(boxes);
         theirs = ms_since(t0);
       }
@@ -298,46 +293,67 @@ struct RayCollect : btBroadphaseRayCallback {
 constexpr int kQueries = 20000;
 constexpr int kChecked = 100;  // brute-force checked per run
 
-void BoxQueries(benchmark::State& state) {
+// The query benchmarks' world of n objects, built once and kept between runs.
+QueryWorld& query_world(std::uint32_t n) {
   static QueryWorld* world = nullptr;
-  const auto n = static_cast<std::uint32_t>(state.range(0));
   if (!world || world->boxes.size() != n) {
     delete world;
     world = new QueryWorld(n);
   }
-  QueryWorld& w = *world;
+  return *world;
+}
+
+// Wall and calling-thread CPU seconds of one run of f.
+struct Seconds {
+  double wall = 0, cpu = 0;
+};
+template <class F>
+Seconds time_run(F&& f) {
+  const auto t0 = SteadyClock::now();
+  const double c0 = thread_cpu_ms();
+  f();
+  return {ms_since(t0) / 1000, (thread_cpu_ms() - c0) / 1000};
+}
+
+// ours_<what>_per_s, dbvt_<what>_per_s and the same per CPU second.
+void rate_counters(benchmark::State& state, const std::string& what, Seconds ours, Seconds dbvt) {
+  state.counters["ours_" + what + "_per_s"] = kQueries / ours.wall;
+  state.counters["dbvt_" + what + "_per_s"] = kQueries / dbvt.wall;
+  state.counters["ours_" + what + "_per_cpu_s"] = kQueries / ours.cpu;
+  state.counters["dbvt_" + what + "_per_cpu_s"] = kQueries / dbvt.cpu;
+}
+
+void BoxQueries(benchmark::State& state) {
+  const auto n = static_cast<std::uint32_t>(state.range(0));
+  QueryWorld& w = query_world(n);
   // Boxes of the objects' sizes: object boxes moved to random places.
-  std::mt19937 rng(3);
-  std::uniform_real_distribution<float> pos(0, w.side);
+  hbp::Random rng(3);
   std::vector<Aabb> queries(kQueries);
   for (Aabb& q : queries) {
-    const Aabb o = w.boxes.get(rng() % n);
+    const Aabb o = w.boxes.get(rng.below(static_cast<std::uint32_t>(n)));
     for (int k = 0; k < 3; ++k) {
-      const float c = pos(rng), half = 0.5f * (o.max[k] - o.min[k]);
+      const auto c = static_cast<float>(rng.uniform(0, w.side));
+      const float half = 0.5f * (o.max[k] - o.min[k]);
       q.min[k] = c - half;
       q.max[k] = c + half;
     }
   }
   std::uint64_t hits = 0, dbvt_hits = 0;
-  double ours_s = 0, dbvt_s = 0, ours_cpu_s = 0, dbvt_cpu_s = 0;
+  Seconds ours, dbvt;
   for (auto _ : state) {
-    auto t0 = Clock::now();
-    double c0 = thread_cpu_ms();
-    hits = 0;
-    for (const Aabb& q : queries) hits += w.bp.query_box(q).size();
-    ours_s = ms_since(t0) / 1000;
-    ours_cpu_s = (thread_cpu_ms() - c0) / 1000;
-    c0 = thread_cpu_ms();
-    t0 = Clock::now();
-    Collect c;
-    for (const Aabb& q : queries) {
-      c.ids.clear();
-      w.dbvt.aabbTest(btVector3(q.min[0], q.min[1], q.min[2]), btVector3(q.max[0], q.max[1], q.max[2]), c);
-      dbvt_hits += c.ids.size();
-    }
-    dbvt_s = ms_since(t0) / 1000;
-    dbvt_cpu_s = (thread_cpu_ms() - c0) / 1000;
-    state.SetIterationTime(ours_s);
+    ours = time_run([&] {
+      hits = 0;
+      for (const Aabb& q : queries) hits += w.bp.query_box(q).size();
+    });
+    dbvt = time_run([&] {
+      Collect c;
+      for (const Aabb& q : queries) {
+        c.ids.clear();
+        w.dbvt.aabbTest(btVector3(q.min[0], q.min[1], q.min[2]), btVector3(q.max[0], q.max[1], q.max[2]), c);
+        dbvt_hits += c.ids.size();
+      }
+    });
+    state.SetIterationTime(ours.wall);
   }
   // Checked against a scan and against DBVT's (superset) answer.
   for (int i = 0; i < kChecked; ++i) {
@@ -352,25 +368,16 @@ void BoxQueries(benchmark::State& state) {
     if (!std::includes(c.ids.begin(), c.ids.end(), want.begin(), want.end()))
       throw std::runtime_error("DBVT misses a box hit");
   }
-  state.counters["ours_queries_per_s"] = kQueries / ours_s;
-  state.counters["dbvt_queries_per_s"] = kQueries / dbvt_s;
-  state.counters["ours_queries_per_cpu_s"] = kQueries / ours_cpu_s;
-  state.counters["dbvt_queries_per_cpu_s"] = kQueries / dbvt_cpu_s;
+  rate_counters(state, "queries", ours, dbvt);
   state.counters["hits_per_query"] = static_cast<double>(hits) / kQueries;
   state.SetItemsProcessed(state.iterations() * kQueries);
 }
 
 void RayQueries(benchmark::State& state) {
-  static QueryWorld* world = nullptr;
   const auto n = static_cast<std::uint32_t>(state.range(0));
-  if (!world || world->boxes.size() != n) {
-    delete world;
-    world = new QueryWorld(n);
-  }
-  QueryWorld& w = *world;
+  QueryWorld& w = query_world(n);
   // Random rays of 500 m inside the world: unit direction, max_t = 500.
-  std::mt19937 rng(4);
-  std::uniform_real_distribution<float> pos(0, w.side), gauss(-1, 1);
+  hbp::Random rng(4);
   struct Ray {
     float o[3], d[3];
   };
@@ -378,35 +385,31 @@ void RayQueries(benchmark::State& state) {
   for (Ray& r : rays) {
     float len = 0;
     do {
-      for (int k = 0; k < 3; ++k) r.d[k] = gauss(rng);
+      for (int k = 0; k < 3; ++k) r.d[k] = static_cast<float>(rng.uniform(-1, 1));
       len = std::sqrt(r.d[0] * r.d[0] + r.d[1] * r.d[1] + r.d[2] * r.d[2]);
     } while (len < 0.1f || len > 1);
     for (int k = 0; k < 3; ++k) {
       r.d[k] /= len;
-      r.o[k] = pos(rng);
+      r.o[k] = static_cast<float>(rng.uniform(0, w.side));
     }
   }
   constexpr float kLength = 500;
   std::uint64_t hits = 0;
-  double ours_s = 0, dbvt_s = 0, ours_cpu_s = 0, dbvt_cpu_s = 0;
+  Seconds ours, dbvt;
   for (auto _ : state) {
-    auto t0 = Clock::now();
-    double c0 = thread_cpu_ms();
-    hits = 0;
-    for (const Ray& r : rays) hits += w.bp.query_ray(r.o, r.d, kLength).size();
-    ours_s = ms_since(t0) / 1000;
-    ours_cpu_s = (thread_cpu_ms() - c0) / 1000;
-    c0 = thread_cpu_ms();
-    t0 = Clock::now();
-    for (const Ray& r : rays) {
-      const btVector3 from(r.o[0], r.o[1], r.o[2]);
-      const btVector3 to = from + kLength * btVector3(r.d[0], r.d[1], r.d[2]);
-      RayCollect c(from, to);
-      w.dbvt.rayTest(from, to, c);
-    }
-    dbvt_s = ms_since(t0) / 1000;
-    dbvt_cpu_s = (thread_cpu_ms() - c0) / 1000;
-    state.SetIterationTime(ours_s);
+    ours = time_run([&] {
+      hits = 0;
+      for (const Ray& r : rays) hits += w.bp.query_ray(r.o, r.d, kLength).size();
+    });
+    dbvt = time_run([&] {
+      for (const Ray& r : rays) {
+        const btVector3 from(r.o[0], r.o[1], r.o[2]);
+        const btVector3 to = from + kLength * btVector3(r.d[0], r.d[1], r.d[2]);
+        RayCollect c(from, to);
+        w.dbvt.rayTest(from, to, c);
+      }
+    });
+    state.SetIterationTime(ours.wall);
   }
   // Checked against a scan (same slab test) and against DBVT's answer.
   std::uint64_t dbvt_missed = 0;
@@ -433,10 +436,7 @@ void RayQueries(benchmark::State& state) {
     for (Handle h : want_h) dbvt_missed += std::binary_search(c.ids.begin(), c.ids.end(), h) ? 0 : 1;
   }
   state.counters["dbvt_missed_in_check"] = static_cast<double>(dbvt_missed);
-  state.counters["ours_rays_per_s"] = kQueries / ours_s;
-  state.counters["dbvt_rays_per_s"] = kQueries / dbvt_s;
-  state.counters["ours_rays_per_cpu_s"] = kQueries / ours_cpu_s;
-  state.counters["dbvt_rays_per_cpu_s"] = kQueries / dbvt_cpu_s;
+  rate_counters(state, "rays", ours, dbvt);
   state.counters["hits_per_ray"] = static_cast<double>(hits) / kQueries;
   state.SetItemsProcessed(state.iterations() * kQueries);
 }

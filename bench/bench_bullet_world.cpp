@@ -20,8 +20,12 @@
 
 #include "hbp/bullet/hybrid_broadphase.hpp"
 #include "integrations/world/falling_shapes_world.hpp"
+#include "support/clock.hpp"
 
 namespace {
+
+using hbp::ms_since;
+using hbp::SteadyClock;
 
 // CPU time of the whole process (every thread), ms: on a shared machine wall
 // time measures the neighbours too.
@@ -54,11 +58,11 @@ void BM_BulletWorld(benchmark::State& state) {
     world->dispatcher().set_recording(true);
     state.ResumeTiming();
     for (std::uint32_t s = 0; s < steps; ++s) {
-      const auto t = std::chrono::steady_clock::now();
+      const auto t = SteadyClock::now();
       const double c = process_cpu_ms();
       world->step();
       cpu_ms += process_cpu_ms() - c;
-      step_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t).count();
+      step_ms += ms_since(t);
       broadphase_ms += world->timing().update_aabbs_ms + world->timing().pairs_ms;
       broadphase_cpu_ms += world->timing().update_aabbs_cpu_ms + world->timing().pairs_cpu_ms;
       pairs += static_cast<double>(world->dispatcher().last().raw);

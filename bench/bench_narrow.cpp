@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "hbp/narrow/narrow_phase.hpp"
-#include "hbp/narrow/random_pairs.hpp"
+#include "hbp/benchdata/random_pairs.hpp"
 
 namespace {
 

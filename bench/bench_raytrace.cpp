@@ -27,7 +27,7 @@
 #include "hbp/raytrace/traversal.hpp"
 #include "hbp/scenario.hpp"
 #include "hbp/two_level_hierarchy.hpp"
-#include "partition/cell_bvh.hpp"
+#include "hierarchy/cell_bvh.hpp"
 
 #ifdef HBP_HAVE_EMBREE
 #include <embree3/rtcore.h>

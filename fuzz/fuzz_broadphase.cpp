@@ -23,6 +23,7 @@
 #include "fuzz_support.hpp"
 #include "hbp/brute_force.hpp"
 #include "hbp/error.hpp"
+#include "hbp/hw/hw_cell_engines.hpp"
 #include "hbp/hybrid_broadphase.hpp"
 
 namespace {
@@ -56,6 +57,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   using hbp::fuzz::finding;
   using hbp::fuzz::require;
   static const bool registered = [] {
+    hbp::hw::register_cell_engines();
     hbp::register_cell_engine("fuzz-tiny", [] { return std::unique_ptr<hbp::CellEngine>(new TinyEngine()); });
     return true;
   }();

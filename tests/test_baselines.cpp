@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "baselines/baseline.hpp"
+#include "hbp/baselines/baseline.hpp"
 #include "hbp/brute_force.hpp"
 #include "hbp/error.hpp"
 #include "hbp/scenario.hpp"

@@ -10,9 +10,9 @@
 #include "hbp/hw/analytic_cycles.hpp"
 #include "hbp/hw/area_efficient_model.hpp"
 #include "hbp/hw/many_object_model.hpp"
-#include "hbp/hw/paper_table4.hpp"
+#include "hbp/benchdata/paper_table4.hpp"
 #include "hbp/hw/resources.hpp"
-#include "hbp/hw/paper_tables.hpp"
+#include "hbp/benchdata/paper_tables.hpp"
 
 namespace {
 

@@ -96,6 +96,8 @@ int child_main(const char* spec) {
     const rlimit cap{2048 * kMiB, 2048 * kMiB};
     setrlimit(RLIMIT_AS, &cap);
   }
+  // Runs before main(): register the hardware models' engines as main does.
+  hbp::hw::register_cell_engines();
   std::string result;
   try {
     const BoxArray boxes = job == "coincident" ? coincident(n) : spread(n);

@@ -15,7 +15,7 @@
 #include "hbp/narrow/intersect.hpp"
 #include "hbp/narrow/libccd_solver.hpp"
 #include "hbp/narrow/narrow_phase.hpp"
-#include "hbp/narrow/random_pairs.hpp"
+#include "hbp/benchdata/random_pairs.hpp"
 
 namespace hbp {
 namespace {

@@ -16,10 +16,10 @@
 #include <string>
 #include <vector>
 
-#include "baselines/bullet_shape_pair_test.hpp"
+#include "hbp/baselines/bullet_shape_pair_test.hpp"
 #include "hbp/narrow/convex.hpp"
 #include "hbp/narrow/intersect.hpp"
-#include "hbp/narrow/random_pairs.hpp"
+#include "hbp/benchdata/random_pairs.hpp"
 
 namespace hbp {
 namespace {

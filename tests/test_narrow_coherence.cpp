@@ -10,7 +10,7 @@
 #include "hbp/narrow/gjk.hpp"
 #include "hbp/narrow/narrow_cache.hpp"
 #include "hbp/narrow/narrow_phase.hpp"
-#include "hbp/narrow/random_pairs.hpp"
+#include "hbp/benchdata/random_pairs.hpp"
 #include "hbp/scenario.hpp"
 
 namespace hbp {

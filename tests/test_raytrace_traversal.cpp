@@ -13,7 +13,7 @@
 
 #include "hbp/raytrace/traversal.hpp"
 #include "hbp/scenario.hpp"
-#include "partition/cell_bvh.hpp"
+#include "hierarchy/cell_bvh.hpp"
 
 namespace hbp {
 namespace {

@@ -13,7 +13,7 @@
 #include "hbp/kd_partition.hpp"
 #include "hbp/scenario.hpp"
 #include "hbp/software_engine.hpp"
-#include "partition/min_x_order.hpp"
+#include "engines/min_x_order.hpp"
 
 namespace {
 

@@ -13,7 +13,7 @@
 
 #include "hbp/scenario.hpp"
 #include "hbp/two_level_hierarchy.hpp"
-#include "partition/cell_bvh.hpp"
+#include "hierarchy/cell_bvh.hpp"
 
 namespace hbp {
 namespace {

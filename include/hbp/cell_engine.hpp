@@ -58,17 +58,27 @@ class CellEngine {
   std::uint64_t pair_limit_ = ~std::uint64_t{0};
 };
 
-// Engine names accepted by the library and `hbp --engine`:
-//   "sw"  software SIMD engine (default),  "brute"  scalar all-pairs,
-//   "ae"  area-efficient model,  "mo"  many-object model,
-//   "rtl-ae", "rtl-mo"  Verilated RTL (when built with Verilator).
-// Throws InvalidInput naming the unknown engine and listing the known ones.
+// Engines by name. The core library has "sw" (software SIMD sweep, the
+// default), "sw-allpairs" (software SIMD all-pairs) and "brute" (scalar
+// all-pairs). Rooms above the core plug theirs in through
+// register_cell_engine(): the hardware models (hbp::hw::register_cell_engines():
+// "ae", "mo" = the software sweep finds the pairs, the cycles are charged
+// analytically; "ae-sim", "mo-sim" = every cycle of the model simulated) and
+// the Verilated RTL (hbp::rtl::register_rtl_engines(): "rtl-ae", "rtl-mo").
+// make_cell_engine throws InvalidInput naming an unknown engine and listing
+// the known ones.
 std::unique_ptr<CellEngine> make_cell_engine(const std::string& name);
+// Every known name, sorted.
 std::vector<std::string> cell_engine_names();
+// What the engine named `name` does (one line); InvalidInput when unknown.
+std::string cell_engine_description(const std::string& name);
 
-// Engines living outside the core library (the Verilated RTL) register
-// themselves by name before use.
+// Engines living outside the core library register themselves by name before
+// use. A name is taken once: registering a name already taken by a built-in
+// engine or by a different factory throws InvalidInput naming it; registering
+// the same name with the same factory again is a no-op (so registration
+// functions are idempotent).
 using CellEngineFactory = std::unique_ptr<CellEngine> (*)();
-void register_cell_engine(const std::string& name, CellEngineFactory factory);
+void register_cell_engine(const std::string& name, CellEngineFactory factory, const std::string& description = "");
 
 }  // namespace hbp

@@ -60,6 +60,7 @@ class SoftwareEngine final : public CellEngine {
   std::vector<std::uint32_t> local_ids_;  // 0, 1, 2, ...: local indices as ids
   BoxArray sorted_;                    // find_pairs on unsorted input
   std::vector<std::uint32_t> order_;
+  std::vector<std::uint64_t> order_scratch_;  // the radix sort's key words
 };
 
 // Scalar all-pairs with no SIMD and no partition shortcut: the oracle run as

@@ -22,6 +22,7 @@
 #include "hbp/box_array.hpp"
 #include "hbp/broad_phase.hpp"
 #include "hbp/error.hpp"
+#include "hbp/hw/hw_cell_engines.hpp"
 #include "hbp/hybrid_broadphase.hpp"
 
 #ifndef HBP_VERSION
@@ -353,6 +354,7 @@ std::uintptr_t boxes_address(py::handle boxes) {
 PYBIND11_MODULE(hybrid_broadphase, m) {
   using namespace hbp::python;
   using hbp::python::PyBroadPhase;
+  hbp::hw::register_cell_engines();  // engine='ae', 'mo', 'ae-sim', 'mo-sim'
   m.doc() =
       "Hybrid broad-phase collision detection on numpy arrays: find_pairs(boxes) for one frame, "
       "BroadPhase for persistent handles, static objects, pair events, layers and queries. "

@@ -36,6 +36,12 @@ def test_engines_and_threads_agree(engine, threads):
     check(boxes, engine=engine, threads=threads)
 
 
+@pytest.mark.parametrize("engine", ["ae", "mo", "ae-sim", "mo-sim"])
+def test_hardware_model_engines_are_registered_at_import(engine):
+    boxes = random_boxes(np.random.default_rng(9), 300)
+    check(boxes, engine=engine, threads=1)
+
+
 def test_small_cell_limit_splits_and_stays_exact():
     boxes = random_boxes(np.random.default_rng(8), 500)
     check(boxes, cell_limit=16, threads=2)

@@ -64,8 +64,8 @@ std::unique_ptr<CellEngine> make_mo() {
 void register_rtl_engines() {
   static std::once_flag once;
   std::call_once(once, [] {
-    register_cell_engine("rtl-ae", &make_ae);
-    register_cell_engine("rtl-mo", &make_mo);
+    register_cell_engine("rtl-ae", &make_ae, "Verilated RTL of the area-efficient design (m = 16, depth 1024)");
+    register_cell_engine("rtl-mo", &make_mo, "Verilated RTL of the many-object design (m = 16, depth 1024)");
   });
 }
 

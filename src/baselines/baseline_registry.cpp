@@ -1,4 +1,4 @@
-#include "baselines/baseline.hpp"
+#include "hbp/baselines/baseline.hpp"
 
 #include "hbp/error.hpp"
 

@@ -3,7 +3,7 @@
 #include <memory>
 #include <vector>
 
-#include "baselines/baseline.hpp"
+#include "hbp/baselines/baseline.hpp"
 #include "hbp/brute_force.hpp"
 
 namespace hbp::baselines {

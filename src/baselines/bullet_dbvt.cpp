@@ -5,7 +5,7 @@
 #include <memory>
 #include <vector>
 
-#include "baselines/baseline.hpp"
+#include "hbp/baselines/baseline.hpp"
 #include "baselines/bullet_headers.hpp"
 #include "baselines/bullet_pairs.hpp"
 

@@ -1,4 +1,4 @@
-#include "baselines/bullet_narrow_phase.hpp"
+#include "hbp/baselines/bullet_narrow_phase.hpp"
 
 #include "baselines/bullet_shapes.hpp"
 #include "hbp/error.hpp"

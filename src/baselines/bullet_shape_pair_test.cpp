@@ -1,4 +1,4 @@
-#include "baselines/bullet_shape_pair_test.hpp"
+#include "hbp/baselines/bullet_shape_pair_test.hpp"
 #include "baselines/bullet_shapes.hpp"
 
 #include <memory>

@@ -12,7 +12,7 @@
 #include <CGAL/box_intersection_d.h>
 #pragma GCC diagnostic pop
 
-#include "baselines/baseline.hpp"
+#include "hbp/baselines/baseline.hpp"
 
 namespace hbp::baselines {
 namespace {

@@ -36,7 +36,7 @@
 #include <fcl/config.h>
 #include <fcl/geometry/shape/box.h>
 
-#include "baselines/baseline.hpp"
+#include "hbp/baselines/baseline.hpp"
 #include "baselines/reported_pairs.hpp"
 #include "hbp/error.hpp"
 
@@ -62,28 +62,25 @@ bool collect(fcl::CollisionObjectd* a, fcl::CollisionObjectd* b, void* data) {
 
 enum class FclManager { DynamicAabbTree, SaP, IntervalTree, SpatialHash };
 
-class FclBroadphase final : public Baseline {
- public:
-  FclBroadphase(FclManager kind, const BaselineOptions& options) : kind_(kind), options_(options) {}
+// Registry name and table label of each manager.
+struct FclNames {
+  const char* name;
+  const char* label;
+};
+FclNames fcl_names(FclManager kind) {
+  switch (kind) {
+    case FclManager::DynamicAabbTree: return {"fcl-dynamic-aabb-tree", "FCL DynamicAABBTree"};
+    case FclManager::SaP: return {"fcl-sap", "FCL SaP"};
+    case FclManager::IntervalTree: return {"fcl-interval-tree", "FCL IntervalTree"};
+    case FclManager::SpatialHash: return {"fcl-spatial-hash", "FCL SpatialHash"};
+  }
+  return {"fcl", "FCL"};
+}
 
-  std::string name() const override {
-    switch (kind_) {
-      case FclManager::DynamicAabbTree: return "fcl-dynamic-aabb-tree";
-      case FclManager::SaP: return "fcl-sap";
-      case FclManager::IntervalTree: return "fcl-interval-tree";
-      case FclManager::SpatialHash: return "fcl-spatial-hash";
-    }
-    return "fcl";
-  }
-  std::string label() const override {
-    switch (kind_) {
-      case FclManager::DynamicAabbTree: return "FCL DynamicAABBTree";
-      case FclManager::SaP: return "FCL SaP";
-      case FclManager::IntervalTree: return "FCL IntervalTree";
-      case FclManager::SpatialHash: return "FCL SpatialHash";
-    }
-    return "FCL";
-  }
+class FclBroadphase final : public ReportingBaseline {
+ public:
+  FclBroadphase(FclManager kind, const BaselineOptions& options)
+      : ReportingBaseline(fcl_names(kind).name, fcl_names(kind).label), kind_(kind), options_(options) {}
 
   void setup(const BoxArray& boxes) override {
     manager_.reset();
@@ -114,12 +111,10 @@ class FclBroadphase final : public Baseline {
     collide(boxes);
   }
 
-  void update(const BoxArray& boxes) override {
-    const std::size_t n = objects_.size();
-    if (boxes.size() != n)
-      throw InvalidInput(name() + ": frame has " + std::to_string(boxes.size()) + " boxes, setup had " +
-                         std::to_string(n));
-    for (std::size_t i = 0; i < n; ++i) {
+  std::size_t object_count() const override { return objects_.size(); }
+
+  void move_objects(const BoxArray& boxes) override {
+    for (std::size_t i = 0; i < objects_.size(); ++i) {
       set_local_box(*geometries_[i], boxes, i, margin_);
       objects_[i]->computeAABB();
     }
@@ -130,11 +125,12 @@ class FclBroadphase final : public Baseline {
     } else {
       manager_->update();
     }
-    collide(boxes);
   }
 
-  std::size_t raw_pairs() const override { return pairs_.raw_count(); }
-  const std::vector<Pair>& exact_pairs() override { return pairs_.exact(); }
+  void collide(const BoxArray& boxes) override {
+    pairs_.begin(boxes);
+    manager_->collide(&pairs_, collect);
+  }
 
  private:
   std::unique_ptr<fcl::BroadPhaseCollisionManagerd> make_manager(const BoxArray& boxes) const {
@@ -160,11 +156,6 @@ class FclBroadphase final : public Baseline {
     throw Error("fcl: unknown manager");
   }
 
-  void collide(const BoxArray& boxes) {
-    pairs_.begin(boxes);
-    manager_->collide(&pairs_, collect);
-  }
-
   FclManager kind_;
   BaselineOptions options_;
   std::vector<std::shared_ptr<fcl::Boxd>> geometries_;
@@ -172,7 +163,6 @@ class FclBroadphase final : public Baseline {
   std::vector<fcl::CollisionObjectd*> raw_objects_;
   // Declared after the objects it points to, so it is destroyed first.
   std::unique_ptr<fcl::BroadPhaseCollisionManagerd> manager_;
-  ReportedPairs pairs_;
   double margin_ = 0;
 };
 

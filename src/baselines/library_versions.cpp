@@ -1,7 +1,7 @@
 // Versions of the libraries this binary was compiled against.
 #include <CGAL/version.h>
 
-#include "baselines/baseline.hpp"
+#include "hbp/baselines/baseline.hpp"
 #include "baselines/bullet_headers.hpp"
 
 namespace hbp::baselines {

@@ -17,7 +17,7 @@
 #include <mutex>
 #include <vector>
 
-#include "baselines/baseline.hpp"
+#include "hbp/baselines/baseline.hpp"
 #include "baselines/reported_pairs.hpp"
 #include "hbp/error.hpp"
 
@@ -78,27 +78,25 @@ enum class OdeSpace { Hash, SweepAndPrune, QuadTree };
 int floor_log2(double x) { return static_cast<int>(std::floor(std::log2(x))); }
 int ceil_log2(double x) { return static_cast<int>(std::ceil(std::log2(x))); }
 
-class OdeSpaceBaseline final : public Baseline {
- public:
-  OdeSpaceBaseline(OdeSpace kind, const BaselineOptions& options) : kind_(kind), options_(options) {}
-  ~OdeSpaceBaseline() override { release(); }
+// Registry name and table label of each space.
+struct OdeNames {
+  const char* name;
+  const char* label;
+};
+OdeNames ode_names(OdeSpace kind) {
+  switch (kind) {
+    case OdeSpace::Hash: return {"ode-hash", "ODE hash space"};
+    case OdeSpace::SweepAndPrune: return {"ode-sap", "ODE SAP space"};
+    case OdeSpace::QuadTree: return {"ode-quadtree", "ODE quadtree"};
+  }
+  return {"ode", "ODE"};
+}
 
-  std::string name() const override {
-    switch (kind_) {
-      case OdeSpace::Hash: return "ode-hash";
-      case OdeSpace::SweepAndPrune: return "ode-sap";
-      case OdeSpace::QuadTree: return "ode-quadtree";
-    }
-    return "ode";
-  }
-  std::string label() const override {
-    switch (kind_) {
-      case OdeSpace::Hash: return "ODE hash space";
-      case OdeSpace::SweepAndPrune: return "ODE SAP space";
-      case OdeSpace::QuadTree: return "ODE quadtree";
-    }
-    return "ODE";
-  }
+class OdeSpaceBaseline final : public ReportingBaseline {
+ public:
+  OdeSpaceBaseline(OdeSpace kind, const BaselineOptions& options)
+      : ReportingBaseline(ode_names(kind).name, ode_names(kind).label), kind_(kind), options_(options) {}
+  ~OdeSpaceBaseline() override { release(); }
 
   void setup(const BoxArray& boxes) override {
     release();
@@ -119,20 +117,19 @@ class OdeSpaceBaseline final : public Baseline {
     collide(boxes);
   }
 
-  void update(const BoxArray& boxes) override {
-    const std::size_t n = geoms_.size();
-    if (boxes.size() != n)
-      throw InvalidInput(name() + ": frame has " + std::to_string(boxes.size()) + " boxes, setup had " +
-                         std::to_string(n));
-    for (std::size_t i = 0; i < n; ++i) {
+  std::size_t object_count() const override { return geoms_.size(); }
+
+  void move_objects(const BoxArray& boxes) override {
+    for (std::size_t i = 0; i < geoms_.size(); ++i) {
       set_box(geoms_[i], boxes, i);
       move(geoms_[i], boxes, i);
     }
-    collide(boxes);
   }
 
-  std::size_t raw_pairs() const override { return pairs_.raw_count(); }
-  const std::vector<Pair>& exact_pairs() override { return pairs_.exact(); }
+  void collide(const BoxArray& boxes) override {
+    pairs_.begin(boxes);
+    dSpaceCollide(space_, &pairs_, near_callback);
+  }
 
  private:
   dSpaceID make_space(const BoxArray& boxes) const {
@@ -172,11 +169,6 @@ class OdeSpaceBaseline final : public Baseline {
     throw Error("ode: unknown space");
   }
 
-  void collide(const BoxArray& boxes) {
-    pairs_.begin(boxes);
-    dSpaceCollide(space_, &pairs_, near_callback);
-  }
-
   void release() {
     if (space_) dSpaceDestroy(space_);
     space_ = nullptr;
@@ -188,7 +180,6 @@ class OdeSpaceBaseline final : public Baseline {
   BaselineOptions options_;
   dSpaceID space_ = nullptr;
   std::vector<dGeomID> geoms_;
-  ReportedPairs pairs_;
 };
 
 }  // namespace

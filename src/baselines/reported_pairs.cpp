@@ -1,6 +1,9 @@
 #include "baselines/reported_pairs.hpp"
 
 #include <algorithm>
+#include <string>
+
+#include "hbp/error.hpp"
 
 namespace hbp::baselines {
 
@@ -20,6 +23,15 @@ void ReportedPairs::clear() {
   exact_.clear();
   boxes_ = nullptr;
   dirty_ = false;
+}
+
+void ReportingBaseline::update(const BoxArray& boxes) {
+  const std::size_t n = object_count();
+  if (boxes.size() != n)
+    throw InvalidInput(name() + ": frame has " + std::to_string(boxes.size()) + " boxes, setup had " +
+                       std::to_string(n));
+  move_objects(boxes);
+  collide(boxes);
 }
 
 Aabb grown_bounds(const BoxArray& boxes) {

@@ -15,12 +15,11 @@
 
 #include "distributed/rank_domains.hpp"
 #include "hbp/error.hpp"
+#include "support/clock.hpp"
 
 namespace hbp {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
 
 // Wire formats. Migration: (id, box). Ghost message to one neighbour, the
 // difference against the list the neighbour holds from us (same order):
@@ -408,7 +407,7 @@ struct DistributedBroadPhase::Impl {
 
   // Local broad phase; keep the pairs whose ownership point is in our domain.
   void find_pairs() {
-    auto t = Clock::now();
+    auto t = SteadyClock::now();
     // The local limits (max_pairs) may trip on one rank only: make it collective.
     result.clear();
     std::string error;
@@ -420,7 +419,7 @@ struct DistributedBroadPhase::Impl {
     collective_check(comm, rank, error, ErrorKind::Capacity);
     const std::vector<Pair>& found = local.pairs();
     stats.local_ms = ms_since(t);
-    t = Clock::now();
+    t = SteadyClock::now();
     stats.local_pairs = found.size();
     // p = max(min_a, min_b) lies in [lo, hi) iff on every axis min_a >= lo
     // or min_b >= lo, and both min_a < hi and min_b < hi: one byte per object
@@ -452,7 +451,7 @@ struct DistributedBroadPhase::Impl {
   }
 
   void update(const std::vector<std::uint32_t>& ids, const BoxArray& boxes) {
-    const auto start = Clock::now();
+    const auto start = SteadyClock::now();
     stats = RankFrameStats{};
     std::string error;
     if (ids.size() != boxes.size())
@@ -470,15 +469,15 @@ struct DistributedBroadPhase::Impl {
       cy[i] = centre(boxes.min(1)[i], boxes.max(1)[i]);
       cz[i] = centre(boxes.min(2)[i], boxes.max(2)[i]);
     }
-    auto t = Clock::now();
+    auto t = SteadyClock::now();
     decompose(n);
     stats.decompose_ms = ms_since(t);
     try {
-      t = Clock::now();
+      t = SteadyClock::now();
       collective_check(comm, rank, migrate(ids, boxes));
       stats.owned = owned.ids.size();
       stats.migrate_ms = ms_since(t);
-      t = Clock::now();
+      t = SteadyClock::now();
       refresh_ghosts();
       collective_check(comm, rank, assemble());
       stats.ghost_ms = ms_since(t);

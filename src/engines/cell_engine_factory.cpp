@@ -4,18 +4,34 @@
 #include "hbp/cell_engine.hpp"
 #include "hbp/error.hpp"
 #include "hbp/software_engine.hpp"
-#if __has_include("hbp/hw/hw_cell_engines.hpp")
-#include "hbp/hw/hw_cell_engines.hpp"
-#define HBP_HAVE_HW_MODELS 1
-#endif
 
+// The engine registry. The core's own engines are entered on first use;
+// engines of the rooms above (hardware models, RTL) are entered by their
+// register functions: the registry is how an upper layer plugs in below,
+// so this file includes nothing of theirs.
 namespace hbp {
 
 namespace {
 
+struct Entry {
+  CellEngineFactory factory;
+  std::string description;
+  bool builtin;
+};
+
+std::unique_ptr<CellEngine> make_sw() { return std::make_unique<SoftwareEngine>(SoftwareEngine::Kernel::Sweep); }
+std::unique_ptr<CellEngine> make_sw_allpairs() {
+  return std::make_unique<SoftwareEngine>(SoftwareEngine::Kernel::AllPairs);
+}
+std::unique_ptr<CellEngine> make_brute() { return std::make_unique<BruteForceEngine>(); }
+
 struct Registry {
   std::mutex mutex;
-  std::map<std::string, CellEngineFactory> factories;
+  std::map<std::string, Entry> engines = {
+      {"sw", {make_sw, "software engine, SIMD sweep over the min-x order (default)", true}},
+      {"sw-allpairs", {make_sw_allpairs, "software engine, SIMD all-pairs", true}},
+      {"brute", {make_brute, "scalar all-pairs (the reference)", true}},
+  };
 };
 
 Registry& registry() {
@@ -23,60 +39,51 @@ Registry& registry() {
   return r;
 }
 
-std::unique_ptr<CellEngine> make_sw() { return std::make_unique<SoftwareEngine>(SoftwareEngine::Kernel::Sweep); }
-std::unique_ptr<CellEngine> make_sw_allpairs() {
-  return std::make_unique<SoftwareEngine>(SoftwareEngine::Kernel::AllPairs);
-}
-std::unique_ptr<CellEngine> make_brute() { return std::make_unique<BruteForceEngine>(); }
-#ifdef HBP_HAVE_HW_MODELS
-std::unique_ptr<CellEngine> make_ae() { return hw::make_area_efficient_engine({}, false); }
-std::unique_ptr<CellEngine> make_mo() { return hw::make_many_object_engine({}, false); }
-std::unique_ptr<CellEngine> make_ae_sim() { return hw::make_area_efficient_engine({}, true); }
-std::unique_ptr<CellEngine> make_mo_sim() { return hw::make_many_object_engine({}, true); }
-#endif
-
-const std::map<std::string, CellEngineFactory>& builtin() {
-  static const std::map<std::string, CellEngineFactory> engines = {
-      {"sw", make_sw},
-      {"sw-allpairs", make_sw_allpairs},
-      {"brute", make_brute},
-#ifdef HBP_HAVE_HW_MODELS
-      {"ae", make_ae},
-      {"mo", make_mo},
-      {"ae-sim", make_ae_sim},
-      {"mo-sim", make_mo_sim},
-#endif
-  };
-  return engines;
+std::string known_names(const Registry& r) {
+  std::string known;
+  for (const auto& [n, e] : r.engines) known += (known.empty() ? "" : ", ") + n;
+  return known;
 }
 
 }  // namespace
 
-void register_cell_engine(const std::string& name, CellEngineFactory factory) {
+void register_cell_engine(const std::string& name, CellEngineFactory factory, const std::string& description) {
+  if (name.empty()) throw InvalidInput("register_cell_engine: empty engine name");
+  if (factory == nullptr) throw InvalidInput("register_cell_engine: null factory for engine '" + name + "'");
   Registry& r = registry();
   std::lock_guard lock(r.mutex);
-  r.factories[name] = factory;
+  auto [it, inserted] = r.engines.try_emplace(name, Entry{factory, description, false});
+  if (inserted || (!it->second.builtin && it->second.factory == factory)) return;
+  throw InvalidInput("register_cell_engine: engine name '" + name + "' is already taken by " +
+                     (it->second.builtin ? "a built-in engine" : "another registered engine") +
+                     " (choose another name)");
 }
 
 std::vector<std::string> cell_engine_names() {
-  std::vector<std::string> names;
-  for (const auto& [name, f] : builtin()) names.push_back(name);
   Registry& r = registry();
   std::lock_guard lock(r.mutex);
-  for (const auto& [name, f] : r.factories) names.push_back(name);
+  std::vector<std::string> names;
+  for (const auto& [name, e] : r.engines) names.push_back(name);
   return names;
 }
 
+std::string cell_engine_description(const std::string& name) {
+  Registry& r = registry();
+  std::lock_guard lock(r.mutex);
+  if (auto it = r.engines.find(name); it != r.engines.end()) return it->second.description;
+  throw InvalidInput("unknown engine '" + name + "' (known: " + known_names(r) + ")");
+}
+
 std::unique_ptr<CellEngine> make_cell_engine(const std::string& name) {
-  if (auto it = builtin().find(name); it != builtin().end()) return it->second();
+  CellEngineFactory factory = nullptr;
   {
     Registry& r = registry();
     std::lock_guard lock(r.mutex);
-    if (auto it = r.factories.find(name); it != r.factories.end()) return it->second();
+    auto it = r.engines.find(name);
+    if (it == r.engines.end()) throw InvalidInput("unknown engine '" + name + "' (known: " + known_names(r) + ")");
+    factory = it->second.factory;
   }
-  std::string known;
-  for (const auto& n : cell_engine_names()) known += (known.empty() ? "" : ", ") + n;
-  throw InvalidInput("unknown engine '" + name + "' (known: " + known + ")");
+  return factory();
 }
 
 }  // namespace hbp

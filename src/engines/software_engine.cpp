@@ -7,6 +7,7 @@
 #include "engines/box_kernels.hpp"
 #include "hbp/brute_force.hpp"
 #include "hbp/error.hpp"
+#include "support/radix_sort.hpp"
 #include <string>
 
 namespace hbp {
@@ -108,10 +109,7 @@ CellRun SoftwareEngine::find_pairs(const BoxArray& cell, std::vector<Pair>& out)
   }
   // The sweep needs min-x order: sort a copy, map indices back.
   const auto n = static_cast<std::uint32_t>(cell.size());
-  order_.resize(n);
-  std::iota(order_.begin(), order_.end(), 0u);
-  const float* minx = cell.min(0);
-  std::stable_sort(order_.begin(), order_.end(), [&](std::uint32_t a, std::uint32_t b) { return minx[a] < minx[b]; });
+  order_by_value(cell.min(0), n, order_, order_scratch_);  // ties by index, as a stable sort
   sorted_.resize(n);
   for (std::uint32_t i = 0; i < n; ++i) sorted_.set(i, cell.get(order_[i]));
   const std::size_t base = out.size();
@@ -124,17 +122,7 @@ CellRun BruteForceEngine::find_pairs(const BoxArray& cell, std::vector<Pair>& ou
   // The oracle's loop, appending in place and counting against the pair
   // limit as it goes: a cell of coincident boxes stops at the limit instead
   // of building all n²/2 pairs first.
-  const auto n = static_cast<std::uint32_t>(cell.size());
-  const std::size_t base = out.size();
-  for (std::uint32_t i = 0; i + 1 < n; ++i) {
-    const Aabb a = cell.get(i);
-    for (std::uint32_t j = i + 1; j < n; ++j) {
-      if (overlaps(a, cell.get(j))) out.push_back({i, j});
-    }
-    if (out.size() - base > pair_limit_)
-      throw CapacityExceeded("cell of " + std::to_string(n) + " boxes has more than " + std::to_string(pair_limit_) +
-                             " overlapping pairs (max_pairs)");
-  }
+  append_brute_force_pairs(cell, out, pair_limit_);
   return {};
 }
 

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "hbp/error.hpp"
+#include "support/radix_sort.hpp"
 
 namespace hbp {
 
@@ -13,12 +14,10 @@ namespace {
 
 // Below this many pairs a comparison sort beats the radix sort's fixed costs.
 constexpr std::size_t kComparisonSortBelow = 1024;
-constexpr int kMaxDigitBits = 11;  // 2048 buckets: the histograms stay in L1
 
-// LSD radix sort on the key (a << bits(b)) | b, which orders like (a, b) and
+// Radix sort on the key (a << bits(b)) | b, which orders like (a, b) and
 // holds only the bits the ids use (a million objects: 40 bits, 4 passes of
-// 10). All histograms come from one read; passes whose digit is the same for
-// every pair are skipped.
+// 10 bits; 2048 buckets at most, so the histograms stay in L1).
 void radix_sort(std::vector<Pair>& pairs, std::vector<Pair>& scratch) {
   const std::size_t n = pairs.size();
   if (n < kComparisonSortBelow) {
@@ -32,33 +31,11 @@ void radix_sort(std::vector<Pair>& pairs, std::vector<Pair>& scratch) {
   }
   const int bits_b = std::bit_width(any_b);
   const int bits = std::bit_width(any_a) + bits_b;
-  if (bits == 0) return;
-  const int passes = (bits + kMaxDigitBits - 1) / kMaxDigitBits;
-  const int digit = (bits + passes - 1) / passes;
-  const std::uint64_t mask = (std::uint64_t{1} << digit) - 1;
-  auto key = [bits_b](const Pair& p) { return (std::uint64_t{p.a} << bits_b) | p.b; };
-  std::vector<std::size_t> count(static_cast<std::size_t>(passes) << digit, 0);
-  for (const Pair& p : pairs) {
-    const std::uint64_t k = key(p);
-    for (int q = 0; q < passes; ++q) ++count[(static_cast<std::size_t>(q) << digit) + ((k >> (q * digit)) & mask)];
-  }
   scratch.resize(n);
-  Pair* src = pairs.data();
-  Pair* dst = scratch.data();
-  for (int q = 0; q < passes; ++q) {
-    std::size_t* c = count.data() + (static_cast<std::size_t>(q) << digit);
-    const int shift = q * digit;
-    if (c[(key(src[0]) >> shift) & mask] == n) continue;
-    std::size_t sum = 0;
-    for (std::size_t d = 0; d <= mask; ++d) {
-      const std::size_t t = c[d];
-      c[d] = sum;
-      sum += t;
-    }
-    for (std::size_t i = 0; i < n; ++i) dst[c[(key(src[i]) >> shift) & mask]++] = src[i];
-    std::swap(src, dst);
-  }
-  if (src != pairs.data()) std::copy(src, src + n, pairs.data());
+  const Pair* sorted = hbp::radix_sort<11, 6>(pairs.data(), scratch.data(), n, bits, [bits_b](const Pair& p) {
+    return (std::uint64_t{p.a} << bits_b) | p.b;
+  });
+  if (sorted != pairs.data()) std::copy(sorted, sorted + n, pairs.data());
 }
 
 std::string list(const std::vector<Pair>& v, std::size_t max_listed) {

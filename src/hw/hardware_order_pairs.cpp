@@ -2,39 +2,17 @@
 
 #include <algorithm>
 
+#include "hbp/brute_force.hpp"
 #include "hbp/hw/pair_limit_check.hpp"
 
 namespace hbp::hw {
-namespace {
-
-// Six comparisons combined with & rather than && so the compiler emits
-// branch-free code; only the (rare) hit branches.
-struct BoxLanes {
-  const float* lo[3];
-  const float* hi[3];
-  explicit BoxLanes(const BoxArray& b)
-      : lo{b.min(0), b.min(1), b.min(2)}, hi{b.max(0), b.max(1), b.max(2)} {}
-  bool overlap(std::uint32_t i, std::uint32_t j) const {
-    return (hi[0][i] >= lo[0][j]) & (lo[0][i] <= hi[0][j]) & (hi[1][i] >= lo[1][j]) &
-           (lo[1][i] <= hi[1][j]) & (hi[2][i] >= lo[2][j]) & (lo[2][i] <= hi[2][j]);
-  }
-};
-
-}  // namespace
 
 // The pair limit is checked once per anchor row (area-efficient) or step
 // (many-object), so the inner loops stay branch-free: a call stops at most
 // one row (n pairs) or one step (m pairs) past the limit.
 void area_efficient_order_pairs(const BoxArray& boxes, std::vector<Pair>& out, std::uint64_t max_pairs) {
-  const BoxLanes lanes(boxes);
-  const auto n = static_cast<std::uint32_t>(boxes.size());
-  const std::size_t base = out.size();
-  for (std::uint32_t i = 0; i + 1 < n; ++i) {
-    for (std::uint32_t j = i + 1; j < n; ++j) {
-      if (lanes.overlap(i, j)) out.push_back({i, j});
-    }
-    check_pair_limit(out.size() - base, max_pairs, n);
-  }
+  // The hardware's anchor/partner order is the oracle's row order.
+  append_brute_force_pairs(boxes, out, max_pairs);
 }
 
 void many_object_order_pairs(const BoxArray& boxes, std::uint32_t m, std::vector<Pair>& out,

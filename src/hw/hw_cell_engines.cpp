@@ -1,6 +1,7 @@
 #include "hbp/hw/hw_cell_engines.hpp"
 
 #include <algorithm>
+#include <mutex>
 #include <cstdint>
 #include <string>
 
@@ -95,6 +96,27 @@ std::unique_ptr<CellEngine> make_area_efficient_engine(const ModelConfig& cfg, b
 
 std::unique_ptr<CellEngine> make_many_object_engine(const ModelConfig& cfg, bool simulate) {
   return std::make_unique<HardwareModelEngine>(Design::ManyObject, cfg, simulate);
+}
+
+namespace {
+std::unique_ptr<CellEngine> make_ae() { return make_area_efficient_engine({}, false); }
+std::unique_ptr<CellEngine> make_mo() { return make_many_object_engine({}, false); }
+std::unique_ptr<CellEngine> make_ae_sim() { return make_area_efficient_engine({}, true); }
+std::unique_ptr<CellEngine> make_mo_sim() { return make_many_object_engine({}, true); }
+}  // namespace
+
+void register_cell_engines() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    register_cell_engine("ae", &make_ae,
+                         "area-efficient model, analytic cycles; on the hybrid path the software "
+                         "engine's sweep finds the pairs");
+    register_cell_engine("mo", &make_mo,
+                         "many-object model, analytic cycles; on the hybrid path the software "
+                         "engine's sweep finds the pairs");
+    register_cell_engine("ae-sim", &make_ae_sim, "area-efficient model, every cycle simulated");
+    register_cell_engine("mo-sim", &make_mo_sim, "many-object model, every cycle simulated");
+  });
 }
 
 }  // namespace hbp::hw

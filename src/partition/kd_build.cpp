@@ -11,6 +11,7 @@
 #include <string>
 
 #include "hbp/error.hpp"
+#include "support/radix_sort.hpp"
 
 namespace hbp::kd {
 
@@ -33,45 +34,6 @@ constexpr double kCostSplitGain = 0.95;
 constexpr double kWeightedDuplicationLimit = 1.05;
 
 float centre(const CellEntry& e, int a) { return 0.5f * e.min[a] + 0.5f * e.max[a]; }
-
-// Order-preserving map from float to unsigned; -0 is folded onto +0 first so
-// equal values tie and fall back to the id, as entry_less does.
-std::uint32_t float_key(float f) {
-  const auto u = std::bit_cast<std::uint32_t>(f + 0.0f);
-  return (u & 0x80000000u) ? ~u : (u | 0x80000000u);
-}
-
-// Sorts (key << 32 | id) words by key; LSD radix on the key's bytes, skipping
-// bytes in which no key differs. Keys with the id are unique, so the order is
-// fully determined.
-void radix_sort_by_key(RawBuffer<std::uint64_t>& a, RawBuffer<std::uint64_t>& b) {
-  const std::size_t n = a.size();
-  b.resize(n);
-  std::uint32_t all_and = 0xFFFFFFFFu, all_or = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    const auto k = static_cast<std::uint32_t>(a[i] >> 32);
-    all_and &= k;
-    all_or |= k;
-  }
-  const std::uint32_t differ = all_and ^ all_or;
-  std::uint64_t* src = a.data();
-  std::uint64_t* dst = b.data();
-  for (int byte = 0; byte < 4; ++byte) {
-    if (((differ >> (8 * byte)) & 0xFF) == 0) continue;
-    const int shift = 32 + 8 * byte;
-    std::size_t count[256] = {};
-    for (std::size_t i = 0; i < n; ++i) ++count[(src[i] >> shift) & 0xFF];
-    std::size_t sum = 0;
-    for (auto& c : count) {
-      const std::size_t t = c;
-      c = sum;
-      sum += t;
-    }
-    for (std::size_t i = 0; i < n; ++i) dst[count[(src[i] >> shift) & 0xFF]++] = src[i];
-    std::swap(src, dst);
-  }
-  if (src != a.data()) a.swap(b);
-}
 
 }  // namespace
 
@@ -227,9 +189,10 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
   RawBuffer<std::uint64_t>& keys_scratch = buffers.keys_scratch;
   keys.resize(n);
   tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, n, 1u << 16), [&](const auto& r) {
-    for (std::uint32_t i = r.begin(); i != r.end(); ++i) keys[i] = (std::uint64_t{float_key(src[0][i])} << 32) | i;
+    for (std::uint32_t i = r.begin(); i != r.end(); ++i) keys[i] = (std::uint64_t{float_order_key(src[0][i])} << 32) | i;
   });
-  radix_sort_by_key(keys, keys_scratch);
+  keys_scratch.resize(n);
+  if (radix_sort_keyed_indices(keys.data(), keys_scratch.data(), n) != keys.data()) keys.swap(keys_scratch);
   RawBuffer<CellEntry>& a = *buffers.a;
   RawBuffer<CellEntry>& b = *buffers.b;
   a.resize(n);

@@ -2,7 +2,7 @@
 
 #include <algorithm>
 
-#include "partition/cell_bvh.hpp"
+#include "hierarchy/cell_bvh.hpp"
 
 namespace hbp::detail {
 

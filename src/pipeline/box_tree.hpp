@@ -4,7 +4,7 @@
 // (built when statics change) and one over its moving objects (built lazily
 // for queries, refitted while the membership does not change).
 //
-// Built by the binned-SAH builder of partition/cell_bvh (one box per leaf),
+// Built by the binned-SAH builder of hierarchy/cell_bvh (one box per leaf),
 // then collapsed: every subtree of at most kLeafSize boxes becomes one leaf
 // whose boxes are stored contiguously (Item), so a query touches a quarter of
 // the nodes and reads the boxes it tests from one cache-friendly run.

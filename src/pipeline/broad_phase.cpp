@@ -29,6 +29,7 @@
 #include "pipeline/box_tree.hpp"
 #include "pipeline/handle_table.hpp"
 #include "pipeline/pair_events.hpp"
+#include "support/clock.hpp"
 
 namespace hbp {
 
@@ -417,12 +418,12 @@ struct BroadPhase::Impl {
                          }
                        }
                      });
-    detail::sort_pair_list(static_pairs, sort_scratch);
+    sort_pairs(static_pairs, sort_scratch);
     fit(sort_scratch);
   }
 
   const BroadPhaseUpdate& update() {
-    const auto start = std::chrono::steady_clock::now();
+    const auto start = SteadyClock::now();
     arena.execute([&] {
       sync_statics();
       sync_moving();
@@ -453,7 +454,7 @@ struct BroadPhase::Impl {
     stats.moved = moved;
     stats.static_changes = static_changes;
     moved = static_changes = 0;
-    stats.wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    stats.wall_ms = ms_since(start);
     return result;
   }
 

@@ -1,22 +1,15 @@
 #include "hbp/collision_pipeline.hpp"
 
-#include <time.h>
-
 #include <atomic>
 #include <chrono>
 #include <mutex>
 
 #include "hbp/error.hpp"
+#include "support/clock.hpp"
 
 namespace hbp {
 
 namespace {
-
-double thread_cpu_ms() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
-}
 
 }  // namespace
 
@@ -33,7 +26,7 @@ const std::vector<Contact>& CollisionPipeline::update(const BoxArray& boxes, con
   contacts_.clear();
   std::atomic<std::uint64_t> narrow_us{0};
   std::mutex grow;
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = SteadyClock::now();
   broad_.update(
       boxes,
       [&](std::uint32_t cell, const Pair*, std::size_t) {
@@ -65,7 +58,7 @@ const std::vector<Contact>& CollisionPipeline::update(const BoxArray& boxes, con
   learned_lists_.clear();
   for (const auto& l : cell_learned_) learned_lists_.push_back(&l);
   cache_.commit(learned_lists_, shapes.size());
-  stats_.wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  stats_.wall_ms = ms_since(t0);
   stats_.candidates = broad_.stats().pairs;
   stats_.contacts = contacts_.size();
   stats_.narrow_cpu_ms = static_cast<double>(narrow_us.load()) * 1e-3;

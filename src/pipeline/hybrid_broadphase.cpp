@@ -18,13 +18,12 @@
 #include "hbp/kd_partition.hpp"
 #include "hbp/software_engine.hpp"
 #include "pipeline/ordered_cell.hpp"
+#include "support/clock.hpp"
 
 namespace hbp {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
 
 // Frames whose cells hold fewer entries than this run the engine phase on the
 // calling thread: below it, handing cells to workers costs more than the
@@ -448,21 +447,21 @@ struct HybridBroadPhase::Impl {
   void run_cells(const PairSink& sink, const PairSink& consumer, double& engine_ms, double& merge_ms) {
     const std::uint32_t cells = partition->cell_count();
     outcomes.assign(cells, CellOutcome{});
-    const auto t_engine = Clock::now();
+    const auto t_engine = SteadyClock::now();
     // Each path's buffers are emptied when the other path runs, so the
     // release at the end of the frame frees what this frame did not use.
     for (Worker& w : workers) w.stored.clear();
     if (sink || consumer) {
       stream_cells(sink, consumer);
       engine_ms = ms_since(t_engine);
-      const auto t_merge = Clock::now();
+      const auto t_merge = SteadyClock::now();
       gather_streamed();
       merge_ms = ms_since(t_merge);
     } else {
       cell_pairs.clear();
       for_each_cell(cells, [&](std::uint32_t c) { first_pass(c); });
       engine_ms = ms_since(t_engine);
-      const auto t_merge = Clock::now();
+      const auto t_merge = SteadyClock::now();
       size_output(cells);
       for_each_cell(cells, [&](std::uint32_t c) { second_pass(c); });
       merge_ms = ms_since(t_merge);
@@ -484,20 +483,20 @@ struct HybridBroadPhase::Impl {
 
   void run(const BoxArray* boxes, const KdPartition* shared, const PairSink& sink, const PairSink& consumer) {
     running_pairs = 0;
-    const auto t0 = Clock::now();
+    const auto t0 = SteadyClock::now();
     double partition_ms = 0, engine_ms = 0, merge_ms = 0;
     const bool one_cell = !shared && is_one_cell_frame(boxes);
     if (one_cell) {
-      const auto t_engine = Clock::now();
+      const auto t_engine = SteadyClock::now();
       run_one_cell(*boxes, sink, consumer);
       engine_ms = ms_since(t_engine);
     } else {
-      const auto t_partition = Clock::now();
+      const auto t_partition = SteadyClock::now();
       partition_frame(boxes, shared);
       partition_ms = ms_since(t_partition);
       run_cells(sink, consumer, engine_ms, merge_ms);
     }
-    const auto t_sort = Clock::now();
+    const auto t_sort = SteadyClock::now();
     sort_output();
     const double sort_ms = ms_since(t_sort);
     release_worker_buffers();

@@ -4,7 +4,7 @@
 #include <cstring>
 #include <numeric>
 
-#include "partition/min_x_order.hpp"
+#include "engines/min_x_order.hpp"
 
 namespace hbp {
 

@@ -26,37 +26,7 @@ void merge_range(const Pair* p, const Pair* p_end, const Pair* c, const Pair* c_
   created.insert(created.end(), c, c_end);
 }
 
-std::uint64_t key(const Pair& p) { return (std::uint64_t(p.a) << 32) | p.b; }
-
 }  // namespace
-
-void sort_pair_list(std::vector<Pair>& pairs, std::vector<Pair>& scratch) {
-  const std::size_t n = pairs.size();
-  if (n < 64) {
-    std::sort(pairs.begin(), pairs.end());
-    return;
-  }
-  std::uint32_t count[8][256] = {};
-  for (const Pair& p : pairs) {
-    const std::uint64_t k = key(p);
-    for (int d = 0; d < 8; ++d) ++count[d][(k >> (8 * d)) & 0xFF];
-  }
-  scratch.resize(n);
-  Pair* src = pairs.data();
-  Pair* dst = scratch.data();
-  for (int d = 0; d < 8; ++d) {
-    if (count[d][(key(src[0]) >> (8 * d)) & 0xFF] == n) continue;  // every pair has this digit
-    std::uint32_t sum = 0;
-    for (std::uint32_t& c : count[d]) {
-      const std::uint32_t t = c;
-      c = sum;
-      sum += t;
-    }
-    for (std::size_t i = 0; i < n; ++i) dst[count[d][(key(src[i]) >> (8 * d)) & 0xFF]++] = src[i];
-    std::swap(src, dst);
-  }
-  if (src != pairs.data()) pairs.swap(scratch);
-}
 
 void diff_sorted_pairs(const std::vector<Pair>& previous, const std::vector<Pair>& current,
                        std::vector<Pair>& created, std::vector<Pair>& removed) {

@@ -11,6 +11,7 @@
 
 #include "hbp/error.hpp"
 #include "hbp/raytrace/traversal.hpp"
+#include "support/clock.hpp"
 
 namespace hbp {
 
@@ -56,7 +57,7 @@ Image render(const TwoLevelHierarchy& h, std::span<const ShapeGeometry> geometry
     throw InvalidInput("render: width, height, samples and tile must be positive");
   if (!o.highlight.empty() && o.highlight.size() != geometry.size())
     throw InvalidInput("render: highlight must have one flag per object");
-  const auto start = std::chrono::steady_clock::now();
+  const auto start = SteadyClock::now();
   const Camera camera = frame_cube(cube, static_cast<double>(o.width) / o.height);
   const PointLight light = light_for_cube(cube);
   double scale = 0;
@@ -171,7 +172,7 @@ Image render(const TwoLevelHierarchy& h, std::span<const ShapeGeometry> geometry
     stats->primary_rays = primary.load();
     stats->shadow_rays = shadow.load();
     stats->hits = hits.load();
-    stats->ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    stats->ms = ms_since(start);
   }
   return img;
 }

@@ -7,7 +7,7 @@
 #include <cmath>
 
 #include "hbp/error.hpp"
-#include "scene/random.hpp"
+#include "support/random.hpp"
 
 namespace hbp {
 

@@ -3,6 +3,7 @@
 #include <utility>
 
 #include "command_registry.hpp"
+#include "hbp/hw/hw_cell_engines.hpp"
 
 namespace hbp::cli {
 
@@ -12,6 +13,7 @@ std::vector<CommandSetup>& command_registry() {
 }
 
 std::unique_ptr<CLI::App> make_app() {
+  hbp::hw::register_cell_engines();  // ae, mo, ae-sim, mo-sim: the hardware models as cell engines
   auto app =
       std::make_unique<CLI::App>("hbp: hybrid fixed-function / processor broad-phase collision detection");
   app->require_subcommand(1);

@@ -7,7 +7,7 @@
 #include <thread>
 
 #ifdef HBP_HAVE_BASELINES
-#include "baselines/baseline.hpp"
+#include "hbp/baselines/baseline.hpp"
 #endif
 #if __has_include("hbp/software_engine.hpp")
 #include "hbp/software_engine.hpp"

@@ -10,8 +10,6 @@
 // docs/narrow-phase.md: |distance| <= 1e-4 m + 2e-6 x (sum of bounding radii)).
 #include "bench_narrow_bullet.hpp"
 
-#include <time.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -23,12 +21,14 @@
 #include "hbp/narrow/libccd_solver.hpp"
 #include "hbp/narrow/narrow_cache.hpp"
 #include "hbp/narrow/narrow_phase.hpp"
-#include "hbp/narrow/random_pairs.hpp"
+#include "hbp/benchdata/random_pairs.hpp"
 #include "hbp/scenario.hpp"
+#include "support/clock.hpp"
+#include "support/percentile.hpp"
 
 #ifdef HBP_HAVE_BASELINES
-#include "baselines/bullet_narrow_phase.hpp"
-#include "baselines/bullet_shape_pair_test.hpp"
+#include "hbp/baselines/bullet_narrow_phase.hpp"
+#include "hbp/baselines/bullet_shape_pair_test.hpp"
 #endif
 
 namespace hbp::cli {
@@ -42,19 +42,6 @@ struct NarrowBenchArgs {
   std::uint64_t random_pairs = 0;
   bool no_bullet = false;
 };
-
-double thread_cpu_ms() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
-}
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const std::size_t m = v.size() / 2;
-  return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
-}
 
 double band(const Shape& a, const Shape& b) {
   const double ra = 0.5 * std::sqrt(a.size.x * a.size.x + a.size.y * a.size.y + a.size.z * a.size.z);

@@ -7,15 +7,22 @@
 #include <fstream>
 #include <limits>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
 
-#include "bench_paper_table4.hpp"
+#include "hbp/benchdata/paper_table4.hpp"
 #include "hbp/error.hpp"
 
 namespace hbp::cli {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+using hw::PaperTable4Row;
+using hw::paper_table4_row;
+
+// A blank entry of the paper's table as NaN (printed blank, skipped by the minima).
+double or_nan(const std::optional<double>& v) { return v ? *v : kNaN; }
 
 std::string fmt(const char* f, double v) {
   char buf[64];
@@ -160,9 +167,13 @@ void table_head(std::ostringstream& o, const std::vector<std::string>& cells) {
   o << "\n";
 }
 
-double paper_ae_best(const PaperTable4Row& p) { return min_ignoring_nan({p.ae_none, p.ae_1024}); }
+double paper_ae_best(const PaperTable4Row& p) {
+  return min_ignoring_nan({or_nan(p.area_efficient_none), or_nan(p.area_efficient_1024)});
+}
 double paper_mo_best(const PaperTable4Row& p) {
-  return min_ignoring_nan({p.mo_none, p.mo_1024, p.mo_2048, p.mo_4096, p.mo_8192, p.mo_16384});
+  return min_ignoring_nan({or_nan(p.many_object_none), or_nan(p.many_object_cells[0]), or_nan(p.many_object_cells[1]),
+                           or_nan(p.many_object_cells[2]), or_nan(p.many_object_cells[3]),
+                           or_nan(p.many_object_cells[4])});
 }
 double ours_ae_best(const BenchResult& r, const RowResult& row) {
   return min_ignoring_nan({median_of(r, row, "ae-none"), median_of(r, row, "ae-1024")});
@@ -352,10 +363,10 @@ std::string format_tables(const BenchResult& r, const BenchHeader& h) {
       const PaperTable4Row* p = paper_table4_row(row.n);
       const double d = median_of(r, row, "bullet-dbvt");
       const double ae = ours_ae_best(r, row), mo = ours_mo_best(r, row), sw = median_of(r, row, "sw");
-      table_row(o, {std::to_string(row.n), fmt_ms(d), p ? fmt_ms(p->cpu) : "", fmt_ms(ae),
+      table_row(o, {std::to_string(row.n), fmt_ms(d), p ? fmt_ms(p->cpu_ms) : "", fmt_ms(ae),
                     p ? fmt_ms(paper_ae_best(*p)) : "", fmt_ms(mo), p ? fmt_ms(paper_mo_best(*p)) : "",
-                    fmt_factor(d / ae), p ? fmt_factor(p->cpu / paper_ae_best(*p)) : "", fmt_ms(sw),
-                    fmt_factor(d / sw), p ? fmt_ms(p->gpu) : ""});
+                    fmt_factor(d / ae), p ? fmt_factor(p->cpu_ms / paper_ae_best(*p)) : "", fmt_ms(sw),
+                    fmt_factor(d / sw), p ? fmt_ms(p->gpu_ms) : ""});
     }
     o << "\nThe paper's CPU is a 2 GHz quad-core AMD Opteron 2350 (2007) running Bullet's DBVT; its modelled "
          "times come from FPGA throughput scaled to 500 MHz. \"here\" is this run.\n";
@@ -365,9 +376,11 @@ std::string format_tables(const BenchResult& r, const BenchHeader& h) {
     for (const auto& row : r.rows) {
       const PaperTable4Row* p = paper_table4_row(row.n);
       if (!p) continue;
-      table_row(o, {std::to_string(p->n), fmt_ms(p->cpu), fmt_ms(p->gpu), fmt_ms(p->ae_none), fmt_ms(p->ae_1024),
-                    fmt_ms(p->mo_none), fmt_ms(p->mo_1024), fmt_ms(p->mo_2048), fmt_ms(p->mo_4096),
-                    fmt_ms(p->mo_8192), fmt_ms(p->mo_16384)});
+      table_row(o, {std::to_string(p->n), fmt_ms(p->cpu_ms), fmt_ms(p->gpu_ms), fmt_ms(or_nan(p->area_efficient_none)),
+                    fmt_ms(or_nan(p->area_efficient_1024)), fmt_ms(or_nan(p->many_object_none)),
+                    fmt_ms(or_nan(p->many_object_cells[0])), fmt_ms(or_nan(p->many_object_cells[1])),
+                    fmt_ms(or_nan(p->many_object_cells[2])), fmt_ms(or_nan(p->many_object_cells[3])),
+                    fmt_ms(or_nan(p->many_object_cells[4]))});
     }
   }
 
@@ -471,11 +484,16 @@ std::vector<std::string> write_report_files(const std::string& dir, const BenchR
       }
       if (const PaperTable4Row* p = paper_table4_row(row.n); p && h.paper) {
         auto num = [](double v) { return std::isnan(v) ? nlohmann::json(nullptr) : nlohmann::json(v); };
-        jr["paper_table4"] = {{"cpu", num(p->cpu)},         {"gpu", num(p->gpu)},
-                              {"ae_none", num(p->ae_none)}, {"ae_1024", num(p->ae_1024)},
-                              {"mo_none", num(p->mo_none)}, {"mo_1024", num(p->mo_1024)},
-                              {"mo_2048", num(p->mo_2048)}, {"mo_4096", num(p->mo_4096)},
-                              {"mo_8192", num(p->mo_8192)}, {"mo_16384", num(p->mo_16384)}};
+        jr["paper_table4"] = {{"cpu", num(p->cpu_ms)},
+                              {"gpu", num(p->gpu_ms)},
+                              {"ae_none", num(or_nan(p->area_efficient_none))},
+                              {"ae_1024", num(or_nan(p->area_efficient_1024))},
+                              {"mo_none", num(or_nan(p->many_object_none))},
+                              {"mo_1024", num(or_nan(p->many_object_cells[0]))},
+                              {"mo_2048", num(or_nan(p->many_object_cells[1]))},
+                              {"mo_4096", num(or_nan(p->many_object_cells[2]))},
+                              {"mo_8192", num(or_nan(p->many_object_cells[3]))},
+                              {"mo_16384", num(or_nan(p->many_object_cells[4]))}};
       }
       j["rows"].push_back(jr);
     }
@@ -528,7 +546,7 @@ std::vector<std::string> write_report_files(const std::string& dir, const BenchR
       }
       if (h.paper) {
         const PaperTable4Row* p = paper_table4_row(row.n);
-        f << " " << (p ? fmt("%.9g", p->cpu) : "?") << " " << (p ? fmt("%.9g", paper_ae_best(*p)) : "?");
+        f << " " << (p ? fmt("%.9g", p->cpu_ms) : "?") << " " << (p ? fmt("%.9g", paper_ae_best(*p)) : "?");
       }
       for (std::size_t i : projected) {
         const CellResult& c = row.cells[i];
@@ -559,8 +577,8 @@ std::vector<std::string> write_report_files(const std::string& dir, const BenchR
       f << " " << factor(ours_ae_best(r, row)) << " " << factor(ours_mo_best(r, row));
       if (h.paper) {
         const PaperTable4Row* p = paper_table4_row(row.n);
-        f << " " << (p ? fmt("%.9g", p->cpu / paper_ae_best(*p)) : "?") << " "
-          << (p ? fmt("%.9g", p->gpu / paper_ae_best(*p)) : "?");
+        f << " " << (p ? fmt("%.9g", p->cpu_ms / paper_ae_best(*p)) : "?") << " "
+          << (p ? fmt("%.9g", p->gpu_ms / paper_ae_best(*p)) : "?");
       }
       f << "\n";
     }

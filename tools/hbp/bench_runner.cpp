@@ -8,30 +8,12 @@
 
 #include "bench_memory.hpp"
 #include "hbp/error.hpp"
+#include "support/clock.hpp"
+#include "support/percentile.hpp"
 
 namespace hbp::cli {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
-double seconds_since(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const std::size_t m = v.size() / 2;
-  return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
-}
-
-// Nearest-rank percentile (q in (0, 1]).
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const auto rank = static_cast<std::size_t>(std::ceil(q * static_cast<double>(v.size())));
-  return v[std::min(v.size(), std::max<std::size_t>(rank, 1)) - 1];
-}
 
 // Growth of a frame's cost with n when only one earlier row is known.
 double default_frame_exponent(const std::string& key) { return key == "brute" ? 2.0 : 1.3; }
@@ -188,7 +170,7 @@ void BenchRunner::run_row(FrameSource& source) {
       memory[i].reset();
       trim_heap();
       memory[i].before();
-      const auto t0 = Clock::now();
+      const auto t0 = SteadyClock::now();
       try {
         systems_[i]->setup(boxes);
       } catch (const std::exception& e) {

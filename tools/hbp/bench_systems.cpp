@@ -1,7 +1,5 @@
 #include "bench_systems.hpp"
 
-#include <time.h>
-
 #include <chrono>
 #include <cstdio>
 #include <utility>
@@ -12,35 +10,29 @@
 #include "hbp/hybrid_broadphase.hpp"
 
 #ifdef HBP_HAVE_BASELINES
-#include "baselines/baseline.hpp"
+#include "hbp/baselines/baseline.hpp"
 #endif
+#include "support/clock.hpp"
 
 namespace hbp::cli {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
-double thread_cpu_ms() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
-}
 
 // Wall and calling-thread CPU time of one frame.
 class Stopwatch {
  public:
-  Stopwatch() : wall0_(Clock::now()), cpu0_(thread_cpu_ms()) {}
+  Stopwatch() : wall0_(SteadyClock::now()), cpu0_(thread_cpu_ms()) {}
   // reported: the chosen clock's reading.
   FrameTime stop(BenchClock clock) const {
     FrameTime t;
     t.cpu_ms = thread_cpu_ms() - cpu0_;
-    t.wall_ms = std::chrono::duration<double, std::milli>(Clock::now() - wall0_).count();
+    t.wall_ms = ms_since(wall0_);
     t.reported_ms = clock == BenchClock::Cpu ? t.cpu_ms : t.wall_ms;
     return t;
   }
 
  private:
-  Clock::time_point wall0_;
+  SteadyClock::time_point wall0_;
   double cpu0_;
 };
 

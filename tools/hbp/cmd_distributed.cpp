@@ -18,6 +18,7 @@
 #include "hbp/scenario.hpp"
 #include "hbp/scene_file.hpp"
 #include "hbp/software_engine.hpp"
+#include "support/percentile.hpp"
 #endif
 
 namespace hbp::cli {
@@ -66,13 +67,6 @@ class MpiSession {
   bool owner_ = false;
   int rank_ = 0, size_ = 1;
 };
-
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const auto idx = static_cast<std::size_t>(q * static_cast<double>(v.size() - 1) + 0.5);
-  return v[std::min(idx, v.size() - 1)];
-}
 
 // Ids [r * n / P, (r + 1) * n / P): who supplies what on the first frame.
 std::vector<std::uint32_t> id_block(std::size_t n, int rank, int size) {

@@ -17,6 +17,7 @@
 #include "hbp/error.hpp"
 #include "hbp/hybrid_broadphase.hpp"
 #include "hbp/scene_file.hpp"
+#include "support/clock.hpp"
 
 namespace hbp::cli {
 
@@ -64,7 +65,7 @@ void run_pairs(const PairsOptions& o) {
   BoxArray boxes;
   reader.read_frame(o.frame, boxes);  // validates; names file, frame, object
 
-  const auto start = std::chrono::steady_clock::now();
+  const auto start = SteadyClock::now();
   std::vector<Pair> pairs;
   if (o.distributed) {  // over MPI ranks; rank 0 gathers and writes
     if (!distributed_pairs(boxes, o.engine, o.cell_limit, o.threads, pairs)) return;
@@ -79,7 +80,7 @@ void run_pairs(const PairsOptions& o) {
     HybridBroadPhase broadphase(options);
     pairs = broadphase.update(boxes);
   }
-  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  const double ms = ms_since(start);
   // The output promises sorted canonical pairs whatever the engine did.
   if (!std::is_sorted(pairs.begin(), pairs.end())) sort_pairs(pairs);
 

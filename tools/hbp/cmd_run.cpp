@@ -23,6 +23,8 @@
 #include "hbp/scenario.hpp"
 #include "hbp/scene_file.hpp"
 #include "hbp/software_engine.hpp"
+#include "support/clock.hpp"
+#include "support/percentile.hpp"
 
 namespace hbp::cli {
 namespace {
@@ -42,13 +44,6 @@ struct RunArgs {
   bool cost_splits = false;
   bool distributed = false;
 };
-
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const auto idx = static_cast<std::size_t>(q * static_cast<double>(v.size() - 1) + 0.5);
-  return v[std::min(idx, v.size() - 1)];
-}
 
 // Frames come from a scenario or a scene file, behind one small interface.
 class FrameSource {
@@ -104,12 +99,12 @@ NarrowFrame run_narrow(CollisionPipeline& cp, HybridBroadPhase& reference, const
   reference.update(boxes);
   f.sequential_broad_ms = reference.stats().wall_ms;
   const auto& pairs = reference.pairs();
-  const auto t = std::chrono::steady_clock::now();
+  const auto t = SteadyClock::now();
   tbb::enumerable_thread_specific<std::vector<Contact>> outs;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pairs.size(), 256), [&](const auto& r) {
     narrow.process(shapes, pairs.data() + r.begin(), r.size(), outs.local());
   });
-  f.sequential_narrow_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t).count();
+  f.sequential_narrow_ms = ms_since(t);
   std::uint64_t hits = 0;
   for (const auto& o : outs) hits += o.size();
   if (hits != f.contacts)

@@ -12,6 +12,7 @@
 #include "hbp/scenario.hpp"
 #include "hbp/scene_file.hpp"
 #include "progress.hpp"
+#include "support/clock.hpp"
 
 namespace hbp::cli {
 
@@ -61,7 +62,7 @@ void run_gen(GenOptions& o) {
                            " seed=" + std::to_string(p.seed)
                      : o.name;
 
-  const auto start = std::chrono::steady_clock::now();
+  const auto start = SteadyClock::now();
   try {
     SceneWriter writer(o.out, format, p.n, scenario.world_bounds(), name, "sphere/cuboid/cylinder/cone");
     ProgressBar bar("writing " + o.out, count, "frames");
@@ -81,7 +82,7 @@ void run_gen(GenOptions& o) {
     std::filesystem::remove(o.out, ignored);
     throw;
   }
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double seconds = seconds_since(start);
   const double objects = static_cast<double>(p.n) * count;
   std::printf("wrote %s: %s, %s, %u objects x %u frames, %s in %.2f s (%.3g objects/s)\n", o.out.c_str(),
               scene_format_name(format), name.c_str(), p.n, count,

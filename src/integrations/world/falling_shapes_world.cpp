@@ -7,6 +7,8 @@
 #include <cmath>
 #include <random>
 
+#include "support/clock.hpp"
+
 namespace hbp::bullet::world {
 
 // Times the two collision-detection stages that belong to the broad phase.
@@ -14,18 +16,18 @@ class FallingShapesWorld::TimedWorld final : public btDiscreteDynamicsWorld {
  public:
   using btDiscreteDynamicsWorld::btDiscreteDynamicsWorld;
   void updateAabbs() override {
-    const auto t = std::chrono::steady_clock::now();
+    const auto t = SteadyClock::now();
     const double c = cpu_ms();
     btDiscreteDynamicsWorld::updateAabbs();
     timing.update_aabbs_cpu_ms = cpu_ms() - c;
-    timing.update_aabbs_ms = since(t);
+    timing.update_aabbs_ms = ms_since(t);
   }
   void computeOverlappingPairs() override {
-    const auto t = std::chrono::steady_clock::now();
+    const auto t = SteadyClock::now();
     const double c = cpu_ms();
     btDiscreteDynamicsWorld::computeOverlappingPairs();
     timing.pairs_cpu_ms = cpu_ms() - c;
-    timing.pairs_ms = since(t);
+    timing.pairs_ms = ms_since(t);
   }
   BroadphaseTiming timing;
 
@@ -34,9 +36,6 @@ class FallingShapesWorld::TimedWorld final : public btDiscreteDynamicsWorld {
     timespec ts;
     clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
     return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
-  }
-  static double since(std::chrono::steady_clock::time_point t) {
-    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t).count();
   }
 };
 

@@ -4,14 +4,15 @@
 #include <cstring>
 
 #include "hbp/bullet/hybrid_broadphase.hpp"
+#include "support/clock.hpp"
 
 namespace hbp::bullet::world {
 namespace {
 
 double timed_step(FallingShapesWorld& world) {
-  const auto t = std::chrono::steady_clock::now();
+  const auto t = SteadyClock::now();
   world.step();
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t).count();
+  return ms_since(t);
 }
 
 bool same_bits(const btVector3& a, const btVector3& b) {

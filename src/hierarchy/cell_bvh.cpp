@@ -1,4 +1,4 @@
-#include "partition/cell_bvh.hpp"
+#include "hierarchy/cell_bvh.hpp"
 
 #include <tbb/parallel_invoke.h>
 

@@ -14,14 +14,13 @@
 #include <unordered_map>
 
 #include "hbp/error.hpp"
-#include "partition/cell_bvh.hpp"
+#include "hierarchy/cell_bvh.hpp"
+#include "support/clock.hpp"
 
 namespace hbp {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
 
 struct CellTree {
   std::vector<BvhNode> nodes;
@@ -138,12 +137,12 @@ std::span<const BvhNode> TwoLevelHierarchy::cell_bvh(std::uint32_t c) const { re
 float TwoLevelHierarchy::cell_sah_cost(std::uint32_t c) const { return trees_->trees[c].cost; }
 
 void TwoLevelHierarchy::update(const BoxArray& boxes) {
-  const auto t0 = Clock::now();
+  const auto t0 = SteadyClock::now();
   stats_ = {};
   partition_.update(boxes);
   stats_.partition_ms = ms_since(t0);
 
-  const auto t1 = Clock::now();
+  const auto t1 = SteadyClock::now();
   // Scene bounds.
   struct B {
     float lo[3], hi[3];
@@ -237,7 +236,7 @@ void TwoLevelHierarchy::update(const BoxArray& boxes) {
   }
   stats_.bvh_ms = ms_since(t1);
 
-  const auto t2 = Clock::now();
+  const auto t2 = SteadyClock::now();
   update_top_level();
   stats_.top_ms = ms_since(t2);
   stats_.total_ms = ms_since(t0);

@@ -1,4 +1,4 @@
-#include "hbp/hw/paper_table4.hpp"
+#include "hbp/benchdata/paper_table4.hpp"
 
 namespace hbp::hw {
 namespace {
@@ -32,5 +32,11 @@ const PaperTable4Row kRows[] = {
 }  // namespace
 
 std::span<const PaperTable4Row> paper_table4() { return kRows; }
+
+const PaperTable4Row* paper_table4_row(std::uint32_t n) {
+  for (const PaperTable4Row& r : kRows)
+    if (r.n == n) return &r;
+  return nullptr;
+}
 
 }  // namespace hbp::hw

@@ -1,4 +1,4 @@
-#include "hbp/hw/paper_tables.hpp"
+#include "hbp/benchdata/paper_tables.hpp"
 
 namespace hbp::hw {
 namespace {

@@ -1,10 +1,10 @@
-#include "hbp/narrow/random_pairs.hpp"
+#include "hbp/benchdata/random_pairs.hpp"
 
 #include <cmath>
 
 #include "hbp/narrow/convex.hpp"
 #include "hbp/narrow/intersect.hpp"
-#include "scene/random.hpp"
+#include "support/random.hpp"
 
 namespace hbp {
 

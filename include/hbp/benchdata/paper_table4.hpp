@@ -2,7 +2,7 @@
 // Table 4 of the paper: measured execution times in milliseconds (m = 16,
 // 500 MHz) for both microarchitectures without partitioning ("None") and with
 // each cell size the paper tried. Absent entries are std::nullopt. Kept as
-// data so `hbp hw table` and the tests compare against the published values.
+// data so `hbp hw table`, the bench report and the tests compare against the published values.
 #include <cstdint>
 #include <optional>
 #include <span>
@@ -24,5 +24,7 @@ inline constexpr std::uint32_t kPaperExtensibility = 16;
 inline constexpr double kPaperClockHz = 500e6;
 
 std::span<const PaperTable4Row> paper_table4();
+// The row for n, or nullptr when the paper has none.
+const PaperTable4Row* paper_table4_row(std::uint32_t n);
 
 }  // namespace hbp::hw

@@ -1,0 +1,21 @@
+#include "engines/min_x_order.hpp"
+
+#include "support/radix_sort.hpp"
+
+namespace hbp {
+
+bool in_min_x_order(const float* min_x, std::uint32_t n) {
+  bool sorted = true;
+  // No early exit: a branch-free pass vectorises and the cells are small.
+  // Plain float <= orders like float_order_key (-0 == +0; boxes are checked
+  // for NaN before they get here).
+  for (std::uint32_t i = 1; i < n; ++i) sorted &= min_x[i - 1] <= min_x[i];
+  return sorted;
+}
+
+void min_x_order(const float* min_x, std::uint32_t n, std::vector<std::uint32_t>& order,
+                 std::vector<std::uint64_t>& scratch) {
+  order_by_value(min_x, n, order, scratch);
+}
+
+}  // namespace hbp
