@@ -54,26 +54,17 @@ module hbp_area_efficient #(
     output logic [IW-1:0]     dbg_base
 );
   // ---------------------------------------------------------------- control
-  typedef enum logic [1:0] {S_LOAD, S_RUN, S_DRAIN, S_DONE} state_t;
-  state_t state;
-
   logic          seq_step, seq_finish;
   logic [IW-1:0] seq_i, seq_base;
   logic [L-1:0]  seq_ok;
-  logic          loading;
-  logic [3:0]    drain_left;
+  logic          loading, in_load;
 
-  assign loading  = (state == S_LOAD) && load_valid && (32'(n_loaded) < 32'(CAP));
-  assign busy     = (state == S_RUN) || (state == S_DRAIN);
-  assign done     = (state == S_DONE);
-  assign cycles   = cyc_seq + cyc_drain;
-  assign cyc_restart = '0;
   assign dbg_step = seq_step;
   assign dbg_i    = seq_i;
   assign dbg_base = seq_base;
 
   hbp_ae_sequencer #(.M(M), .IW(IW)) u_seq (
-      .clk(clk), .rst(rst || clear), .start(start && state == S_LOAD),
+      .clk(clk), .rst(rst || clear), .start(start && in_load),
       .n(IW'(n_loaded)), .step(seq_step), .obj_i(seq_i), .base(seq_base),
       .lane_ok(seq_ok), .finish(seq_finish));
 
@@ -82,48 +73,13 @@ module hbp_area_efficient #(
   // t+3, t+4 -> AND t+5 -> pair line on out_* and written at t+6.
   localparam int LAT = 6;
 
-  always_ff @(posedge clk) begin
-    if (rst || clear) begin
-      state      <= S_LOAD;
-      n_loaded   <= '0;
-      load_error <= 1'b0;
-      cyc_load   <= '0;
-      cyc_seq    <= '0;
-      cyc_drain  <= '0;
-      drain_left <= '0;
-    end else begin
-      case (state)
-        S_LOAD: begin
-          if (loading) begin
-            n_loaded <= n_loaded + 1'b1;
-            cyc_load <= cyc_load + 1;
-          end else if (load_valid) begin
-            load_error <= 1'b1;
-          end
-          if (start) state <= S_RUN;
-        end
-        S_RUN: begin
-          if (seq_step) cyc_seq <= cyc_seq + 1;
-          if (seq_finish) begin
-            // n < 2: nothing in flight, no drain. Otherwise this is drain
-            // cycle 1 of LAT; done rises the cycle after the last one.
-            if (cyc_seq == 0 && !seq_step) state <= S_DONE;
-            else begin
-              cyc_drain  <= cyc_drain + 1;
-              state      <= (LAT > 1) ? S_DRAIN : S_DONE;
-              drain_left <= 4'(LAT - 2);
-            end
-          end
-        end
-        S_DRAIN: begin
-          cyc_drain <= cyc_drain + 1;
-          if (drain_left == 0) state <= S_DONE;
-          else drain_left <= drain_left - 1'b1;
-        end
-        default: ;
-      endcase
-    end
-  end
+  // No row restarts here: cyc_restart stays 0.
+  hbp_run_control #(.CAP(CAP), .NW(NW), .LAT(LAT), .RESTARTS(0)) u_ctl (
+      .clk(clk), .rst(rst || clear), .load_valid(load_valid), .start(start),
+      .seq_step(seq_step), .seq_bubble(1'b0), .seq_finish(seq_finish),
+      .in_load(in_load), .loading(loading), .busy(busy), .done(done), .load_error(load_error),
+      .n_loaded(n_loaded), .cyc_load(cyc_load), .cyc_seq(cyc_seq), .cyc_restart(cyc_restart),
+      .cyc_drain(cyc_drain), .cycles(cycles));
 
   // ----------------------------------------------------------------- buffer
   // Group g: port A = sequence port 2g, port B = port 2g+1; during loading

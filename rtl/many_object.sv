@@ -54,26 +54,18 @@ module hbp_many_object #(
     output logic [IW-1:0]     dbg_offset,   // k
     output logic [M*8-1:0]    dbg_sel       // lane j's selector (at this step)
 );
-  typedef enum logic [1:0] {S_LOAD, S_RUN, S_DRAIN, S_DONE} state_t;
-  state_t state;
-
   logic            seq_step, seq_finish;
   logic [AW-1:0]   seq_addr_a;
   logic [M*AW-1:0] seq_addr_b;
   logic [IW-1:0]   seq_rb, seq_k;
   logic [M*8-1:0]  seq_sel;
   logic [L-1:0]    seq_ok;
-  logic            loading;
-  logic [3:0]      drain_left;
+  logic            loading, in_load;
   logic            seq_bubble;
   // load position: group ld_g, address ld_a (box n_loaded)
   logic [7:0]      ld_g;
   logic [AW-1:0]   ld_a;
 
-  assign loading    = (state == S_LOAD) && load_valid && (32'(n_loaded) < 32'(CAP));
-  assign busy       = (state == S_RUN) || (state == S_DRAIN);
-  assign done       = (state == S_DONE);
-  assign cycles     = cyc_seq + cyc_restart + cyc_drain;
   assign dbg_step   = seq_step;
   assign dbg_addr_a = seq_addr_a;
   assign dbg_addr_b = seq_addr_b;
@@ -87,62 +79,30 @@ module hbp_many_object #(
   localparam int LAT = 7;
 
   hbp_mo_sequencer #(.M(M), .AW(AW), .IW(IW), .RESTART(ROW_DRAIN ? LAT : 0)) u_seq (
-      .clk(clk), .rst(rst || clear), .start(start && state == S_LOAD),
+      .clk(clk), .rst(rst || clear), .start(start && in_load),
       .n(IW'(n_loaded)), .step(seq_step), .bubble(seq_bubble), .addr_a(seq_addr_a), .addr_b(seq_addr_b),
       .row_base(seq_rb), .offset(seq_k), .sel(seq_sel), .lane_ok(seq_ok),
       .finish(seq_finish));
 
+  hbp_run_control #(.CAP(CAP), .NW(NW), .LAT(LAT)) u_ctl (
+      .clk(clk), .rst(rst || clear), .load_valid(load_valid), .start(start),
+      .seq_step(seq_step), .seq_bubble(seq_bubble), .seq_finish(seq_finish),
+      .in_load(in_load), .loading(loading), .busy(busy), .done(done), .load_error(load_error),
+      .n_loaded(n_loaded), .cyc_load(cyc_load), .cyc_seq(cyc_seq), .cyc_restart(cyc_restart),
+      .cyc_drain(cyc_drain), .cycles(cycles));
 
+  // Load position: box n_loaded goes to group n_loaded mod m, address n_loaded div m.
   always_ff @(posedge clk) begin
     if (rst || clear) begin
-      state      <= S_LOAD;
-      n_loaded   <= '0;
-      load_error <= 1'b0;
-      cyc_load   <= '0;
-      cyc_seq    <= '0;
-      cyc_drain  <= '0;
-      cyc_restart <= '0;
-      drain_left <= '0;
-      ld_g       <= '0;
-      ld_a       <= '0;
-    end else begin
-      case (state)
-        S_LOAD: begin
-          if (loading) begin
-            n_loaded <= n_loaded + 1'b1;
-            cyc_load <= cyc_load + 1;
-            if (ld_g == 8'(M - 1)) begin
-              ld_g <= '0;
-              ld_a <= ld_a + 1'b1;
-            end else begin
-              ld_g <= ld_g + 8'd1;
-            end
-          end else if (load_valid) begin
-            load_error <= 1'b1;
-          end
-          if (start) state <= S_RUN;
-        end
-        S_RUN: begin
-          if (seq_step) cyc_seq <= cyc_seq + 1;
-          if (seq_bubble) cyc_restart <= cyc_restart + 1;
-          if (seq_finish) begin
-            // n < 2: nothing in flight, no drain. Otherwise this is drain
-            // cycle 1 of LAT; done rises the cycle after the last one.
-            if (cyc_seq == 0 && !seq_step) state <= S_DONE;
-            else begin
-              cyc_drain  <= cyc_drain + 1;
-              state      <= (LAT > 1) ? S_DRAIN : S_DONE;
-              drain_left <= 4'(LAT - 2);
-            end
-          end
-        end
-        S_DRAIN: begin
-          cyc_drain <= cyc_drain + 1;
-          if (drain_left == 0) state <= S_DONE;
-          else drain_left <= drain_left - 1'b1;
-        end
-        default: ;
-      endcase
+      ld_g <= '0;
+      ld_a <= '0;
+    end else if (loading) begin
+      if (ld_g == 8'(M - 1)) begin
+        ld_g <= '0;
+        ld_a <= ld_a + 1'b1;
+      end else begin
+        ld_g <= ld_g + 8'd1;
+      end
     end
   end
 

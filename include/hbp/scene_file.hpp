@@ -18,6 +18,7 @@
 namespace hbp {
 
 enum class SceneFormat { Native, Broadmark };
+struct SceneCodec;  // one per format (scene_file.cpp): header and frame layout
 const char* scene_format_name(SceneFormat f);
 SceneFormat parse_scene_format(const std::string& name);  // throws InvalidInput
 // Looks at the first bytes of the file (throws FileError when unreadable).
@@ -62,11 +63,10 @@ class SceneReader {
   std::FILE* file_ = nullptr;
   SceneInfo info_;
   std::uint64_t data_offset_ = 0;
-  std::unique_ptr<float[]> scratch_;  // Broadmark records of one chunk of objects
+  const SceneCodec* codec_ = nullptr;  // chosen once, from the header
+  std::unique_ptr<float[]> scratch_;  // the codec's transposition buffer (Broadmark records of one chunk)
 
   void read_header();
-  void read_native_frame(std::uint32_t k, BoxArray& out);
-  void read_broadmark_frame(std::uint32_t k, BoxArray& out);
 };
 
 class SceneWriter {
@@ -96,15 +96,12 @@ class SceneWriter {
 
  private:
   std::string path_;
-  SceneFormat format_;
+  const SceneCodec* codec_;  // chosen once, from the format
   std::FILE* file_ = nullptr;
   std::uint32_t object_count_;
   std::uint32_t frames_ = 0;
-  std::unique_ptr<float[]> scratch_;  // Broadmark records of one chunk of objects
+  std::unique_ptr<float[]> scratch_;  // the codec's transposition buffer (Broadmark records of one chunk)
   int uncaught_at_construction_ = 0;
-
-  void write_bytes(const void* data, std::size_t bytes, const char* what);
-  void write_broadmark_frame(const BoxArray& boxes);
 };
 
 }  // namespace hbp

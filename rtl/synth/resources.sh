@@ -38,7 +38,7 @@ while [ $# -gt 0 ]; do
   esac
 done
 
-common="$rtl/hbp_fcmp_le.sv $rtl/hbp_box_overlap.sv $rtl/hbp_dpram.sv $rtl/hbp_delay.sv $rtl/hbp_pair_memory.sv"
+common="$rtl/hbp_fcmp_le.sv $rtl/hbp_box_overlap.sv $rtl/hbp_dpram.sv $rtl/hbp_delay.sv $rtl/hbp_pair_memory.sv $rtl/hbp_run_control.sv"
 sources() {
   if [ "$1" = ae ]; then echo "$rtl/area_efficient.sv $rtl/hbp_ae_sequencer.sv $common";
   else echo "$rtl/many_object.sv $rtl/hbp_mo_sequencer.sv $common"; fi

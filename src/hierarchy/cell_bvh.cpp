@@ -237,41 +237,54 @@ float sah_cost(std::span<const BvhNode> nodes) {
   return cost_of(area, nodes[0], nodes.size());
 }
 
-bool edit(std::span<const CellEntry> entries, std::span<const std::uint32_t> old_ids, std::vector<BvhNode>& nodes,
-          std::uint32_t max_changes, Scratch& s) {
-  // Which old entries survive (and where they are now), which entries are new.
+namespace {
+
+// ---- edit(): incremental membership change, one job per function ----------
+// The steps follow Box2D v3's dynamic tree (src/dynamic_tree.c): the tree is
+// taken out of pre-order into a linked form (children and parents in
+// s.left / s.right / s.parent, boxes in s.work), departed leaves are removed,
+// newcomers are inserted next to the sibling that costs least and their
+// ancestors enlarged, then the tree is written back in pre-order.
+
+// Matches the old membership (old_ids) against the new (entries): s.remap[old
+// entry] = new entry index or kNone (departed), s.added = new entries without
+// an old one, in entry order. Returns false as soon as more than max_changes
+// objects changed. Uses s.left / s.right as sort buffers.
+bool diff_membership(std::span<const CellEntry> entries, std::span<const std::uint32_t> old_ids,
+                     std::uint32_t max_changes, Scratch& s) {
   const auto old_count = static_cast<std::uint32_t>(old_ids.size());
   const auto new_count = static_cast<std::uint32_t>(entries.size());
   s.remap.assign(old_count, kNone);
   s.added.clear();
   std::uint32_t removed = 0;
-  {
-    // Both lists in id order (cells come in min-x order), then one merge walk.
-    std::vector<std::uint32_t>& old_by_id = s.left;
-    std::vector<std::uint32_t>& new_by_id = s.right;
-    old_by_id.resize(old_count);
-    new_by_id.resize(new_count);
-    for (std::uint32_t i = 0; i < old_count; ++i) old_by_id[i] = i;
-    for (std::uint32_t j = 0; j < new_count; ++j) new_by_id[j] = j;
-    std::sort(old_by_id.begin(), old_by_id.end(), [&](auto a, auto b) { return old_ids[a] < old_ids[b]; });
-    std::sort(new_by_id.begin(), new_by_id.end(), [&](auto a, auto b) { return entries[a].id < entries[b].id; });
-    std::uint32_t i = 0, j = 0;
-    while (i < old_count || j < new_count) {
-      if (j == new_count || (i < old_count && old_ids[old_by_id[i]] < entries[new_by_id[j]].id)) {
-        ++removed;
-        ++i;
-      } else if (i == old_count || entries[new_by_id[j]].id < old_ids[old_by_id[i]]) {
-        s.added.push_back(new_by_id[j++]);
-      } else {
-        s.remap[old_by_id[i++]] = new_by_id[j++];
-      }
-      if (removed + s.added.size() > max_changes) return false;
+  // Both lists in id order (cells come in min-x order), then one merge walk.
+  std::vector<std::uint32_t>& old_by_id = s.left;
+  std::vector<std::uint32_t>& new_by_id = s.right;
+  old_by_id.resize(old_count);
+  new_by_id.resize(new_count);
+  for (std::uint32_t i = 0; i < old_count; ++i) old_by_id[i] = i;
+  for (std::uint32_t j = 0; j < new_count; ++j) new_by_id[j] = j;
+  std::sort(old_by_id.begin(), old_by_id.end(), [&](auto a, auto b) { return old_ids[a] < old_ids[b]; });
+  std::sort(new_by_id.begin(), new_by_id.end(), [&](auto a, auto b) { return entries[a].id < entries[b].id; });
+  std::uint32_t i = 0, j = 0;
+  while (i < old_count || j < new_count) {
+    if (j == new_count || (i < old_count && old_ids[old_by_id[i]] < entries[new_by_id[j]].id)) {
+      ++removed;
+      ++i;
+    } else if (i == old_count || entries[new_by_id[j]].id < old_ids[old_by_id[i]]) {
+      s.added.push_back(new_by_id[j++]);
+    } else {
+      s.remap[old_by_id[i++]] = new_by_id[j++];
     }
-    std::sort(s.added.begin(), s.added.end());  // newcomers inserted in entry order
+    if (removed + s.added.size() > max_changes) return false;
   }
-  if (new_count == 0 || old_count == 0) return false;
+  std::sort(s.added.begin(), s.added.end());  // newcomers inserted in entry order
+  return true;
+}
 
-  // Linked form: children and parents, slots reused from the pre-order array.
+// Pre-order array -> linked form, slots = pre-order positions;
+// s.leaf_of[old entry] = its leaf's slot. Returns the root slot.
+std::uint32_t unflatten(std::span<const BvhNode> nodes, std::uint32_t old_count, Scratch& s) {
   const auto n = static_cast<std::uint32_t>(nodes.size());
   s.work.assign(nodes.begin(), nodes.end());
   s.left.assign(n, kNone);
@@ -288,106 +301,118 @@ bool edit(std::span<const CellEntry> entries, std::span<const std::uint32_t> old
       s.parent[nodes[i].right] = i;
     }
   }
-  std::uint32_t root = 0;
+  return 0;
+}
+
+// A free slot of the linked form: one a removal freed (s.stack), else a new one.
+std::uint32_t allocate_node(Scratch& s) {
   std::vector<std::uint32_t>& free_slots = s.stack;
-  free_slots.clear();
-
-  // Remove departed leaves: the sibling takes the parent's place.
-  for (std::uint32_t i = 0; i < old_count; ++i) {
-    if (s.remap[i] != kNone) continue;
-    const std::uint32_t leaf = s.leaf_of[i];
-    const std::uint32_t p = s.parent[leaf];
-    free_slots.push_back(leaf);
-    if (p == kNone) {
-      root = kNone;
-      continue;
-    }
-    const std::uint32_t sibling = s.left[p] == leaf ? s.right[p] : s.left[p];
-    const std::uint32_t g = s.parent[p];
-    s.parent[sibling] = g;
-    if (g == kNone) {
-      root = sibling;
-    } else if (s.left[g] == p) {
-      s.left[g] = sibling;
-    } else {
-      s.right[g] = sibling;
-    }
-    free_slots.push_back(p);
+  if (!free_slots.empty()) {
+    const std::uint32_t slot = free_slots.back();
+    free_slots.pop_back();
+    return slot;
   }
-  // Survivors' entry indices follow the new numbering.
-  for (std::uint32_t i = 0; i < old_count; ++i)
-    if (s.remap[i] != kNone) s.work[s.leaf_of[i]].right = s.remap[i];
+  s.work.push_back(BvhNode{});
+  s.left.push_back(kNone);
+  s.right.push_back(kNone);
+  s.parent.push_back(kNone);
+  return static_cast<std::uint32_t>(s.work.size() - 1);
+}
 
-  auto new_slot = [&]() -> std::uint32_t {
-    if (!free_slots.empty()) {
-      const std::uint32_t slot = free_slots.back();
-      free_slots.pop_back();
-      return slot;
-    }
-    s.work.push_back(BvhNode{});
-    s.left.push_back(kNone);
-    s.right.push_back(kNone);
-    s.parent.push_back(kNone);
-    return static_cast<std::uint32_t>(s.work.size() - 1);
-  };
-
-  // Insert newcomers: descend towards the child whose box grows least, stop
-  // where making a sibling is cheaper (surface-area cost of the insertion).
-  for (std::uint32_t e : s.added) {
-    const std::uint32_t leaf = new_slot();
-    BvhNode& ln = s.work[leaf];
-    for (int k = 0; k < 3; ++k) {
-      ln.min[k] = entries[e].min[k];
-      ln.max[k] = entries[e].max[k];
-    }
-    ln.right = e;
-    ln.object = entries[e].id;
-    s.left[leaf] = s.right[leaf] = kNone;
-    if (root == kNone) {
-      root = leaf;
-      s.parent[leaf] = kNone;
-      continue;
-    }
-    std::uint32_t at = root;
-    while (!s.work[at].leaf()) {
-      BvhNode merged;
-      set_union(merged, s.work[at], s.work[leaf]);
-      const double merged_area = node_area(merged);
-      const double here = 2 * merged_area;
-      const double inherit = 2 * (merged_area - node_area(s.work[at]));
-      auto descend_cost = [&](std::uint32_t c) {
-        BvhNode u;
-        set_union(u, s.work[c], s.work[leaf]);
-        return inherit + node_area(u) - (s.work[c].leaf() ? 0.0 : node_area(s.work[c]));
-      };
-      const double cl = descend_cost(s.left[at]), cr = descend_cost(s.right[at]);
-      if (here <= cl && here <= cr) break;
-      at = cl <= cr ? s.left[at] : s.right[at];
-    }
-    const std::uint32_t p = new_slot();
-    const std::uint32_t g = s.parent[at];
-    BvhNode& pn = s.work[p];
-    set_union(pn, s.work[at], s.work[leaf]);
-    pn.object = BvhNode::kInternal;
-    s.left[p] = at;
-    s.right[p] = leaf;
-    s.parent[p] = g;
-    s.parent[at] = p;
-    s.parent[leaf] = p;
-    if (g == kNone) {
-      root = p;
-    } else if (s.left[g] == at) {
-      s.left[g] = p;
-    } else {
-      s.right[g] = p;
-    }
-    for (std::uint32_t a = g; a != kNone; a = s.parent[a]) set_union(s.work[a], s.work[a], s.work[leaf]);
+// In `parent` (or at the root when parent is kNone), `child` is replaced by
+// `replacement`.
+void replace_child(Scratch& s, std::uint32_t& root, std::uint32_t parent, std::uint32_t child,
+                   std::uint32_t replacement) {
+  if (parent == kNone) {
+    root = replacement;
+  } else if (s.left[parent] == child) {
+    s.left[parent] = replacement;
+  } else {
+    s.right[parent] = replacement;
   }
+}
 
-  // Back to pre-order.
-  nodes.resize(2 * static_cast<std::size_t>(new_count) - 1);
+// Unlinks a leaf: its sibling takes the parent's place; the leaf and the
+// parent slots are freed (boxes above are left loose: refit follows).
+void remove_leaf(Scratch& s, std::uint32_t& root, std::uint32_t leaf) {
+  const std::uint32_t p = s.parent[leaf];
+  s.stack.push_back(leaf);
+  if (p == kNone) {
+    root = kNone;
+    return;
+  }
+  const std::uint32_t sibling = s.left[p] == leaf ? s.right[p] : s.left[p];
+  const std::uint32_t g = s.parent[p];
+  s.parent[sibling] = g;
+  replace_child(s, root, g, p, sibling);
+  s.stack.push_back(p);
+}
+
+// Where a new leaf goes: descends towards the child whose box grows least and
+// stops where making the leaf this node's sibling is cheaper (surface-area
+// cost of the insertion, as Box2D's b2FindBestSibling with a greedy descent).
+std::uint32_t find_best_sibling(const Scratch& s, std::uint32_t root, std::uint32_t leaf) {
+  std::uint32_t at = root;
+  while (!s.work[at].leaf()) {
+    BvhNode merged;
+    set_union(merged, s.work[at], s.work[leaf]);
+    const double merged_area = node_area(merged);
+    const double here = 2 * merged_area;
+    const double inherit = 2 * (merged_area - node_area(s.work[at]));
+    auto descend_cost = [&](std::uint32_t c) {
+      BvhNode u;
+      set_union(u, s.work[c], s.work[leaf]);
+      return inherit + node_area(u) - (s.work[c].leaf() ? 0.0 : node_area(s.work[c]));
+    };
+    const double cl = descend_cost(s.left[at]), cr = descend_cost(s.right[at]);
+    if (here <= cl && here <= cr) break;
+    at = cl <= cr ? s.left[at] : s.right[at];
+  }
+  return at;
+}
+
+// Every ancestor from `from` up grows to hold `leaf`'s box.
+void enlarge_ancestors(Scratch& s, std::uint32_t from, std::uint32_t leaf) {
+  for (std::uint32_t a = from; a != kNone; a = s.parent[a]) set_union(s.work[a], s.work[a], s.work[leaf]);
+}
+
+// Adds a leaf for entry e: a new parent joins it with its best sibling.
+void insert_leaf(Scratch& s, std::uint32_t& root, std::span<const CellEntry> entries, std::uint32_t e) {
+  const std::uint32_t leaf = allocate_node(s);
+  BvhNode& ln = s.work[leaf];
+  for (int k = 0; k < 3; ++k) {
+    ln.min[k] = entries[e].min[k];
+    ln.max[k] = entries[e].max[k];
+  }
+  ln.right = e;
+  ln.object = entries[e].id;
+  s.left[leaf] = s.right[leaf] = kNone;
+  if (root == kNone) {
+    root = leaf;
+    s.parent[leaf] = kNone;
+    return;
+  }
+  const std::uint32_t sibling = find_best_sibling(s, root, leaf);
+  const std::uint32_t p = allocate_node(s);
+  const std::uint32_t g = s.parent[sibling];
+  BvhNode& pn = s.work[p];
+  set_union(pn, s.work[sibling], s.work[leaf]);
+  pn.object = BvhNode::kInternal;
+  s.left[p] = sibling;
+  s.right[p] = leaf;
+  s.parent[p] = g;
+  s.parent[sibling] = p;
+  s.parent[leaf] = p;
+  replace_child(s, root, g, sibling, p);
+  enlarge_ancestors(s, g, leaf);
+}
+
+// Linked form -> pre-order array of 2 * leaves - 1 nodes. Uses s.leaf_of as
+// the stack (free once the removals are done).
+void flatten(Scratch& s, std::uint32_t root, std::uint32_t leaves, std::vector<BvhNode>& nodes) {
+  nodes.resize(2 * static_cast<std::size_t>(leaves) - 1);
   std::uint32_t out = 0;
-  // (slot, position of the parent whose `right` it is) pairs; leaf_of is free now.
+  // (slot, position of the parent whose `right` it is) pairs.
   std::vector<std::uint32_t>& stack = s.leaf_of;
   stack.clear();
   stack.push_back(root);
@@ -408,6 +433,26 @@ bool edit(std::span<const CellEntry> entries, std::span<const std::uint32_t> old
       stack.push_back(kNone);  // the left child is implicit (pos + 1)
     }
   }
+}
+
+}  // namespace
+
+bool edit(std::span<const CellEntry> entries, std::span<const std::uint32_t> old_ids, std::vector<BvhNode>& nodes,
+          std::uint32_t max_changes, Scratch& s) {
+  if (!diff_membership(entries, old_ids, max_changes, s)) return false;
+  const auto old_count = static_cast<std::uint32_t>(old_ids.size());
+  const auto new_count = static_cast<std::uint32_t>(entries.size());
+  if (new_count == 0 || old_count == 0) return false;
+
+  std::uint32_t root = unflatten(nodes, old_count, s);
+  s.stack.clear();  // free slots
+  for (std::uint32_t i = 0; i < old_count; ++i)
+    if (s.remap[i] == kNone) remove_leaf(s, root, s.leaf_of[i]);
+  // Survivors' entry indices follow the new numbering.
+  for (std::uint32_t i = 0; i < old_count; ++i)
+    if (s.remap[i] != kNone) s.work[s.leaf_of[i]].right = s.remap[i];
+  for (std::uint32_t e : s.added) insert_leaf(s, root, entries, e);
+  flatten(s, root, new_count, nodes);
   return true;
 }
 

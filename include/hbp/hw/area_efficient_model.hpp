@@ -11,28 +11,18 @@
 #include <vector>
 
 #include "hbp/box_array.hpp"
-#include "hbp/hw/buffer_memories.hpp"
-#include "hbp/hw/counters.hpp"
-#include "hbp/hw/model_config.hpp"
-#include "hbp/hw/pair_pipeline.hpp"
-#include "hbp/hw/resources.hpp"
+#include "hbp/hw/buffer_model.hpp"
 #include "hbp/hw/trace.hpp"
 #include "hbp/pair.hpp"
 
 namespace hbp::hw {
 
-class AreaEfficientModel {
+class AreaEfficientModel : public BufferModel {
  public:
   explicit AreaEfficientModel(const ModelConfig& cfg = {});
 
-  const ModelConfig& config() const { return cfg_; }
   // Objects the buffer holds: `depth` (every group stores all of them).
   std::uint32_t capacity() const { return cfg_.depth; }
-  std::uint32_t comparisons_per_cycle() const { return 2 * cfg_.m - 1; }
-  std::uint32_t pipeline_depth() const;
-  Resources resources() const;
-  // Closed form of what run() counts for n objects (no capacity check).
-  CycleBreakdown analytic_cycles(std::uint64_t n) const;
 
   // Loads `boxes` into the buffer, runs the sequence cycle by cycle and
   // appends each colliding pair (i < j) to `pair_memory` in the order the
@@ -44,20 +34,9 @@ class AreaEfficientModel {
   Counters run(const BoxArray& boxes, std::vector<Pair>& pair_memory,
                AreaEfficientTrace* trace = nullptr);
 
-  // The buffer as the last run() left it (for inspecting the layout).
-  const BufferMemories& buffer() const { return buffer_; }
-
-  // Most pairs one run() may write (the cell engine passes max_pairs).
-  void set_pair_limit(std::uint64_t limit) { pair_limit_ = limit; }
-  std::uint64_t pair_limit() const { return pair_limit_; }
-
  private:
   void load(const BoxArray& boxes);
 
-  ModelConfig cfg_;
-  BufferMemories buffer_;
-  PairPipeline pipeline_;
-  std::uint64_t pair_limit_ = ~std::uint64_t{0};
   std::vector<AabbWords> port_data_;  // the 2m words read this cycle
 };
 

@@ -15,45 +15,26 @@
 #include <vector>
 
 #include "hbp/box_array.hpp"
-#include "hbp/hw/buffer_memories.hpp"
-#include "hbp/hw/counters.hpp"
-#include "hbp/hw/model_config.hpp"
-#include "hbp/hw/pair_pipeline.hpp"
-#include "hbp/hw/resources.hpp"
+#include "hbp/hw/buffer_model.hpp"
 #include "hbp/hw/trace.hpp"
 #include "hbp/pair.hpp"
 
 namespace hbp::hw {
 
-class ManyObjectModel {
+class ManyObjectModel : public BufferModel {
  public:
   explicit ManyObjectModel(const ModelConfig& cfg = {});
 
-  const ModelConfig& config() const { return cfg_; }
   // Objects the buffer holds: depth * m (no replication).
   std::uint64_t capacity() const { return static_cast<std::uint64_t>(cfg_.depth) * cfg_.m; }
-  std::uint32_t comparisons_per_cycle() const { return cfg_.m; }
-  std::uint32_t pipeline_depth() const;
-  Resources resources() const;
-  CycleBreakdown analytic_cycles(std::uint64_t n) const;
 
   // As AreaEfficientModel::run (including the pair limit).
   Counters run(const BoxArray& boxes, std::vector<Pair>& pair_memory,
                ManyObjectTrace* trace = nullptr);
 
-  const BufferMemories& buffer() const { return buffer_; }
-
-  // Most pairs one run() may write (the cell engine passes max_pairs).
-  void set_pair_limit(std::uint64_t limit) { pair_limit_ = limit; }
-  std::uint64_t pair_limit() const { return pair_limit_; }
-
  private:
   void load(const BoxArray& boxes);
 
-  ModelConfig cfg_;
-  BufferMemories buffer_;
-  PairPipeline pipeline_;
-  std::uint64_t pair_limit_ = ~std::uint64_t{0};
   std::vector<AabbWords> a_data_, b_data_;  // m words each, read this cycle
 };
 
