@@ -10,6 +10,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
+#include <stdexcept>
 #include <vector>
 
 namespace hbp {
@@ -34,6 +35,8 @@ T* radix_sort(T* items, T* scratch, std::size_t n, int key_bits, KeyFn key) {
   static_assert(kMaxDigitBits >= 1 && kMaxDigitBits <= 16 && kMaxPasses >= 1);
   if (n < 2 || key_bits <= 0) return items;
   const int passes = (key_bits + kMaxDigitBits - 1) / kMaxDigitBits;
+  // More passes than the histograms have room for would write past them.
+  if (passes > kMaxPasses) throw std::length_error("radix_sort: key wider than its digits x passes");
   const int digit = (key_bits + passes - 1) / passes;
   const std::uint64_t mask = (std::uint64_t{1} << digit) - 1;
   // Counts fit in 32 bits for up to 4 G items; the histograms stay in L1/L2.
