@@ -2,7 +2,7 @@
 # Synthesis resource table of both microarchitectures with Yosys.
 #
 #   rtl/synth/resources.sh [--designs "ae mo"] [--m "1 2 4 8 16"] [--depth 1024]
-#                          [--ice40] [--pnr] [--generic] [--jobs N]
+#                          [--ice40] [--pnr] [--generic]
 #
 # Default: Xilinx 7-series (synth_xilinx -family xc7, true-dual-port
 # RAMB18E1/RAMB36E1) for m = 1 2 4 8 16, memory depth 1024, pair memory of
