@@ -124,6 +124,7 @@ struct BroadPhase::Impl {
   struct Candidate {
     Aabb box;
     Handle handle;
+    std::uint32_t hit;  // overlapped at the last frame (kept when the pairs are unfiltered)
   };
   struct StaticCache {
     Aabb fat;
@@ -145,7 +146,11 @@ struct BroadPhase::Impl {
   // Results.
   BroadPhaseUpdate result;
   BroadPhaseUpdateStats stats;
-  std::vector<Pair> moving_pairs, static_pairs, next, sort_scratch;
+  std::vector<Pair> moving_pairs, static_pairs, next, sort_scratch, flips;
+  // static_pairs holds last frame's moving/static pairs and every cached
+  // candidate's `hit` agrees with it: true after an unfiltered frame in
+  // which nothing but moving boxes changed since.
+  bool static_pairs_valid = false;
   std::uint32_t moved = 0, static_changes = 0;
 
   // Duplicate detection within a batch.
@@ -270,6 +275,7 @@ struct BroadPhase::Impl {
                          std::to_string(kLayerCount - 1) + ")");
     check_handles("set_layer", handles);
     for (const Handle h : handles) table.set_layer(HandleTable::slot_of(h), layer);
+    static_pairs_valid = false;
   }
 
   // With no objects left, nothing the next frames need is kept (the slot
@@ -282,6 +288,7 @@ struct BroadPhase::Impl {
     static_tree.clear();
     moving_tree.clear();
     std::vector<StaticCache>(slot_box.size()).swap(cache);
+    static_pairs_valid = false;
   }
 
   // ---- structures ----------------------------------------------------------
@@ -373,38 +380,107 @@ struct BroadPhase::Impl {
     });
   }
 
-  void find_static_pairs() {
-    static_pairs.clear();
-    if (moving_handle.empty() || static_handle.empty()) return;
+  // Rebuilds a moving object's candidate list from the static tree.
+  void requery(StaticCache& c, const Aabb& box, std::uint32_t epoch) {
+    c.fat = fatten(box);
+    c.epoch = epoch;
+    c.list.clear();
+    static_tree.for_each_overlap(c.fat, [&](std::uint32_t i, const auto& leaf) {
+      c.list.push_back({{{leaf.min[0], leaf.min[1], leaf.min[2]}, {leaf.max[0], leaf.max[1], leaf.max[2]}},
+                        static_handle[i], 0});
+    });
+    fit(c.list);
+  }
+
+  static std::uint32_t hit_of(const Aabb& box, const Candidate& k) {
+    return (box.max[0] >= k.box.min[0]) & (box.min[0] <= k.box.max[0]) & (box.max[1] >= k.box.min[1]) &
+           (box.min[1] <= k.box.max[1]) & (box.max[2] >= k.box.min[2]) & (box.min[2] <= k.box.max[2]);
+  }
+
+  // The moving/static pairs. `incremental` (unfiltered, and since the last
+  // frame only moving boxes changed): only the candidates whose overlap
+  // flipped are collected, sorted (a few hundred a frame) and XOR-merged
+  // into last frame's sorted list, instead of re-collecting and re-sorting
+  // every pair.
+  void find_static_pairs(bool incremental) {
+    const bool valid_before = static_pairs_valid;
+    static_pairs_valid = false;
+    if (moving_handle.empty() || static_handle.empty()) {
+      static_pairs.clear();
+      return;
+    }
     const bool all = all_layers_collide();
     const std::uint32_t epoch = static_epoch;
+    if (incremental && valid_before && all && !filter) {
+      parallel_collect(moving_handle.size(), flips, [&](std::size_t begin, std::size_t end, std::vector<Pair>& out) {
+        for (std::size_t d = begin; d < end; ++d) {
+          const Handle hm = moving_handle[d];
+          const Aabb box = moving_boxes.get(d);
+          StaticCache& c = cache[HandleTable::slot_of(hm)];
+          if (c.epoch == epoch && inside(box, c.fat)) {
+            for (Candidate& k : c.list) {
+              const std::uint32_t hit = hit_of(box, k);
+              if (hit != k.hit) {  // rare: the pair starts or stops here
+                k.hit = hit;
+                out.push_back(make_pair(hm, k.handle));
+              }
+            }
+            continue;
+          }
+          // Left its fat box: the pairs it had, then the pairs it has; a
+          // pair in both cancels in the XOR merge below.
+          for (const Candidate& k : c.list)
+            if (k.hit) out.push_back(make_pair(hm, k.handle));
+          requery(c, box, epoch);
+          for (Candidate& k : c.list) {
+            k.hit = hit_of(box, k);
+            if (k.hit) out.push_back(make_pair(hm, k.handle));
+          }
+        }
+      });
+      sort_pairs(flips, sort_scratch);
+      // static_pairs XOR flips (a pair flipped twice cancels).
+      next.resize(static_pairs.size() + flips.size());
+      Pair* o = next.data();
+      const Pair *p = static_pairs.data(), *p_end = p + static_pairs.size();
+      const Pair *f = flips.data(), *f_end = f + flips.size();
+      while (f != f_end) {
+        if (f + 1 != f_end && f[0] == f[1]) {
+          f += 2;
+          continue;
+        }
+        while (p != p_end && *p < *f) *o++ = *p++;
+        if (p != p_end && *p == *f) {
+          ++p;
+        } else {
+          *o++ = *f;
+        }
+        ++f;
+      }
+      o = std::copy(p, p_end, o);
+      next.resize(static_cast<std::size_t>(o - next.data()));
+      static_pairs.swap(next);
+      fit(flips);
+      fit(sort_scratch);
+      static_pairs_valid = true;
+      return;
+    }
+    static_pairs.clear();
     parallel_collect(moving_handle.size(), static_pairs,
                      [&](std::size_t begin, std::size_t end, std::vector<Pair>& out) {
                        for (std::size_t d = begin; d < end; ++d) {
                          const Handle hm = moving_handle[d];
                          const Aabb box = moving_boxes.get(d);
                          StaticCache& c = cache[HandleTable::slot_of(hm)];
-                         if (c.epoch != epoch || !inside(box, c.fat)) {
-                           c.fat = fatten(box);
-                           c.epoch = epoch;
-                           c.list.clear();
-                           static_tree.for_each_overlap(c.fat, [&](std::uint32_t i, const auto& leaf) {
-                             c.list.push_back({{{leaf.min[0], leaf.min[1], leaf.min[2]},
-                                                {leaf.max[0], leaf.max[1], leaf.max[2]}},
-                                               static_handle[i]});
-                           });
-                           fit(c.list);
-                         }
+                         if (c.epoch != epoch || !inside(box, c.fat)) requery(c, box, epoch);
                          if (all && !filter) {
                            // Branch-free: about half the candidates overlap.
                            std::size_t size = out.size();
                            out.resize(size + c.list.size());
-                           for (const Candidate& k : c.list) {
-                             const bool hit = (box.max[0] >= k.box.min[0]) & (box.min[0] <= k.box.max[0]) &
-                                              (box.max[1] >= k.box.min[1]) & (box.min[1] <= k.box.max[1]) &
-                                              (box.max[2] >= k.box.min[2]) & (box.min[2] <= k.box.max[2]);
+                           for (Candidate& k : c.list) {
+                             k.hit = hit_of(box, k);
                              out[size] = make_pair(hm, k.handle);
-                             size += hit;
+                             size += k.hit;
                            }
                            out.resize(size);
                            continue;
@@ -420,19 +496,23 @@ struct BroadPhase::Impl {
                      });
     sort_pairs(static_pairs, sort_scratch);
     fit(sort_scratch);
+    static_pairs_valid = all && !filter;
   }
 
   const BroadPhaseUpdate& update() {
     const auto start = SteadyClock::now();
     arena.execute([&] {
+      // Only moving boxes changed since the last frame (no membership,
+      // static or layer change): the moving/static pairs can be updated.
+      const bool incremental = !statics_dirty && !moving_membership_dirty;
       sync_statics();
       sync_moving();
       find_moving_pairs();
-      find_static_pairs();
+      find_static_pairs(incremental);
       if (static_pairs.empty()) {
         next.swap(moving_pairs);
       } else if (moving_pairs.empty()) {
-        next.swap(static_pairs);
+        next.assign(static_pairs.begin(), static_pairs.end());  // static_pairs is kept for the next frame
       } else {
         next.resize(moving_pairs.size() + static_pairs.size());
         std::merge(moving_pairs.begin(), moving_pairs.end(), static_pairs.begin(), static_pairs.end(), next.begin());
@@ -528,6 +608,7 @@ void BroadPhase::set_collides(std::uint32_t layer_a, std::uint32_t layer_b, bool
     m[layer_a] &= ~(1u << layer_b);
     m[layer_b] &= ~(1u << layer_a);
   }
+  impl_->static_pairs_valid = false;
 }
 
 bool BroadPhase::collides(std::uint32_t layer_a, std::uint32_t layer_b) const {
@@ -537,7 +618,10 @@ bool BroadPhase::collides(std::uint32_t layer_a, std::uint32_t layer_b) const {
   return (impl_->collide_mask[layer_a] >> layer_b) & 1u;
 }
 
-void BroadPhase::set_pair_filter(PairFilter filter) { impl_->filter = std::move(filter); }
+void BroadPhase::set_pair_filter(PairFilter filter) {
+  impl_->filter = std::move(filter);
+  impl_->static_pairs_valid = false;
+}
 
 const BroadPhaseUpdate& BroadPhase::update() { return impl_->update(); }
 const BroadPhaseUpdate& BroadPhase::last_update() const { return impl_->result; }
