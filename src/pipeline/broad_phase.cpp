@@ -23,6 +23,7 @@
 #include <chrono>
 #include <mutex>
 #include <numeric>
+#include <limits>
 #include <string>
 
 #include "hbp/error.hpp"
@@ -126,9 +127,14 @@ struct BroadPhase::Impl {
     Handle handle;
     std::uint32_t hit;  // overlapped at the last frame (kept when the pairs are unfiltered)
   };
+  // `lo`/`hi`: the quiet box. While each of the box's six coordinates stays
+  // in its interval (min[k]: lo[k] < v <= hi[k]; max[k]: lo[3+k] <= v <
+  // hi[3+k]) it crosses no candidate's face, so no candidate's overlap can
+  // flip and a frame skips the list without reading it.
   struct StaticCache {
     Aabb fat;
     std::uint32_t epoch = 0;
+    float lo[6], hi[6];
     std::vector<Candidate> list;
   };
   std::vector<StaticCache> cache;
@@ -392,6 +398,42 @@ struct BroadPhase::Impl {
     fit(c.list);
   }
 
+  // Sets c's quiet box around `box` (every candidate's faces; see StaticCache).
+  static void set_quiet(StaticCache& c, const Aabb& box) {
+    constexpr float inf = std::numeric_limits<float>::infinity();
+    for (int k = 0; k < 6; ++k) {
+      c.lo[k] = -inf;
+      c.hi[k] = inf;
+    }
+    for (const Candidate& q : c.list) {
+      for (int k = 0; k < 3; ++k) {
+        // box.min[k] <= q.box.max[k] keeps its value while box.min[k] stays
+        // on the same side of q.box.max[k].
+        const float m = q.box.max[k];
+        if (m >= box.min[k]) {
+          c.hi[k] = std::min(c.hi[k], m);
+        } else {
+          c.lo[k] = std::max(c.lo[k], m);
+        }
+        // box.max[k] >= q.box.min[k]: likewise for box.max[k].
+        const float n = q.box.min[k];
+        if (n <= box.max[k]) {
+          c.lo[3 + k] = std::max(c.lo[3 + k], n);
+        } else {
+          c.hi[3 + k] = std::min(c.hi[3 + k], n);
+        }
+      }
+    }
+  }
+
+  static bool quiet(const StaticCache& c, const Aabb& box) {
+    bool q = true;
+    for (int k = 0; k < 3; ++k)
+      q &= (c.lo[k] < box.min[k]) & (box.min[k] <= c.hi[k]) & (c.lo[3 + k] <= box.max[k]) &
+           (box.max[k] < c.hi[3 + k]);
+    return q;
+  }
+
   static std::uint32_t hit_of(const Aabb& box, const Candidate& k) {
     return (box.max[0] >= k.box.min[0]) & (box.min[0] <= k.box.max[0]) & (box.max[1] >= k.box.min[1]) &
            (box.min[1] <= k.box.max[1]) & (box.max[2] >= k.box.min[2]) & (box.min[2] <= k.box.max[2]);
@@ -418,6 +460,7 @@ struct BroadPhase::Impl {
           const Aabb box = moving_boxes.get(d);
           StaticCache& c = cache[HandleTable::slot_of(hm)];
           if (c.epoch == epoch && inside(box, c.fat)) {
+            if (quiet(c, box)) continue;
             for (Candidate& k : c.list) {
               const std::uint32_t hit = hit_of(box, k);
               if (hit != k.hit) {  // rare: the pair starts or stops here
@@ -425,6 +468,7 @@ struct BroadPhase::Impl {
                 out.push_back(make_pair(hm, k.handle));
               }
             }
+            set_quiet(c, box);
             continue;
           }
           // Left its fat box: the pairs it had, then the pairs it has; a
@@ -436,6 +480,7 @@ struct BroadPhase::Impl {
             k.hit = hit_of(box, k);
             if (k.hit) out.push_back(make_pair(hm, k.handle));
           }
+          set_quiet(c, box);
         }
       });
       sort_pairs(flips, sort_scratch);
@@ -483,6 +528,7 @@ struct BroadPhase::Impl {
                              size += k.hit;
                            }
                            out.resize(size);
+                           set_quiet(c, box);
                            continue;
                          }
                          for (const Candidate& k : c.list) {
