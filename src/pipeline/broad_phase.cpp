@@ -455,12 +455,32 @@ struct BroadPhase::Impl {
     const std::uint32_t epoch = static_epoch;
     if (incremental && valid_before && all && !filter) {
       parallel_collect(moving_handle.size(), flips, [&](std::size_t begin, std::size_t end, std::vector<Pair>& out) {
+        // Pass 1 keeps the objects whose box left its quiet box (a few in
+        // ten); pass 2 re-tests their lists, prefetched a few objects ahead
+        // because the lists are scattered on the heap and mostly cold.
+        std::uint32_t busy[kChunk];
+        std::size_t n_busy = 0;
         for (std::size_t d = begin; d < end; ++d) {
+          const StaticCache& c = cache[HandleTable::slot_of(moving_handle[d])];
+          const Aabb box = moving_boxes.get(d);
+          if (c.epoch == epoch && inside(box, c.fat) && quiet(c, box)) continue;
+          busy[n_busy++] = static_cast<std::uint32_t>(d);
+        }
+        constexpr std::size_t kAhead = 4;
+        auto prefetch = [&](std::size_t j) {
+          const auto& list = cache[HandleTable::slot_of(moving_handle[busy[j]])].list;
+          const char* first = reinterpret_cast<const char*>(list.data());
+          const char* last = reinterpret_cast<const char*>(list.data() + list.size());
+          for (const char* q = first; q < last && q < first + 512; q += 64) __builtin_prefetch(q);
+        };
+        for (std::size_t j = 0; j < std::min(kAhead, n_busy); ++j) prefetch(j);
+        for (std::size_t j = 0; j < n_busy; ++j) {
+          if (j + kAhead < n_busy) prefetch(j + kAhead);
+          const std::size_t d = busy[j];
           const Handle hm = moving_handle[d];
           const Aabb box = moving_boxes.get(d);
           StaticCache& c = cache[HandleTable::slot_of(hm)];
           if (c.epoch == epoch && inside(box, c.fat)) {
-            if (quiet(c, box)) continue;
             for (Candidate& k : c.list) {
               const std::uint32_t hit = hit_of(box, k);
               if (hit != k.hit) {  // rare: the pair starts or stops here
