@@ -255,6 +255,100 @@ TEST(BroadPhase, StaticStaticNeverReportedAndStaticsMove) {
   EXPECT_EQ(u.removed, (std::vector<Pair>{{st[0], mv[0]}}));
 }
 
+// Moving boxes walking in quarter steps through a lattice of static unit
+// boxes 1.5 apart: candidate pairs start and stop overlapping (and touch
+// exactly at faces, edges and corners) inside the fat boxes, objects leave
+// their quiet and fat boxes, and filters, layers and membership change in
+// between, so the incremental moving/static pairs (flipped candidates merged
+// into last frame's list) meet every fallback. 1 and 2 threads, every frame
+// against the reference.
+TEST(BroadPhase, CandidatesFlipInsideFatBoxes) {
+  BroadPhase one({.threads = 1}), two({.threads = 2});
+  std::vector<BroadPhase*> systems{&one, &two};
+  Reference ref;
+  auto add = [&](const std::vector<Aabb>& boxes, bool is_static) {
+    std::vector<Handle> h;
+    for (BroadPhase* s : systems) h = s->add(boxes, {.is_static = is_static});
+    for (std::size_t i = 0; i < boxes.size(); ++i) ref.objects[h[i]] = {boxes[i], is_static, 0};
+    return h;
+  };
+  std::vector<Aabb> statics;
+  for (int x = 0; x < 6; ++x)
+    for (int y = 0; y < 6; ++y)
+      for (int z = 0; z < 3; ++z) {
+        const float o[3] = {1.5f * x, 1.5f * y, 1.5f * z};
+        statics.push_back({{o[0], o[1], o[2]}, {o[0] + 1, o[1] + 1, o[2] + 1}});
+      }
+  add(statics, true);
+  std::mt19937 rng(7);
+  std::vector<Aabb> boxes;
+  for (int i = 0; i < 40; ++i) {
+    const float x = 0.25f * static_cast<float>(rng() % 30), y = 0.25f * static_cast<float>(rng() % 30),
+                z = 0.25f * static_cast<float>(rng() % 14);
+    const float side = (i % 3 == 0) ? 0.5f : 1.0f;
+    boxes.push_back({{x, y, z}, {x + side, y + side, z + side}});
+  }
+  std::vector<Handle> moving = add(boxes, false);
+  std::size_t changed = 0;
+  for (int frame = 0; frame < 120; ++frame) {
+    // Most objects step a quarter along one axis, a few teleport.
+    std::vector<Aabb> moved(moving.size());
+    for (std::size_t i = 0; i < moving.size(); ++i) {
+      Aabb b = ref.objects[moving[i]].box;
+      const int axis = static_cast<int>(rng() % 3);
+      const float step = (rng() % 2 ? 0.25f : -0.25f) * (rng() % 8 == 0 ? 8.0f : 1.0f);
+      b.min[axis] += step;
+      b.max[axis] += step;
+      if (rng() % 4 == 0) b = ref.objects[moving[i]].box;  // stays put
+      moved[i] = b;
+      ref.objects[moving[i]].box = b;
+    }
+    for (BroadPhase* s : systems) s->move(moving, moved);
+    if (frame == 40) {  // a filter for some frames
+      BroadPhase::PairFilter f = [](Handle a, Handle b) { return (a + b) % 3 != 0; };
+      for (BroadPhase* s : systems) s->set_pair_filter(f);
+      ref.filter = f;
+    }
+    if (frame == 50) {
+      for (BroadPhase* s : systems) s->set_pair_filter({});
+      ref.filter = {};
+    }
+    if (frame == 60 || frame == 70) {  // layers that do not collide, then again
+      const std::vector<Handle> some(moving.begin(), moving.begin() + 10);
+      const std::uint8_t layer = frame == 60 ? 3 : 0;
+      for (BroadPhase* s : systems) s->set_layer(some, layer);
+      for (Handle h : some) ref.objects[h].layer = layer;
+      for (BroadPhase* s : systems) s->set_collides(0, 3, frame != 60);
+      ref.mask[0] = frame == 60 ? ~(1u << 3) : 0xFFFFFFFFu;
+      ref.mask[3] = frame == 60 ? ~1u : 0xFFFFFFFFu;
+    }
+    if (frame == 80) {  // remove and re-add moving objects
+      const std::vector<Handle> gone(moving.end() - 5, moving.end());
+      for (BroadPhase* s : systems) s->remove(gone);
+      std::vector<Aabb> back;
+      for (Handle h : gone) {
+        back.push_back(ref.objects[h].box);
+        ref.objects.erase(h);
+      }
+      moving.resize(moving.size() - 5);
+      const auto again = add(back, false);
+      moving.insert(moving.end(), again.begin(), again.end());
+    }
+    const std::vector<Pair> want = ref.pairs();
+    const std::vector<Pair> created = minus(want, ref.previous);
+    const std::vector<Pair> removed = minus(ref.previous, want);
+    changed += created.size() + removed.size();
+    for (BroadPhase* s : systems) {
+      const hbp::BroadPhaseUpdate& u = s->update();
+      ASSERT_EQ(u.pairs, want) << "frame " << frame;
+      ASSERT_EQ(u.created, created) << "frame " << frame;
+      ASSERT_EQ(u.removed, removed) << "frame " << frame;
+    }
+    ref.previous = want;
+  }
+  EXPECT_GT(changed, 400u);  // the pairs really did start and stop
+}
+
 TEST(BroadPhase, StaleHandlesRejected) {
   BroadPhase bp;
   const Aabb b{{0, 0, 0}, {1, 1, 1}};
