@@ -134,7 +134,7 @@ struct BroadPhase::Impl {
   struct StaticCache {
     Aabb fat;
     std::uint32_t epoch = 0;
-    float lo[6], hi[6];
+    float lo[6] = {}, hi[6] = {};  // all zero: never quiet (lo < v <= hi fails)
     std::vector<Candidate> list;
   };
   std::vector<StaticCache> cache;
