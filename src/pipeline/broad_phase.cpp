@@ -10,7 +10,10 @@
 // A frame: the hybrid system finds the moving/moving pairs; each moving
 // object re-tests the static candidates cached for its fat box (its box grown
 // by half its largest side) and re-queries the static tree only when
-// its box left the fat box or the statics changed. Layer table and pair
+// its box left the fat box or the statics changed; an object still inside
+// its quiet box (no candidate face crossed) skips its list, and when only
+// moving boxes changed the pairs whose overlap flipped are merged into last
+// frame's moving/static list instead of re-sorting it. Layer table and pair
 // filter apply before a pair is kept; the sorted lists are merged, and
 // created/removed come from a merge with the previous frame's pairs.
 #include "hbp/broad_phase.hpp"
