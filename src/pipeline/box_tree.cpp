@@ -1,6 +1,7 @@
 #include "pipeline/box_tree.hpp"
 
 #include <algorithm>
+#include <limits>
 
 #include "hierarchy/cell_bvh.hpp"
 
@@ -8,16 +9,38 @@ namespace hbp::detail {
 
 namespace {
 
-void set_union(BoxTree::Node& n, const float* mn, const float* mx) {
+constexpr float kInf = std::numeric_limits<float>::infinity();
+
+float half_area(const BvhNode& b) {
+  const float x = b.max[0] - b.min[0], y = b.max[1] - b.min[1], z = b.max[2] - b.min[2];
+  return x * y + y * z + z * x;
+}
+
+void set_empty(BoxTree::Node& n, std::uint32_t c) {
   for (int k = 0; k < 3; ++k) {
-    n.min[k] = std::min(n.min[k], mn[k]);
-    n.max[k] = std::max(n.max[k], mx[k]);
+    n.min[k][c] = kInf;
+    n.max[k][c] = -kInf;
+  }
+  n.link[c] = 0;
+  n.count[c] = 0;
+}
+
+// The union of `count` items into child slot c.
+void fit_items(BoxTree::Node& n, std::uint32_t c, const BoxTree::Item* items, std::uint32_t count) {
+  for (int k = 0; k < 3; ++k) {
+    float mn = items[0].min[k], mx = items[0].max[k];
+    for (std::uint32_t j = 1; j < count; ++j) {
+      mn = std::min(mn, items[j].min[k]);
+      mx = std::max(mx, items[j].max[k]);
+    }
+    n.min[k][c] = mn;
+    n.max[k][c] = mx;
   }
 }
 
 }  // namespace
 
-void BoxTree::build(const BoxArray& boxes) {
+void BoxTree::build(const BoxArray& boxes, std::span<const std::uint32_t> ids) {
   nodes_.clear();
   items_.clear();
   if (boxes.size() == 0) return;
@@ -33,38 +56,74 @@ void BoxTree::build(const BoxArray& boxes) {
   for (std::uint32_t i = count; i-- > 0;)
     leaves[i] = bin[i].leaf() ? 1 : leaves[i + 1] + leaves[bin[i].right];
 
-  nodes_.reserve(count / 2 + 1);
   items_.reserve(boxes.size());
-  // Emit in pre-order with an explicit stack of (binary node, parent slot
-  // whose link must point at it).
+  // The items of the binary subtree at b (at most kLeafSize leaves: the next
+  // 2k - 1 binary nodes), appended; returns the first.
+  const auto emit_items = [&](std::uint32_t b) {
+    const auto first = static_cast<std::uint32_t>(items_.size());
+    const std::uint32_t end = b + 2 * leaves[b] - 1;
+    for (std::uint32_t j = b; j < end; ++j)
+      if (bin[j].leaf()) {
+        const BvhNode& l = bin[j];
+        items_.push_back({{l.min[0], l.min[1], l.min[2]}, {l.max[0], l.max[1], l.max[2]}, l.object, ids[l.object]});
+      }
+    return first;
+  };
+  if (leaves[0] <= kLeafSize) {  // one leaf, no node
+    emit_items(0);
+    return;
+  }
+
+  nodes_.reserve(leaves[0] / 6 + 1);
+  // Emit 4-wide nodes in pre-order (a node before its descendants, so refit
+  // runs backwards) with an explicit stack of (binary node, parent slot whose
+  // link must point at it).
   struct Todo {
     std::uint32_t bin;
-    std::uint32_t patch;  // node whose link becomes this node's index, or ~0
+    std::uint32_t parent;  // node index, or ~0 for the root
+    std::uint32_t slot;
   };
-  std::vector<Todo> todo{{0, ~0u}};
+  std::vector<Todo> todo{{0, ~0u, 0}};
   while (!todo.empty()) {
     const Todo t = todo.back();
     todo.pop_back();
     const auto me = static_cast<std::uint32_t>(nodes_.size());
-    if (t.patch != ~0u) nodes_[t.patch].link = me;
-    const BvhNode& b = bin[t.bin];
-    Node n{{b.min[0], b.min[1], b.min[2]}, 0, {b.max[0], b.max[1], b.max[2]}, 0};
-    if (leaves[t.bin] <= kLeafSize) {
-      // The subtree's leaves are the next 2k - 1 binary nodes.
-      n.link = static_cast<std::uint32_t>(items_.size());
-      n.count = leaves[t.bin];
-      const std::uint32_t end = t.bin + 2 * leaves[t.bin] - 1;
-      for (std::uint32_t j = t.bin; j < end; ++j)
-        if (bin[j].leaf()) {
-          const BvhNode& l = bin[j];
-          items_.push_back({{l.min[0], l.min[1], l.min[2]}, {l.max[0], l.max[1], l.max[2]}, l.object});
+    if (t.parent != ~0u) nodes_[t.parent].link[t.slot] = me;
+    // Open the binary subtree: replace the openable child (more than a
+    // leaf's worth of boxes) of largest area by its two children until four.
+    std::uint32_t kids[kWidth] = {t.bin + 1, bin[t.bin].right, 0, 0};
+    std::uint32_t used = 2;
+    while (used < kWidth) {
+      int best = -1;
+      float best_area = -1;
+      for (std::uint32_t c = 0; c < used; ++c)
+        if (leaves[kids[c]] > kLeafSize && half_area(bin[kids[c]]) > best_area) {
+          best = static_cast<int>(c);
+          best_area = half_area(bin[kids[c]]);
         }
-      nodes_.push_back(n);
-      continue;
+      if (best < 0) break;
+      const std::uint32_t b = kids[best];
+      kids[best] = b + 1;
+      kids[used++] = bin[b].right;
+    }
+    Node n{};
+    n.used = used;
+    for (std::uint32_t c = 0; c < kWidth; ++c) set_empty(n, c);
+    for (std::uint32_t c = 0; c < used; ++c) {
+      const BvhNode& b = bin[kids[c]];
+      for (int k = 0; k < 3; ++k) {
+        n.min[k][c] = b.min[k];
+        n.max[k][c] = b.max[k];
+      }
+      if (leaves[kids[c]] <= kLeafSize) {
+        n.count[c] = static_cast<std::uint8_t>(leaves[kids[c]]);
+        n.link[c] = emit_items(kids[c]);
+      }
     }
     nodes_.push_back(n);
-    todo.push_back({b.right, me});   // right child after the whole left subtree
-    todo.push_back({t.bin + 1, ~0u});  // left child next
+    // Internal children, the first on top (visited first, laid out next).
+    for (std::uint32_t c = used; c-- > 0;)
+      if (leaves[kids[c]] > kLeafSize) todo.push_back({kids[c], me, c});
   }
 }
 
@@ -76,19 +135,20 @@ void BoxTree::refit(const BoxArray& boxes) {
     }
   for (std::size_t i = nodes_.size(); i-- > 0;) {
     Node& n = nodes_[i];
-    const std::uint32_t link = n.link, count = n.count;
-    if (count) {
-      for (int k = 0; k < 3; ++k) {
-        n.min[k] = items_[link].min[k];
-        n.max[k] = items_[link].max[k];
+    for (std::uint32_t c = 0; c < n.used; ++c) {
+      if (n.count[c]) {
+        fit_items(n, c, &items_[n.link[c]], n.count[c]);
+        continue;
       }
-      for (std::uint32_t j = link + 1; j < link + count; ++j) set_union(n, items_[j].min, items_[j].max);
-    } else {
-      const Node& l = nodes_[i + 1];
-      const Node& r = nodes_[link];
+      const Node& d = nodes_[n.link[c]];  // after n: already refitted
       for (int k = 0; k < 3; ++k) {
-        n.min[k] = std::min(l.min[k], r.min[k]);
-        n.max[k] = std::max(l.max[k], r.max[k]);
+        float mn = d.min[k][0], mx = d.max[k][0];
+        for (std::uint32_t j = 1; j < d.used; ++j) {
+          mn = std::min(mn, d.min[k][j]);
+          mx = std::max(mx, d.max[k][j]);
+        }
+        n.min[k][c] = mn;
+        n.max[k][c] = mx;
       }
     }
   }
