@@ -1,6 +1,8 @@
 #include "pipeline/box_tree.hpp"
 
 #include <algorithm>
+#include <limits>
+#include <stdexcept>
 
 #include "hierarchy/cell_bvh.hpp"
 
@@ -8,95 +10,105 @@ namespace hbp::detail {
 
 namespace {
 
-void set_union(BoxTree::Node& n, const float* mn, const float* mx) {
-  for (int k = 0; k < 3; ++k) {
-    n.min[k] = std::min(n.min[k], mn[k]);
-    n.max[k] = std::max(n.max[k], mx[k]);
-  }
+constexpr float kInf = std::numeric_limits<float>::infinity();
+
+float half_area(const BvhNode& b) {
+  const float x = b.max[0] - b.min[0], y = b.max[1] - b.min[1], z = b.max[2] - b.min[2];
+  return x * y + y * z + z * x;
 }
 
 }  // namespace
 
-void BoxTree::build(const BoxArray& boxes) {
+void BoxTree::build(const BoxArray& boxes, std::span<const std::uint32_t> ids) {
   nodes_.clear();
-  items_.clear();
   if (boxes.size() == 0) return;
+  if (boxes.size() >= kMaxBoxes || ids.size() != boxes.size())
+    throw std::length_error("BoxTree::build: more than 2^31 - 1 boxes, or ids not one per box");
   // The binary tree (and the builder's scratch) live only during the build.
   std::vector<BvhNode> bin;
   {
     bvh::Scratch scratch;
     bvh::build(boxes, bin, scratch);
   }
-  const auto count = static_cast<std::uint32_t>(bin.size());
-  // Leaves under each node (pre-order: children follow their parent).
-  std::vector<std::uint32_t> leaves(count);
-  for (std::uint32_t i = count; i-- > 0;)
-    leaves[i] = bin[i].leaf() ? 1 : leaves[i + 1] + leaves[bin[i].right];
-
-  nodes_.reserve(count / 2 + 1);
-  items_.reserve(boxes.size());
-  // Emit in pre-order with an explicit stack of (binary node, parent slot
+  nodes_.reserve(bin.size() / 5 + 1);
+  // Emit 4-wide nodes in pre-order (a node before its descendants, so refit
+  // runs backwards) with an explicit stack of (binary node, parent lane
   // whose link must point at it).
   struct Todo {
     std::uint32_t bin;
-    std::uint32_t patch;  // node whose link becomes this node's index, or ~0
+    std::uint32_t parent;  // node index, or ~0 for the root
+    std::uint32_t lane;
   };
-  std::vector<Todo> todo{{0, ~0u}};
+  std::vector<Todo> todo{{0, ~0u, 0}};
   while (!todo.empty()) {
     const Todo t = todo.back();
     todo.pop_back();
     const auto me = static_cast<std::uint32_t>(nodes_.size());
-    if (t.patch != ~0u) nodes_[t.patch].link = me;
-    const BvhNode& b = bin[t.bin];
-    Node n{{b.min[0], b.min[1], b.min[2]}, 0, {b.max[0], b.max[1], b.max[2]}, 0};
-    if (leaves[t.bin] <= kLeafSize) {
-      // The subtree's leaves are the next 2k - 1 binary nodes.
-      n.link = static_cast<std::uint32_t>(items_.size());
-      n.count = leaves[t.bin];
-      const std::uint32_t end = t.bin + 2 * leaves[t.bin] - 1;
-      for (std::uint32_t j = t.bin; j < end; ++j)
-        if (bin[j].leaf()) {
-          const BvhNode& l = bin[j];
-          items_.push_back({{l.min[0], l.min[1], l.min[2]}, {l.max[0], l.max[1], l.max[2]}, l.object});
+    if (t.parent != ~0u) nodes_[t.parent].link[t.lane] = me;
+    // Open the binary subtree: replace the internal child of largest area
+    // by its two children while fewer than four. (A lone object at the
+    // root becomes a node of one lane.)
+    std::uint32_t kids[kWidth] = {t.bin, 0, 0, 0};
+    std::uint32_t used = 1;
+    while (used < kWidth) {
+      int best = -1;
+      float best_area = -1;
+      for (std::uint32_t c = 0; c < used; ++c)
+        if (!bin[kids[c]].leaf() && half_area(bin[kids[c]]) > best_area) {
+          best = static_cast<int>(c);
+          best_area = half_area(bin[kids[c]]);
         }
-      nodes_.push_back(n);
-      continue;
+      if (best < 0) break;
+      const std::uint32_t b = kids[best];
+      kids[best] = b + 1;
+      kids[used++] = bin[b].right;
+    }
+    Node n;
+    for (std::uint32_t c = 0; c < kWidth; ++c) {
+      const bool real = c < used;
+      const BvhNode& b = bin[kids[real ? c : 0]];
+      for (int k = 0; k < 3; ++k) {
+        n.min[k][c] = real ? b.min[k] : kInf;
+        n.max[k][c] = real ? b.max[k] : -kInf;
+      }
+      n.link[c] = real && b.leaf() ? kObject | b.object : 0;
+      n.id[c] = real && b.leaf() ? ids[b.object] : 0;
     }
     nodes_.push_back(n);
-    todo.push_back({b.right, me});   // right child after the whole left subtree
-    todo.push_back({t.bin + 1, ~0u});  // left child next
+    // Internal children, the first on top (visited first, laid out next).
+    for (std::uint32_t c = used; c-- > 0;)
+      if (!bin[kids[c]].leaf()) todo.push_back({kids[c], me, c});
   }
 }
 
 void BoxTree::refit(const BoxArray& boxes) {
-  for (Item& it : items_)
-    for (int k = 0; k < 3; ++k) {
-      it.min[k] = boxes.min(k)[it.index];
-      it.max[k] = boxes.max(k)[it.index];
-    }
   for (std::size_t i = nodes_.size(); i-- > 0;) {
     Node& n = nodes_[i];
-    const std::uint32_t link = n.link, count = n.count;
-    if (count) {
-      for (int k = 0; k < 3; ++k) {
-        n.min[k] = items_[link].min[k];
-        n.max[k] = items_[link].max[k];
+    for (std::uint32_t c = 0; c < kWidth; ++c) {
+      const std::uint32_t link = n.link[c];
+      if (link == 0) continue;
+      if (link & kObject) {
+        const std::uint32_t o = link & ~kObject;
+        for (int k = 0; k < 3; ++k) {
+          n.min[k][c] = boxes.min(k)[o];
+          n.max[k][c] = boxes.max(k)[o];
+        }
+        continue;
       }
-      for (std::uint32_t j = link + 1; j < link + count; ++j) set_union(n, items_[j].min, items_[j].max);
-    } else {
-      const Node& l = nodes_[i + 1];
-      const Node& r = nodes_[link];
+      const Node& d = nodes_[link];  // after n: already refitted (unused lanes are empty)
       for (int k = 0; k < 3; ++k) {
-        n.min[k] = std::min(l.min[k], r.min[k]);
-        n.max[k] = std::max(l.max[k], r.max[k]);
+        float mn = d.min[k][0], mx = d.max[k][0];
+        for (std::uint32_t j = 1; j < kWidth; ++j) {
+          mn = std::min(mn, d.min[k][j]);
+          mx = std::max(mx, d.max[k][j]);
+        }
+        n.min[k][c] = mn;
+        n.max[k][c] = mx;
       }
     }
   }
 }
 
-void BoxTree::clear() {
-  std::vector<Node>().swap(nodes_);
-  std::vector<Item>().swap(items_);
-}
+void BoxTree::clear() { std::vector<Node>().swap(nodes_); }
 
 }  // namespace hbp::detail

@@ -324,7 +324,7 @@ struct BroadPhase::Impl {
     if (static_handle.empty()) {
       static_tree.clear();
     } else {
-      static_tree.build(static_boxes);
+      static_tree.build(static_boxes, static_handle);
     }
     ++static_epoch;
     statics_dirty = false;
@@ -346,7 +346,7 @@ struct BroadPhase::Impl {
       if (moving_handle.empty()) {
         moving_tree.clear();
       } else if (moving_tree_state == TreeState::Rebuild) {
-        moving_tree.build(moving_boxes);
+        moving_tree.build(moving_boxes, moving_handle);
       } else if (moving_tree_state == TreeState::Refit) {
         moving_tree.refit(moving_boxes);
       }
@@ -609,13 +609,19 @@ struct BroadPhase::Impl {
 
   // ---- queries -------------------------------------------------------------
 
+  // The hits are collected in a per-thread scratch (no growth reallocations
+  // per query) and copied once into the answer.
   std::vector<Handle> query_box(const Aabb& q) {
     if (const char* d = box_defect(q)) throw InvalidInput(std::string("BroadPhase::query_box: ") + d);
     sync_queries();
-    std::vector<Handle> out;
-    static_tree.for_each_overlap(q, [&](std::uint32_t i, const auto&) { out.push_back(static_handle[i]); });
-    moving_tree.for_each_overlap(q, [&](std::uint32_t i, const auto&) { out.push_back(moving_handle[i]); });
-    std::sort(out.begin(), out.end());
+    thread_local std::vector<Handle> hits;
+    hits.clear();
+    const auto collect = [&](std::uint32_t, const BoxTree::Item& it) { hits.push_back(it.id); };
+    static_tree.for_each_overlap(q, collect);
+    moving_tree.for_each_overlap(q, collect);
+    std::sort(hits.begin(), hits.end());
+    std::vector<Handle> out(hits.begin(), hits.end());
+    fit(hits);
     return out;
   }
 
@@ -635,8 +641,9 @@ struct BroadPhase::Impl {
     };
     thread_local std::vector<Hit> hits;
     hits.clear();
-    static_tree.for_each_ray_hit(ray, [&](std::uint32_t i, float t) { hits.push_back({t, static_handle[i]}); });
-    moving_tree.for_each_ray_hit(ray, [&](std::uint32_t i, float t) { hits.push_back({t, moving_handle[i]}); });
+    const auto collect = [&](const BoxTree::Item& it, float t) { hits.push_back({t, it.id}); };
+    static_tree.for_each_ray_hit(ray, collect);
+    moving_tree.for_each_ray_hit(ray, collect);
     std::sort(hits.begin(), hits.end(), [](const Hit& a, const Hit& b) { return a.t < b.t || (a.t == b.t && a.h < b.h); });
     std::vector<Handle> out(hits.size());
     for (std::size_t i = 0; i < hits.size(); ++i) out[i] = hits[i].h;
