@@ -9,10 +9,6 @@
 
 namespace hbp {
 
-namespace {
-
-}  // namespace
-
 CollisionPipeline::CollisionPipeline(const BroadPhaseOptions& broad, const NarrowOptions& narrow)
     : broad_(BroadPhaseOptions{broad.engine, broad.cell_limit, broad.threads, false, broad.max_pairs}),
       narrow_(narrow) {}
@@ -30,7 +26,15 @@ const std::vector<Contact>& CollisionPipeline::update(const BoxArray& boxes, con
   broad_.update(
       boxes,
       [&](std::uint32_t cell, const Pair*, std::size_t) {
-        contacts_.insert(contacts_.end(), cell_contacts_[cell].begin(), cell_contacts_[cell].end());
+        // Another thread may be growing cell_contacts_ for a later cell: its
+        // map is read under the same lock (a deque keeps its elements in
+        // place when it grows, so the reference stays valid after).
+        const std::vector<Contact>* done;
+        {
+          std::lock_guard lock(grow);
+          done = &cell_contacts_[cell];
+        }
+        contacts_.insert(contacts_.end(), done->begin(), done->end());
       },
       [&](std::uint32_t cell, const Pair* pairs, std::size_t count) {
         const double start = thread_cpu_ms();
