@@ -115,8 +115,14 @@ void BoxTree::build(const BoxArray& boxes, std::span<const std::uint32_t> ids) {
   std::vector<std::uint32_t> count(bin.size());
   for (std::size_t i = bin.size(); i-- > 0;)
     count[i] = bin[i].leaf() ? 1 : count[i + 1] + count[bin[i].right];
-  nodes_.reserve(boxes.size() / 8 + 1);
-  leaves_.reserve(boxes.size() / 2 + 1);
+  // Exactly one leaf per binary subtree of <= kWidth objects under one of
+  // more; nodes: at most one per three leaves plus the partly filled ones
+  // (the excess is given back at the end).
+  std::size_t leaf_count = count[0] <= kWidth ? 1 : 0;
+  for (std::size_t i = 0; i < bin.size(); ++i)
+    if (count[i] > kWidth) leaf_count += (count[i + 1] <= kWidth) + (count[bin[i].right] <= kWidth);
+  leaves_.reserve(leaf_count);
+  nodes_.reserve(leaf_count / 2 + 1);
   // A binary subtree of <= kWidth objects becomes one leaf.
   std::vector<std::uint32_t> walk;
   const auto emit_leaf = [&](std::uint32_t b) {
@@ -202,6 +208,7 @@ void BoxTree::build(const BoxArray& boxes, std::span<const std::uint32_t> ids) {
     for (std::uint32_t c = used; c-- > 0;)
       if (n.link[c] == kNone) todo.push_back({kids[c], me, c});
   }
+  nodes_.shrink_to_fit();
 }
 
 void BoxTree::refit(const BoxArray& boxes) {

@@ -82,6 +82,8 @@ class BoxTree {
   void clear();
   bool empty() const { return leaves_.empty(); }
   // Bytes held (both arrays' capacity).
+  std::size_t node_count() const { return nodes_.size(); }
+  std::size_t leaf_count() const { return leaves_.size(); }
   std::size_t bytes() const { return nodes_.capacity() * sizeof(Node) + leaves_.capacity() * sizeof(Leaf); }
 
   // Calls hit(index, item) for every box overlapping the closed box q.
