@@ -116,13 +116,13 @@ void BoxTree::build(const BoxArray& boxes, std::span<const std::uint32_t> ids) {
   for (std::size_t i = bin.size(); i-- > 0;)
     count[i] = bin[i].leaf() ? 1 : count[i + 1] + count[bin[i].right];
   // Exactly one leaf per binary subtree of <= kWidth objects under one of
-  // more; nodes: at most one per three leaves plus the partly filled ones
-  // (the excess is given back at the end).
+  // more; fewer nodes than leaves (the excess is given back at the end).
   std::size_t leaf_count = count[0] <= kWidth ? 1 : 0;
   for (std::size_t i = 0; i < bin.size(); ++i)
     if (count[i] > kWidth) leaf_count += (count[i + 1] <= kWidth) + (count[bin[i].right] <= kWidth);
-  leaves_.reserve(leaf_count);
-  nodes_.reserve(leaf_count / 2 + 1);
+  leaves_.resize(leaf_count);
+  nodes_.resize(leaf_count);  // >= 2 children per node: fewer nodes than leaves
+  std::uint32_t leaves = 0, nodes = 0;
   // A binary subtree of <= kWidth objects becomes one leaf.
   std::vector<std::uint32_t> walk;
   const auto emit_leaf = [&](std::uint32_t b) {
@@ -150,10 +150,11 @@ void BoxTree::build(const BoxArray& boxes, std::span<const std::uint32_t> ids) {
       l.id[used] = ids[o];
       ++used;
     }
-    leaves_.push_back(l);
-    return kLeaf | static_cast<std::uint32_t>(leaves_.size() - 1);
+    leaves_[leaves] = l;
+    return kLeaf | leaves++;
   };
   if (count[0] <= kWidth) {
+    nodes_.resize(0);
     root_ = emit_leaf(0);
     return;
   }
@@ -170,7 +171,7 @@ void BoxTree::build(const BoxArray& boxes, std::span<const std::uint32_t> ids) {
   while (!todo.empty()) {
     const Todo t = todo.back();
     todo.pop_back();
-    const auto me = static_cast<std::uint32_t>(nodes_.size());
+    const std::uint32_t me = nodes++;
     if (t.parent != kNone) nodes_[t.parent].link[t.lane] = me;
     // Open the binary subtree: replace the child of largest area that is
     // not yet a leaf (more than kWidth objects) by its two children while
@@ -203,18 +204,18 @@ void BoxTree::build(const BoxArray& boxes, std::span<const std::uint32_t> ids) {
       if (count[kids[c]] <= kWidth) n.link[c] = emit_leaf(kids[c]);
     }
     quantise(n, kid_box, used);
-    nodes_.push_back(n);
+    nodes_[me] = n;
     // Node children, the first on top (visited first, laid out next).
     for (std::uint32_t c = used; c-- > 0;)
       if (n.link[c] == kNone) todo.push_back({kids[c], me, c});
   }
-  nodes_.shrink_to_fit();
+  nodes_.resize(nodes);  // gives the excess back
 }
 
 void BoxTree::refit(const BoxArray& boxes) {
-  for (Leaf& l : leaves_)
+  for (std::size_t i = 0; i < leaves_.size(); ++i)
     for (std::uint32_t c = 0; c < kWidth; ++c)
-      if (l.index[c] != kNone) set_lane(l, c, boxes, l.index[c]);
+      if (leaves_[i].index[c] != kNone) set_lane(leaves_[i], c, boxes, leaves_[i].index[c]);
   for (std::size_t i = nodes_.size(); i-- > 0;) {  // children after parents
     Node& n = nodes_[i];
     Box kid_box[kWidth];
@@ -229,8 +230,8 @@ void BoxTree::refit(const BoxArray& boxes) {
 }
 
 void BoxTree::clear() {
-  std::vector<Node>().swap(nodes_);
-  std::vector<Leaf>().swap(leaves_);
+  RawBuffer<Node>().swap(nodes_);
+  RawBuffer<Leaf>().swap(leaves_);
   root_ = kNone;
 }
 

@@ -32,6 +32,7 @@
 
 #include "hbp/aabb.hpp"
 #include "hbp/box_array.hpp"
+#include "partition/raw_buffer.hpp"
 #include "pipeline/ray_segment.hpp"
 
 namespace hbp::detail {
@@ -80,7 +81,7 @@ class BoxTree {
   // Same membership, new boxes.
   void refit(const BoxArray& boxes);
   void clear();
-  bool empty() const { return leaves_.empty(); }
+  bool empty() const { return leaves_.size() == 0; }
   // Bytes held (both arrays' capacity).
   std::size_t node_count() const { return nodes_.size(); }
   std::size_t leaf_count() const { return leaves_.size(); }
@@ -89,7 +90,7 @@ class BoxTree {
   // Calls hit(index, item) for every box overlapping the closed box q.
   template <class Hit>
   void for_each_overlap(const Aabb& q, Hit&& hit) const {
-    if (leaves_.empty()) return;
+    if (empty()) return;
     std::uint32_t stack[kStack];
     std::uint32_t top = 0;
     std::uint32_t link = root_;
@@ -116,7 +117,7 @@ class BoxTree {
   // Calls hit(item, entry_t) for every box the segment touches.
   template <class Hit>
   void for_each_ray_hit(const RaySegment& ray, Hit&& hit) const {
-    if (leaves_.empty()) return;
+    if (empty()) return;
     const RayLanes lanes(ray);
     std::uint32_t stack[kStack];
     std::uint32_t top = 0;
@@ -345,8 +346,10 @@ class BoxTree {
     for (std::uint32_t m = node_ray_mask(n, ray, lanes); m; m &= m - 1) walk_ray(n.link[lane(m)], ray, lanes, hit);
   }
 
-  std::vector<Node> nodes_;    // a node before its descendants
-  std::vector<Leaf> leaves_;   // a node's leaf children side by side
+  // On huge pages when large (RawBuffer): a query's random walk over tens of
+  // megabytes would otherwise miss the TLB at almost every block.
+  RawBuffer<Node> nodes_;    // a node before its descendants
+  RawBuffer<Leaf> leaves_;   // a node's leaf children side by side
   std::uint32_t root_ = kNone;  // link of the root (a leaf when <= 4 boxes)
 };
 
