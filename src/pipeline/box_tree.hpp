@@ -20,8 +20,8 @@
 // interior is half the size of a float tree (so more of it stays cached), a
 // leaf is four full-precision objects, and a passing child is prefetched as
 // soon as it passes, so sibling misses overlap.
+#include <cstddef>
 #include <cstdint>
-#include <cstring>
 #include <span>
 #include <utility>
 #include <vector>
@@ -91,27 +91,12 @@ class BoxTree {
   template <class Hit>
   void for_each_overlap(const Aabb& q, Hit&& hit) const {
     if (empty()) return;
-    std::uint32_t stack[kStack];
-    std::uint32_t top = 0;
-    std::uint32_t link = root_;
-    for (;;) {
-      if (link & kLeaf) {
-        const Leaf& l = leaves_[link & ~kLeaf];
-        for (std::uint32_t m = leaf_overlap_mask(l, q); m; m &= m - 1) report(l, lane(m), hit);
-      } else {
-        const Node& n = nodes_[link];
-        for (std::uint32_t m = node_overlap_mask(n, q); m; m &= m - 1) {
-          const std::uint32_t child = n.link[lane(m)];
-          prefetch(child);
-          if (top == kStack)  // deeper than any SAH tree of 2^31 boxes: walk the rest recursively
-            walk_overlap(child, q, hit);
-          else
-            stack[top++] = child;
-        }
-      }
-      if (top == 0) return;
-      link = stack[--top];
-    }
+    const auto node_mask = [&](const Node& n) { return node_overlap_mask(n, q); };
+    const auto visit_leaf = [&](std::uint32_t link) {
+      const Leaf& l = leaves_[link & ~kLeaf];
+      for (std::uint32_t m = leaf_overlap_mask(l, q); m; m &= m - 1) report(l, lane(m), hit);
+    };
+    traverse(root_, node_mask, visit_leaf);
   }
 
   // Calls hit(item, entry_t) for every box the segment touches.
@@ -119,29 +104,13 @@ class BoxTree {
   void for_each_ray_hit(const RaySegment& ray, Hit&& hit) const {
     if (empty()) return;
     const RayLanes lanes(ray);
-    std::uint32_t stack[kStack];
-    std::uint32_t top = 0;
-    std::uint32_t link = root_;
-    for (;;) {
-      if (link & kLeaf) {
-        const Leaf& l = leaves_[link & ~kLeaf];
-        float entry[kWidth];
-        for (std::uint32_t m = leaf_ray_mask(l, ray, lanes, entry); m; m &= m - 1)
-          hit(item(l, lane(m)), entry[lane(m)]);
-      } else {
-        const Node& n = nodes_[link];
-        for (std::uint32_t m = node_ray_mask(n, ray, lanes); m; m &= m - 1) {
-          const std::uint32_t child = n.link[lane(m)];
-          prefetch(child);
-          if (top == kStack)
-            walk_ray(child, ray, lanes, hit);
-          else
-            stack[top++] = child;
-        }
-      }
-      if (top == 0) return;
-      link = stack[--top];
-    }
+    const auto node_mask = [&](const Node& n) { return node_ray_mask(n, ray, lanes); };
+    const auto visit_leaf = [&](std::uint32_t link) {
+      const Leaf& l = leaves_[link & ~kLeaf];
+      float entry[kWidth];
+      for (std::uint32_t m = leaf_ray_mask(l, ray, lanes, entry); m; m &= m - 1) hit(item(l, lane(m)), entry[lane(m)]);
+    };
+    traverse(root_, node_mask, visit_leaf);
   }
 
   // The decoded (conservative) box of node n's lane c; also what build and
@@ -155,6 +124,7 @@ class BoxTree {
 
  private:
   static constexpr std::uint32_t kStack = 128;
+  static constexpr std::uint32_t kRing = 8;
 
   static std::uint32_t lane(std::uint32_t mask) { return static_cast<std::uint32_t>(__builtin_ctz(mask)); }
 
@@ -165,9 +135,14 @@ class BoxTree {
 
   // Bit c: lane c holds a child / an object.
   static std::uint32_t used_mask(const std::uint32_t* link) {
+#if defined(__SSE2__)
+    const __m128i unused = _mm_cmpeq_epi32(_mm_load_si128(reinterpret_cast<const __m128i*>(link)), _mm_set1_epi32(-1));
+    return static_cast<std::uint32_t>(_mm_movemask_ps(_mm_castsi128_ps(unused))) ^ 0xFu;
+#else
     std::uint32_t mask = 0;
     for (std::uint32_t c = 0; c < kWidth; ++c) mask |= static_cast<std::uint32_t>(link[c] != kNone) << c;
     return mask;
+#endif
   }
 
   static Item item(const Leaf& l, std::uint32_t c) {
@@ -180,13 +155,24 @@ class BoxTree {
   }
 
 #if defined(__SSE2__)
-  // The four lanes' decoded bounds of one axis.
-  static __m128 decode_lanes(const std::uint8_t* q, float lo, float step) {
-    std::int32_t bytes;
-    std::memcpy(&bytes, q, 4);
+  // The four lanes' decoded bounds on every axis: lo + q * step.
+  static void decode_lanes(const Node& n, __m128* mn, __m128* mx) {
+    static_assert(offsetof(Node, qmax) == offsetof(Node, qmin) + 12 && offsetof(Node, link) == offsetof(Node, qmax) + 12,
+                  "the 24 code bytes are followed by the links");
     const __m128i zero = _mm_setzero_si128();
-    const __m128i wide = _mm_unpacklo_epi16(_mm_unpacklo_epi8(_mm_cvtsi32_si128(bytes), zero), zero);
-    return _mm_add_ps(_mm_set1_ps(lo), _mm_mul_ps(_mm_cvtepi32_ps(wide), _mm_set1_ps(step)));
+    // qmin[0..2], qmax[0] | qmax[1..2] (and link bytes, unused)
+    const __m128i a = _mm_loadu_si128(reinterpret_cast<const __m128i*>(n.qmin[0]));
+    const __m128i b = _mm_loadu_si128(reinterpret_cast<const __m128i*>(n.qmax[1]));
+    const __m128i a_lo = _mm_unpacklo_epi8(a, zero), a_hi = _mm_unpackhi_epi8(a, zero);
+    const __m128i b_lo = _mm_unpacklo_epi8(b, zero);
+    const __m128i code[6] = {_mm_unpacklo_epi16(a_lo, zero), _mm_unpackhi_epi16(a_lo, zero),
+                             _mm_unpacklo_epi16(a_hi, zero), _mm_unpackhi_epi16(a_hi, zero),
+                             _mm_unpacklo_epi16(b_lo, zero), _mm_unpackhi_epi16(b_lo, zero)};
+    for (int k = 0; k < 3; ++k) {
+      const __m128 lo = _mm_set1_ps(n.lo[k]), step = _mm_set1_ps(n.step[k]);
+      mn[k] = _mm_add_ps(lo, _mm_mul_ps(_mm_cvtepi32_ps(code[k]), step));
+      mx[k] = _mm_add_ps(lo, _mm_mul_ps(_mm_cvtepi32_ps(code[3 + k]), step));
+    }
   }
   static std::uint32_t sse_overlap_mask(const __m128* mn, const __m128* mx, const Aabb& q) {
     __m128 m = _mm_and_ps(_mm_cmpge_ps(mx[0], _mm_set1_ps(q.min[0])), _mm_cmple_ps(mn[0], _mm_set1_ps(q.max[0])));
@@ -216,10 +202,7 @@ class BoxTree {
   static std::uint32_t node_overlap_mask(const Node& n, const Aabb& q) {
 #if defined(__SSE2__)
     __m128 mn[3], mx[3];
-    for (int k = 0; k < 3; ++k) {
-      mn[k] = decode_lanes(n.qmin[k], n.lo[k], n.step[k]);
-      mx[k] = decode_lanes(n.qmax[k], n.lo[k], n.step[k]);
-    }
+    decode_lanes(n, mn, mx);
     return sse_overlap_mask(mn, mx, q) & used_mask(n.link);
 #else
     std::uint32_t mask = 0;
@@ -295,10 +278,7 @@ class BoxTree {
   static std::uint32_t node_ray_mask(const Node& n, const RaySegment& ray, [[maybe_unused]] const RayLanes& lanes) {
 #if defined(__SSE2__)
     __m128 mn[3], mx[3];
-    for (int k = 0; k < 3; ++k) {
-      mn[k] = decode_lanes(n.qmin[k], n.lo[k], n.step[k]);
-      mx[k] = decode_lanes(n.qmax[k], n.lo[k], n.step[k]);
-    }
+    decode_lanes(n, mn, mx);
     __m128 t0;
     const __m128 m = sse_ray_lanes(mn, mx, ray, lanes, t0);
     return static_cast<std::uint32_t>(_mm_movemask_ps(m)) & used_mask(n.link);
@@ -323,27 +303,39 @@ class BoxTree {
     }
   }
 
-  // The subtree at `link`, recursively (only past kStack levels).
-  template <class Hit>
-  void walk_overlap(std::uint32_t link, const Aabb& q, Hit& hit) const {
+  // Depth-first walk of the subtree at `link`: node_mask(node) gives the
+  // passing lanes, visit_leaf(link) tests a leaf. Passing children are
+  // prefetched at once; nodes go on the stack, leaves into a small ring that
+  // is tested only when full (oldest first) or at the end, so a leaf's miss
+  // overlaps the walk of the nodes after it instead of stalling it.
+  template <class NodeMask, class VisitLeaf>
+  void traverse(std::uint32_t link, const NodeMask& node_mask, const VisitLeaf& visit_leaf) const {
     if (link & kLeaf) {
-      const Leaf& l = leaves_[link & ~kLeaf];
-      for (std::uint32_t m = leaf_overlap_mask(l, q); m; m &= m - 1) report(l, lane(m), hit);
+      visit_leaf(link);
       return;
     }
-    const Node& n = nodes_[link];
-    for (std::uint32_t m = node_overlap_mask(n, q); m; m &= m - 1) walk_overlap(n.link[lane(m)], q, hit);
-  }
-  template <class Hit>
-  void walk_ray(std::uint32_t link, const RaySegment& ray, const RayLanes& lanes, Hit& hit) const {
-    if (link & kLeaf) {
-      const Leaf& l = leaves_[link & ~kLeaf];
-      float entry[kWidth];
-      for (std::uint32_t m = leaf_ray_mask(l, ray, lanes, entry); m; m &= m - 1) hit(item(l, lane(m)), entry[lane(m)]);
-      return;
+    std::uint32_t stack[kStack];
+    std::uint32_t top = 0;
+    std::uint32_t ring[kRing];
+    std::uint32_t head = 0, tail = 0;
+    for (;;) {
+      const Node& n = nodes_[link];
+      for (std::uint32_t m = node_mask(n); m; m &= m - 1) {
+        const std::uint32_t child = n.link[lane(m)];
+        prefetch(child);
+        if (child & kLeaf) {
+          if (tail - head == kRing) visit_leaf(ring[head++ % kRing]);
+          ring[tail++ % kRing] = child;
+        } else if (top == kStack) {  // deeper than any SAH tree of 2^31 boxes: a fresh stack
+          traverse(child, node_mask, visit_leaf);
+        } else {
+          stack[top++] = child;
+        }
+      }
+      if (top == 0) break;
+      link = stack[--top];
     }
-    const Node& n = nodes_[link];
-    for (std::uint32_t m = node_ray_mask(n, ray, lanes); m; m &= m - 1) walk_ray(n.link[lane(m)], ray, lanes, hit);
+    while (head != tail) visit_leaf(ring[head++ % kRing]);
   }
 
   // On huge pages when large (RawBuffer): a query's random walk over tens of
