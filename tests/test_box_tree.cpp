@@ -196,4 +196,25 @@ TEST(BoxTree, RefitMatchesScan) {
   }
 }
 
+// Boxes of exponentially growing size and spacing: the SAH splits peel a
+// few boxes off per level, a chain of nodes each with leaves beside it (the
+// leaf ring overflows again and again during one walk).
+TEST(BoxTree, DeepTreeMatchesScan) {
+  hbp::Random rng(14);
+  const std::size_t n = 1200;
+  BoxArray boxes(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto x = static_cast<float>(std::pow(1.07, static_cast<double>(i)));
+    boxes.set(i, Aabb{{x, 0, 0}, {x * 1.05f, 1, 1}});
+  }
+  const auto ids = ids_for(n);
+  BoxTree tree;
+  tree.build(boxes, ids);
+  EXPECT_GT(tree.depth(), 30u);
+  for (std::size_t i = 0; i < n; i += 7) check_box(tree, boxes, ids, boxes.get(i));
+  check_box(tree, boxes, ids, Aabb{{0, 0, 0}, {kInf, 1, 1}});
+  const float o[3] = {0, 0.5f, 0.5f}, d[3] = {1, 0, 0};
+  check_ray(tree, boxes, o, d, kInf);
+}
+
 }  // namespace

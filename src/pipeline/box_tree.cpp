@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <stdexcept>
 
@@ -120,8 +121,9 @@ void BoxTree::build(const BoxArray& boxes, std::span<const std::uint32_t> ids) {
   std::size_t leaf_count = count[0] <= kWidth ? 1 : 0;
   for (std::size_t i = 0; i < bin.size(); ++i)
     if (count[i] > kWidth) leaf_count += (count[i + 1] <= kWidth) + (count[bin[i].right] <= kWidth);
-  leaves_.resize(leaf_count);
-  nodes_.resize(leaf_count);  // >= 2 children per node: fewer nodes than leaves
+  // grow() on the empty buffers (clear() above) allocates exactly this much.
+  leaves_.grow(leaf_count);
+  nodes_.grow(leaf_count);  // >= 2 children per node: fewer nodes than leaves
   std::uint32_t leaves = 0, nodes = 0;
   // A binary subtree of <= kWidth objects becomes one leaf.
   std::vector<std::uint32_t> walk;
@@ -154,7 +156,7 @@ void BoxTree::build(const BoxArray& boxes, std::span<const std::uint32_t> ids) {
     return kLeaf | leaves++;
   };
   if (count[0] <= kWidth) {
-    nodes_.resize(0);
+    nodes_.truncate(0);
     root_ = emit_leaf(0);
     return;
   }
@@ -209,7 +211,11 @@ void BoxTree::build(const BoxArray& boxes, std::span<const std::uint32_t> ids) {
     for (std::uint32_t c = used; c-- > 0;)
       if (n.link[c] == kNone) todo.push_back({kids[c], me, c});
   }
-  nodes_.resize(nodes);  // gives the excess back
+  // Give the excess back: an exact copy.
+  RawBuffer<Node> exact;
+  exact.grow(nodes);
+  std::memcpy(exact.data(), nodes_.data(), nodes * sizeof(Node));
+  nodes_.swap(exact);
 }
 
 void BoxTree::refit(const BoxArray& boxes) {
@@ -227,6 +233,24 @@ void BoxTree::refit(const BoxArray& boxes) {
     }
     quantise(n, kid_box, used);
   }
+}
+
+std::uint32_t BoxTree::depth() const {
+  if (empty()) return 0;
+  if (root_ & kLeaf) return 1;
+  // Pre-order: a node's depth is known before its children's.
+  std::vector<std::uint32_t> level(nodes_.size());
+  std::uint32_t deepest = 0;
+  level[0] = 1;
+  for (std::size_t i = 0; i < nodes_.size(); ++i)
+    for (std::uint32_t link : nodes_[i].link) {
+      if (link == kNone) continue;
+      if (link & kLeaf)
+        deepest = std::max(deepest, level[i] + 1);
+      else
+        level[link] = level[i] + 1;
+    }
+  return deepest;
 }
 
 void BoxTree::clear() {

@@ -45,6 +45,7 @@ class BoxTree {
   static constexpr std::uint32_t kNone = 0xffffffffu;
   // The most boxes a tree holds.
   static constexpr std::uint32_t kMaxBoxes = kLeaf;
+  static constexpr std::uint32_t kStack = 128;
 
   // An object found by a query: its box, index and the caller's id for it
   // (the id saves a query a random read per hit: the caller's index ->
@@ -82,6 +83,9 @@ class BoxTree {
   void refit(const BoxArray& boxes);
   void clear();
   bool empty() const { return leaves_.size() == 0; }
+  // Blocks on the longest root-to-leaf path (0 when empty); a walk keeps
+  // kStack pending nodes before it recurses.
+  std::uint32_t depth() const;
   // Bytes held (both arrays' capacity).
   std::size_t node_count() const { return nodes_.size(); }
   std::size_t leaf_count() const { return leaves_.size(); }
@@ -123,7 +127,6 @@ class BoxTree {
   }
 
  private:
-  static constexpr std::uint32_t kStack = 128;
   static constexpr std::uint32_t kRing = 8;
 
   static std::uint32_t lane(std::uint32_t mask) { return static_cast<std::uint32_t>(__builtin_ctz(mask)); }
