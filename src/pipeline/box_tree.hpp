@@ -128,6 +128,7 @@ class BoxTree {
 
  private:
   static constexpr std::uint32_t kRing = 8;
+  static constexpr std::uint32_t kDeepStack = 32;
 
   static std::uint32_t lane(std::uint32_t mask) { return static_cast<std::uint32_t>(__builtin_ctz(mask)); }
 
@@ -306,39 +307,43 @@ class BoxTree {
     }
   }
 
-  // Depth-first walk of the subtree at `link`: node_mask(node) gives the
-  // passing lanes, visit_leaf(link) tests a leaf. Passing children are
-  // prefetched at once; nodes go on the stack, leaves into a small ring that
-  // is tested only when full (oldest first) or at the end, so a leaf's miss
-  // overlaps the walk of the nodes after it instead of stalling it.
+  // Walk of the subtree at `link`: node_mask(node) gives the passing lanes,
+  // visit_leaf(link) tests a leaf. A passing child is prefetched at once and
+  // queued in a small ring that is served first in, first out, so by the time
+  // a block is tested its miss has overlapped the tests of up to kRing blocks
+  // queued before it (a plain depth-first walk tests the child it has just
+  // asked for, and waits). Children that find the ring full go on a stack,
+  // served when the ring is empty or the stack holds more than kDeepStack
+  // (then the walk is depth-first, which bounds the stack by the depth).
   template <class NodeMask, class VisitLeaf>
   void traverse(std::uint32_t link, const NodeMask& node_mask, const VisitLeaf& visit_leaf) const {
-    if (link & kLeaf) {
-      visit_leaf(link);
-      return;
-    }
     std::uint32_t stack[kStack];
     std::uint32_t top = 0;
     std::uint32_t ring[kRing];
     std::uint32_t head = 0, tail = 0;
     for (;;) {
-      const Node& n = nodes_[link];
-      for (std::uint32_t m = node_mask(n); m; m &= m - 1) {
-        const std::uint32_t child = n.link[lane(m)];
-        prefetch(child);
-        if (child & kLeaf) {
-          if (tail - head == kRing) visit_leaf(ring[head++ % kRing]);
-          ring[tail++ % kRing] = child;
-        } else if (top == kStack) {  // deeper than any SAH tree of 2^31 boxes: a fresh stack
-          traverse(child, node_mask, visit_leaf);
-        } else {
-          stack[top++] = child;
+      if (link & kLeaf) {
+        visit_leaf(link);
+      } else {
+        const Node& n = nodes_[link];
+        for (std::uint32_t m = node_mask(n); m; m &= m - 1) {
+          const std::uint32_t child = n.link[lane(m)];
+          prefetch(child);
+          if (tail - head < kRing)
+            ring[tail++ % kRing] = child;
+          else if (top == kStack)  // deeper than any SAH tree of 2^31 boxes: a fresh walk
+            traverse(child, node_mask, visit_leaf);
+          else
+            stack[top++] = child;
         }
       }
-      if (top == 0) break;
-      link = stack[--top];
+      if (head != tail && top <= kDeepStack)
+        link = ring[head++ % kRing];
+      else if (top != 0)
+        link = stack[--top];
+      else
+        return;
     }
-    while (head != tail) visit_leaf(ring[head++ % kRing]);
   }
 
   // On huge pages when large (RawBuffer): a query's random walk over tens of
