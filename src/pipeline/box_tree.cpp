@@ -44,7 +44,7 @@ void quantise(BoxTree::Node& n, const Box* kids, std::uint32_t used) {
       step = step == 0 ? std::numeric_limits<float>::denorm_min() : i < 4 ? std::nextafter(step, kInf) : 2 * step;
     n.lo[k] = lo;
     n.step[k] = step;
-    for (std::uint32_t c = 0; c < BoxTree::kWidth; ++c) {
+    for (std::uint32_t c = 0; c < BoxTree::kNodeWidth; ++c) {
       if (c >= used) {
         n.qmin[k][c] = n.qmax[k][c] = 0;
         continue;
@@ -80,7 +80,7 @@ Box bounds(const BoxTree::Leaf& l) {
 }
 Box bounds(const BoxTree::Node& n) {
   Box b{{kInf, kInf, kInf}, {-kInf, -kInf, -kInf}};
-  for (std::uint32_t c = 0; c < BoxTree::kWidth; ++c) {
+  for (std::uint32_t c = 0; c < BoxTree::kNodeWidth; ++c) {
     if (n.link[c] == BoxTree::kNone) continue;
     float mn[3], mx[3];
     BoxTree::decode(n, c, mn, mx);
@@ -178,9 +178,9 @@ void BoxTree::build(const BoxArray& boxes, std::span<const std::uint32_t> ids) {
     // Open the binary subtree: replace the child of largest area that is
     // not yet a leaf (more than kWidth objects) by its two children while
     // fewer than four.
-    std::uint32_t kids[kWidth] = {t.bin, 0, 0, 0};
+    std::uint32_t kids[kNodeWidth] = {t.bin};
     std::uint32_t used = 1;
-    while (used < kWidth) {
+    while (used < kNodeWidth) {
       int best = -1;
       float best_area = -1;
       for (std::uint32_t c = 0; c < used; ++c)
@@ -194,8 +194,8 @@ void BoxTree::build(const BoxArray& boxes, std::span<const std::uint32_t> ids) {
       kids[used++] = bin[b].right;
     }
     Node n;
-    Box kid_box[kWidth];
-    for (std::uint32_t c = 0; c < kWidth; ++c) {
+    Box kid_box[kNodeWidth];
+    for (std::uint32_t c = 0; c < kNodeWidth; ++c) {
       n.link[c] = kNone;
       if (c >= used) continue;
       for (int k = 0; k < 3; ++k) {
@@ -224,9 +224,9 @@ void BoxTree::refit(const BoxArray& boxes) {
       if (leaves_[i].index[c] != kNone) set_lane(leaves_[i], c, boxes, leaves_[i].index[c]);
   for (std::size_t i = nodes_.size(); i-- > 0;) {  // children after parents
     Node& n = nodes_[i];
-    Box kid_box[kWidth];
+    Box kid_box[kNodeWidth];
     std::uint32_t used = 0;
-    while (used < kWidth && n.link[used] != kNone) {
+    while (used < kNodeWidth && n.link[used] != kNone) {
       const std::uint32_t link = n.link[used];
       kid_box[used] = link & kLeaf ? bounds(leaves_[link & ~kLeaf]) : bounds(nodes_[link]);
       ++used;
