@@ -10,6 +10,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -215,6 +217,24 @@ TEST(BoxTree, DeepTreeMatchesScan) {
   check_box(tree, boxes, ids, Aabb{{0, 0, 0}, {kInf, 1, 1}});
   const float o[3] = {0, 0.5f, 0.5f}, d[3] = {1, 0, 0};
   check_ray(tree, boxes, o, d, kInf);
+}
+
+// The quantisation needs finite ordered boxes: others are refused by name.
+TEST(BoxTree, RejectsNonFiniteAndInvertedBoxes) {
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const Aabb bad[] = {{{0, 0, nan}, {1, 1, 1}}, {{0, 0, 0}, {kInf, 1, 1}}, {{0, -kInf, 0}, {1, 1, 1}}, {{0, 2, 0}, {1, 1, 1}}};
+  for (const Aabb& b : bad) {
+    BoxArray boxes(5);
+    for (std::size_t i = 0; i < 5; ++i) boxes.set(i, Aabb{{0, 0, 0}, {1, 1, 1}});
+    boxes.set(3, b);
+    BoxTree tree;
+    try {
+      tree.build(boxes, ids_for(5));
+      FAIL() << "accepted a bad box";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("box 3"), std::string::npos) << e.what();
+    }
+  }
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 #include <cstring>
 #include <limits>
 #include <stdexcept>
+#include <string>
 
 #include "hierarchy/cell_bvh.hpp"
 
@@ -40,8 +41,12 @@ void quantise(BoxTree::Node& n, const Box* kids, std::uint32_t used) {
     // grown until the top code reaches hi in float. It stays finite: at most
     // twice the ~2.7e36 the widest float range needs.
     float step = static_cast<float>((static_cast<double>(hi) - lo) / 255.0);
-    for (int i = 0; !(decode_bound(lo, 255, step) >= hi); ++i)
+    for (int i = 0; !(decode_bound(lo, 255, step) >= hi); ++i) {
+      if (i == 300)  // finite boxes converge in a few steps (build() rejects the others)
+        throw std::logic_error("BoxTree: no quantisation step covers [" + std::to_string(lo) + ", " +
+                               std::to_string(hi) + "]");
       step = step == 0 ? std::numeric_limits<float>::denorm_min() : i < 4 ? std::nextafter(step, kInf) : 2 * step;
+    }
     n.lo[k] = lo;
     n.step[k] = step;
     for (std::uint32_t c = 0; c < BoxTree::kNodeWidth; ++c) {
@@ -106,6 +111,11 @@ void BoxTree::build(const BoxArray& boxes, std::span<const std::uint32_t> ids) {
   if (boxes.size() == 0) return;
   if (boxes.size() >= kMaxBoxes || ids.size() != boxes.size())
     throw std::length_error("BoxTree::build: more than 2^31 - 1 boxes, or ids not one per box");
+  // The quantisation needs finite, ordered boxes (BroadPhase rejects others
+  // at add / move; this guards the class itself).
+  for (std::size_t i = 0; i < boxes.size(); ++i)
+    if (const char* d = box_defect(boxes.get(i)))
+      throw std::invalid_argument("BoxTree::build: box " + std::to_string(i) + ": " + d);
   // The binary tree (and the builder's scratch) live only during the build.
   std::vector<BvhNode> bin;
   {
