@@ -193,11 +193,14 @@ void BoxTree::build(const BoxArray& boxes, std::span<const std::uint32_t> ids) {
     while (used < kNodeWidth) {
       int best = -1;
       float best_area = -1;
-      for (std::uint32_t c = 0; c < used; ++c)
-        if (count[kids[c]] > kWidth && half_area(bin[kids[c]]) > best_area) {
+      for (std::uint32_t c = 0; c < used; ++c) {
+        if (count[kids[c]] <= kWidth) continue;
+        const float area = count[kids[c]] <= 2 * kWidth ? kInf : half_area(bin[kids[c]]);
+        if (area > best_area) {
           best = static_cast<int>(c);
-          best_area = half_area(bin[kids[c]]);
+          best_area = area;
         }
+      }
       if (best < 0) break;
       const std::uint32_t b = kids[best];
       kids[best] = b + 1;
