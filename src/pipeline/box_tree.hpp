@@ -17,8 +17,8 @@
 //   Decoding is lo + q * step in float, the very operations the build
 //   verified the rounding with.
 // On a million boxes a query is bound by cache misses, not arithmetic: eight
-// quantised children fit where four float ones did, so the walk is two
-// thirds as deep (8 blocks instead of 12 on the paper frame's 10^6 boxes), a
+// quantised children fit where four float ones did, so the walk is shallower
+// (at most 9 blocks instead of 12 on the paper frame's 10^6 boxes), a
 // leaf is four full-precision objects, and passing children are prefetched
 // at once and tested first in, first out (traverse), so misses overlap.
 #include <cstddef>
