@@ -162,7 +162,7 @@ class BoxTree {
   }
 
 #if defined(__SSE2__)
-  // The four lanes' decoded bounds on every axis: lo + q * step.
+  // Lanes h..h+3's decoded bounds on every axis: lo + q * step.
   static void decode_lanes(const Node& n, std::uint32_t h, __m128* mn, __m128* mx) {
     const __m128i zero = _mm_setzero_si128();
     for (int k = 0; k < 3; ++k) {
