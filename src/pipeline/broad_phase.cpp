@@ -112,6 +112,7 @@ struct BroadPhase::Impl {
   // Moving objects, dense, ordered by handle.
   BoxArray moving_boxes;
   std::vector<Handle> moving_handle;
+  bool moving_identity = false;  // moving_handle[d] == d for every d (no remapping)
   bool moving_membership_dirty = false;
 
   // Static objects, dense, ordered by handle, and their tree.
@@ -156,6 +157,7 @@ struct BroadPhase::Impl {
   BroadPhaseUpdate result;
   BroadPhaseUpdateStats stats;
   std::vector<Pair> moving_pairs, static_pairs, next, sort_scratch, flips;
+  detail::PairDiffScratch diff_scratch;
   // static_pairs holds last frame's moving/static pairs and every cached
   // candidate's `hit` agrees with it: true after an unfiltered frame in
   // which nothing but moving boxes changed since.
@@ -239,24 +241,75 @@ struct BroadPhase::Impl {
     return handles;
   }
 
+  // Screens for the common batch: handles strictly increasing (so none
+  // repeats) and live, boxes finite with min <= max. One branch-free pass
+  // each (x - x == 0 exactly when x is finite); when a screen fails, the
+  // row-by-row checks above name the offending row.
+  bool handles_increasing_and_live(const Handle* h, std::size_t begin, std::size_t end) const {
+    bool ok = true;
+    Handle last = begin ? h[begin - 1] : 0;
+    for (std::size_t i = begin; i < end; ++i) {
+      ok &= table.live(h[i]) & (i == 0 || h[i] > last);
+      last = h[i];
+    }
+    return ok;
+  }
+
+  static bool boxes_well_formed(const Aabb* b, std::size_t begin, std::size_t end) {
+    bool ok = true;
+    for (std::size_t i = begin; i < end; ++i)
+      for (int k = 0; k < 3; ++k) {
+        const float lo = b[i].min[k], hi = b[i].max[k];
+        ok &= (lo - lo == 0.0f) & (hi - hi == 0.0f) & (lo <= hi);
+      }
+    return ok;
+  }
+
+  // Runs body(begin, end) over fixed ranges of [0, n), in parallel on the
+  // broad phase's threads when the batch is large; returns the sum.
+  template <class Body>
+  std::uint32_t for_batch(std::size_t n, Body&& body) {
+    constexpr std::size_t kEdits = 16384;  // edits per parallel task
+    if (n < 2 * kEdits) return body(std::size_t(0), n);
+    const std::size_t chunks = (n + kEdits - 1) / kEdits;
+    std::vector<std::uint32_t> part(chunks);
+    arena.execute([&] {
+      tbb::parallel_for(std::size_t(0), chunks,
+                        [&](std::size_t c) { part[c] = body(c * kEdits, std::min(n, (c + 1) * kEdits)); });
+    });
+    return std::accumulate(part.begin(), part.end(), std::uint32_t(0));
+  }
+
   void move(std::span<const Handle> handles, std::span<const Aabb> boxes) {
     if (handles.size() != boxes.size())
       throw InvalidInput("BroadPhase::move: " + std::to_string(handles.size()) + " handles but " +
                          std::to_string(boxes.size()) + " boxes");
-    check_handles("move", handles);
-    check_boxes("move", boxes);
-    std::uint32_t statics = 0, moving = 0;
-    for (std::size_t i = 0; i < handles.size(); ++i) {
-      const std::uint32_t s = HandleTable::slot_of(handles[i]);
-      slot_box[s] = boxes[i];
-      if (table.kind(s) == HandleTable::kStatic) {
-        ++statics;
-      } else {
-        ++moving;
-        const std::uint32_t d = table.index(s);
-        if (d != kNoIndex) moving_boxes.set(d, boxes[i]);
+    const std::size_t n = handles.size();
+    const Handle* h = handles.data();
+    const Aabb* b = boxes.data();
+    // Ranges whose handles failed the screen in the low 16 bits, whose
+    // boxes did in the high 16 (at most kMaxObjects / 16384 ranges).
+    const std::uint32_t failed = for_batch(n, [&](std::size_t begin, std::size_t end) {
+      return std::uint32_t(!handles_increasing_and_live(h, begin, end)) +
+             (std::uint32_t(!boxes_well_formed(b, begin, end)) << 16);
+    });
+    if (failed & 0xFFFFu) check_handles("move", handles);
+    if (failed >> 16) check_boxes("move", boxes);
+    // Distinct handles: the ranges write distinct slots and dense indices.
+    const std::uint32_t statics = for_batch(n, [&](std::size_t begin, std::size_t end) {
+      std::uint32_t count = 0;
+      for (std::size_t i = begin; i < end; ++i) {
+        const std::uint32_t s = HandleTable::slot_of(h[i]);
+        slot_box[s] = b[i];
+        if (table.kind(s) == HandleTable::kStatic) {
+          ++count;
+        } else if (const std::uint32_t d = table.index(s); d != kNoIndex) {
+          moving_boxes.set(d, b[i]);
+        }
       }
-    }
+      return count;
+    });
+    const std::uint32_t moving = static_cast<std::uint32_t>(n) - statics;
     if (statics) statics_changed(statics);
     if (moving) {
       moved += moving;
@@ -333,6 +386,8 @@ struct BroadPhase::Impl {
   void sync_moving() {
     if (!moving_membership_dirty) return;
     gather(HandleTable::kMoving, moving_boxes, moving_handle);
+    // Strictly increasing handles from 0 ending at size - 1 are 0, 1, 2 ...
+    moving_identity = !moving_handle.empty() && moving_handle.back() == moving_handle.size() - 1;
     moving_membership_dirty = false;
   }
 
@@ -568,6 +623,23 @@ struct BroadPhase::Impl {
     static_pairs_valid = all && !filter;
   }
 
+  // No static objects, no filtering: the frame's pairs are the hybrid
+  // system's, mapped from dense indices to handles in the same parallel pass
+  // as the merge with the previous frame (no intermediate list).
+  void all_moving_frame() {
+    std::span<const Pair> raw;
+    if (moving_handle.size() >= 2) raw = hybrid.update(moving_boxes);
+    if (options.max_pairs && raw.size() > options.max_pairs)
+      throw CapacityExceeded("BroadPhase::update: " + std::to_string(raw.size()) + " pairs, more than max_pairs " +
+                             std::to_string(options.max_pairs));
+    moving_pairs.clear();
+    static_pairs.clear();
+    static_pairs_valid = false;
+    detail::map_and_diff_sorted_pairs(result.pairs, raw, moving_identity ? nullptr : moving_handle.data(), next,
+                                      result.created, result.removed, diff_scratch);
+    result.pairs.swap(next);
+  }
+
   const BroadPhaseUpdate& update() {
     const auto start = SteadyClock::now();
     arena.execute([&] {
@@ -576,6 +648,10 @@ struct BroadPhase::Impl {
       const bool incremental = !statics_dirty && !moving_membership_dirty;
       sync_statics();
       sync_moving();
+      if (static_handle.empty() && all_layers_collide() && !filter) {
+        all_moving_frame();
+        return;
+      }
       find_moving_pairs();
       find_static_pairs(incremental);
       if (static_pairs.empty()) {
@@ -589,7 +665,7 @@ struct BroadPhase::Impl {
       if (options.max_pairs && next.size() > options.max_pairs)
         throw CapacityExceeded("BroadPhase::update: " + std::to_string(next.size()) + " pairs, more than max_pairs " +
                                std::to_string(options.max_pairs));
-      detail::diff_sorted_pairs(result.pairs, next, result.created, result.removed);
+      detail::diff_sorted_pairs(result.pairs, next, result.created, result.removed, diff_scratch);
       result.pairs.swap(next);
     });
     fit(next);
