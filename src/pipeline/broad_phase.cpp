@@ -32,6 +32,7 @@
 #include "hbp/error.hpp"
 #include "pipeline/box_tree.hpp"
 #include "pipeline/handle_table.hpp"
+#include "pipeline/hybrid_access.hpp"
 #include "pipeline/pair_events.hpp"
 #include "support/clock.hpp"
 
@@ -107,12 +108,18 @@ struct BroadPhase::Impl {
   HybridBroadPhase hybrid;
 
   HandleTable table;
-  std::vector<Aabb> slot_box;  // by slot
+  // By slot: the box of a static object, and of a moving object until it
+  // has a dense index (then its box is moving_boxes[index], written back
+  // here when the moving membership changes: see box_of and sync_moving).
+  std::vector<Aabb> slot_box;
 
   // Moving objects, dense, ordered by handle.
   BoxArray moving_boxes;
   std::vector<Handle> moving_handle;
   bool moving_identity = false;  // moving_handle[d] == d for every d (no remapping)
+  // move() of every moving object writes the new boxes here while checking
+  // them, then swaps with moving_boxes (nothing changes when a row fails).
+  BoxArray staged_boxes;
   bool moving_membership_dirty = false;
 
   // Static objects, dense, ordered by handle, and their tree.
@@ -280,6 +287,39 @@ struct BroadPhase::Impl {
     return std::accumulate(part.begin(), part.end(), std::uint32_t(0));
   }
 
+  // The whole-frame batch: every moving object, in handle (= dense) order,
+  // with no membership change pending. One pass compares the handles with
+  // moving_handle, checks each box and writes it into staged_boxes, which
+  // then replaces moving_boxes: the input is read once and nothing is
+  // written in place, so a failed row (false: the general path below then
+  // names it) leaves everything as it was.
+  bool move_every_moving(const Handle* h, const Aabb* b, std::size_t n) {
+    if (moving_membership_dirty || n == 0 || n != moving_handle.size()) return false;
+    staged_boxes.resize(n);
+    float* lane[6];
+    for (int k = 0; k < 3; ++k) {
+      lane[k] = staged_boxes.min(k);
+      lane[3 + k] = staged_boxes.max(k);
+    }
+    const Handle* want = moving_handle.data();
+    const std::uint32_t failed = for_batch(n, [&](std::size_t begin, std::size_t end) {
+      bool ok = true;
+      for (std::size_t i = begin; i < end; ++i) {
+        ok &= h[i] == want[i];
+        for (int k = 0; k < 3; ++k) {
+          const float lo = b[i].min[k], hi = b[i].max[k];
+          ok &= (lo - lo == 0.0f) & (hi - hi == 0.0f) & (lo <= hi);
+          lane[k][i] = lo;
+          lane[3 + k][i] = hi;
+        }
+      }
+      return std::uint32_t(!ok);
+    });
+    if (failed) return false;
+    std::swap(moving_boxes, staged_boxes);
+    return true;
+  }
+
   void move(std::span<const Handle> handles, std::span<const Aabb> boxes) {
     if (handles.size() != boxes.size())
       throw InvalidInput("BroadPhase::move: " + std::to_string(handles.size()) + " handles but " +
@@ -287,6 +327,11 @@ struct BroadPhase::Impl {
     const std::size_t n = handles.size();
     const Handle* h = handles.data();
     const Aabb* b = boxes.data();
+    if (move_every_moving(h, b, n)) {
+      moved += static_cast<std::uint32_t>(n);
+      touched_moving();
+      return;
+    }
     // Ranges whose handles failed the screen in the low 16 bits, whose
     // boxes did in the high 16 (at most kMaxObjects / 16384 ranges).
     const std::uint32_t failed = for_batch(n, [&](std::size_t begin, std::size_t end) {
@@ -300,11 +345,13 @@ struct BroadPhase::Impl {
       std::uint32_t count = 0;
       for (std::size_t i = begin; i < end; ++i) {
         const std::uint32_t s = HandleTable::slot_of(h[i]);
-        slot_box[s] = b[i];
         if (table.kind(s) == HandleTable::kStatic) {
+          slot_box[s] = b[i];
           ++count;
         } else if (const std::uint32_t d = table.index(s); d != kNoIndex) {
           moving_boxes.set(d, b[i]);
+        } else {
+          slot_box[s] = b[i];
         }
       }
       return count;
@@ -344,6 +391,7 @@ struct BroadPhase::Impl {
   // table stays: its generations keep old handles stale).
   void release_memory() {
     moving_boxes = BoxArray();
+    staged_boxes = BoxArray();
     static_boxes = BoxArray();
     std::vector<Handle>().swap(moving_handle);
     std::vector<Handle>().swap(static_handle);
@@ -383,9 +431,20 @@ struct BroadPhase::Impl {
     statics_dirty = false;
   }
 
+  // The box of a live slot (see slot_box).
+  Aabb box_of(std::uint32_t s) const {
+    const std::uint32_t d = table.index(s);
+    return table.kind(s) == HandleTable::kMoving && d != kNoIndex ? moving_boxes.get(d) : slot_box[s];
+  }
+
   void sync_moving() {
     if (!moving_membership_dirty) return;
+    // The indexed moving objects' boxes back into slot_box, which gather reads.
+    for (std::uint32_t s = 0; s < table.slots(); ++s)
+      if (table.kind(s) == HandleTable::kMoving && table.index(s) != kNoIndex)
+        slot_box[s] = moving_boxes.get(table.index(s));
     gather(HandleTable::kMoving, moving_boxes, moving_handle);
+    if (staged_boxes.capacity() > 4 * moving_handle.size() + 4096) staged_boxes = BoxArray();
     // Strictly increasing handles from 0 ending at size - 1 are 0, 1, 2 ...
     moving_identity = !moving_handle.empty() && moving_handle.back() == moving_handle.size() - 1;
     moving_membership_dirty = false;
@@ -624,20 +683,32 @@ struct BroadPhase::Impl {
   }
 
   // No static objects, no filtering: the frame's pairs are the hybrid
-  // system's, mapped from dense indices to handles in the same parallel pass
-  // as the merge with the previous frame (no intermediate list).
+  // system's. Its boxes were all checked by add/move, so it skips its own
+  // screen; with handles equal to dense indices its pair list is taken as
+  // the result without a copy (the previous list's storage goes back to it),
+  // else the indices are mapped to handles in the same parallel pass as the
+  // merge with the previous frame.
   void all_moving_frame() {
-    std::span<const Pair> raw;
-    if (moving_handle.size() >= 2) raw = hybrid.update(moving_boxes);
+    static const std::vector<Pair> none;
+    const std::vector<Pair>& raw =
+        moving_handle.size() >= 2 ? detail::HybridAccess::update_checked(hybrid, moving_boxes) : none;
     if (options.max_pairs && raw.size() > options.max_pairs)
       throw CapacityExceeded("BroadPhase::update: " + std::to_string(raw.size()) + " pairs, more than max_pairs " +
                              std::to_string(options.max_pairs));
     moving_pairs.clear();
     static_pairs.clear();
     static_pairs_valid = false;
-    detail::map_and_diff_sorted_pairs(result.pairs, raw, moving_identity ? nullptr : moving_handle.data(), next,
-                                      result.created, result.removed, diff_scratch);
-    result.pairs.swap(next);
+    if (&raw == &none) {
+      detail::diff_sorted_pairs(result.pairs, none, result.created, result.removed, diff_scratch);
+      result.pairs.clear();
+    } else if (moving_identity) {
+      detail::diff_sorted_pairs(result.pairs, raw, result.created, result.removed, diff_scratch);
+      detail::HybridAccess::swap_pairs(hybrid, result.pairs);
+    } else {
+      detail::map_and_diff_sorted_pairs(result.pairs, raw, moving_handle.data(), next, result.created,
+                                        result.removed, diff_scratch);
+      result.pairs.swap(next);
+    }
   }
 
   const BroadPhaseUpdate& update() {
@@ -787,7 +858,7 @@ std::vector<Handle> BroadPhase::query_ray(const float origin[3], const float dir
 std::size_t BroadPhase::size() const { return impl_->table.live(); }
 bool BroadPhase::contains(Handle h) const { return impl_->table.live(h); }
 Aabb BroadPhase::box(Handle h) const {
-  return impl_->slot_box[HandleTable::slot_of(impl_->checked("box", h))];
+  return impl_->box_of(HandleTable::slot_of(impl_->checked("box", h)));
 }
 bool BroadPhase::is_static(Handle h) const {
   return impl_->table.kind(HandleTable::slot_of(impl_->checked("is_static", h))) == HandleTable::kStatic;
