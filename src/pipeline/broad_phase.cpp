@@ -1,11 +1,13 @@
 // hbp::BroadPhase: handles over the hybrid system (moving objects), a flat
 // BVH (static objects) and fat-box candidate caches (moving vs static).
 //
-// Layout. Every object has a slot (handle_table.hpp) and its box in
-// slot_box_. Moving objects also live in dense SoA arrays (moving_boxes_,
-// moving_handle_) ordered by handle, so the hybrid system's sorted id pairs
-// map to sorted handle pairs; static objects in static_boxes_/static_handle_
-// and a BoxTree built when the statics change.
+// Layout. Every object has a slot (handle_table.hpp). Moving objects live in
+// dense SoA arrays (moving_boxes, moving_handle) ordered by handle, so the
+// hybrid system's sorted id pairs map to sorted handle pairs; an indexed
+// moving object's box is only there (slot_box holds it until the object
+// gets its index, and again when the moving membership changes). Static
+// objects have their box in slot_box, dense copies in
+// static_boxes/static_handle and a BoxTree built when the statics change.
 //
 // A frame: the hybrid system finds the moving/moving pairs; each moving
 // object re-tests the static candidates cached for its fat box (its box grown
@@ -16,6 +18,12 @@
 // frame's moving/static list instead of re-sorting it. Layer table and pair
 // filter apply before a pair is kept; the sorted lists are merged, and
 // created/removed come from a merge with the previous frame's pairs.
+//
+// The all-moving frame (no statics, no layer table or filter in force) is
+// the whole-frame path plus events: move() of every moving object in handle
+// order checks and writes the boxes in one pass, the hybrid system runs
+// without re-checking them, and its pair list becomes the result without a
+// copy (or is mapped to handles inside the event merge).
 #include "hbp/broad_phase.hpp"
 
 #include <tbb/parallel_for.h>
@@ -301,11 +309,13 @@ struct BroadPhase::Impl {
       lane[k] = staged_boxes.min(k);
       lane[3 + k] = staged_boxes.max(k);
     }
-    const Handle* want = moving_handle.data();
+    // With handles equal to dense indices the expected handle is i itself
+    // (no second handle array to read).
+    const Handle* want = moving_identity ? nullptr : moving_handle.data();
     const std::uint32_t failed = for_batch(n, [&](std::size_t begin, std::size_t end) {
       bool ok = true;
       for (std::size_t i = begin; i < end; ++i) {
-        ok &= h[i] == want[i];
+        ok &= h[i] == (want ? want[i] : static_cast<Handle>(i));
         for (int k = 0; k < 3; ++k) {
           const float lo = b[i].min[k], hi = b[i].max[k];
           ok &= (lo - lo == 0.0f) & (hi - hi == 0.0f) & (lo <= hi);

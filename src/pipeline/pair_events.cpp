@@ -106,12 +106,6 @@ void map_and_diff_sorted_pairs(const std::vector<Pair>& previous, std::span<cons
   current.resize(raw.size());
   Pair* out = current.data();
   const Pair* in = raw.data();
-  if (!to) {
-    diff_ranges(
-        previous, out, raw.size(), created, removed, scratch, [&](std::size_t i) { return in[i]; },
-        [&](std::size_t begin, std::size_t end) { std::copy(in + begin, in + end, out + begin); });
-    return;
-  }
   diff_ranges(
       previous, out, raw.size(), created, removed, scratch,
       [&](std::size_t i) { return Pair{to[in[i].a], to[in[i].b]}; },

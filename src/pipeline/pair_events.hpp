@@ -22,9 +22,9 @@ void diff_sorted_pairs(const std::vector<Pair>& previous, const std::vector<Pair
                        std::vector<Pair>& created, std::vector<Pair>& removed, PairDiffScratch& scratch);
 
 // The same for current = raw with both ids mapped through `to` (current[i] =
-// {to[raw[i].a], to[raw[i].b]}; nullptr: the identity), written to `current`
-// (resized to raw.size()) in the same pass as the merge. `to` must be
-// strictly increasing, so the mapped list keeps raw's order and a < b.
+// {to[raw[i].a], to[raw[i].b]}), written to `current` (resized to
+// raw.size()) in the same pass as the merge. `to` must be strictly
+// increasing, so the mapped list keeps raw's order and a < b.
 void map_and_diff_sorted_pairs(const std::vector<Pair>& previous, std::span<const Pair> raw,
                                const std::uint32_t* to, std::vector<Pair>& current, std::vector<Pair>& created,
                                std::vector<Pair>& removed, PairDiffScratch& scratch);
