@@ -38,6 +38,7 @@
 #include <string>
 
 #include "hbp/error.hpp"
+#include "pipeline/box_transpose.hpp"
 #include "pipeline/box_tree.hpp"
 #include "pipeline/handle_table.hpp"
 #include "pipeline/hybrid_access.hpp"
@@ -313,17 +314,7 @@ struct BroadPhase::Impl {
     // (no second handle array to read).
     const Handle* want = moving_identity ? nullptr : moving_handle.data();
     const std::uint32_t failed = for_batch(n, [&](std::size_t begin, std::size_t end) {
-      bool ok = true;
-      for (std::size_t i = begin; i < end; ++i) {
-        ok &= h[i] == (want ? want[i] : static_cast<Handle>(i));
-        for (int k = 0; k < 3; ++k) {
-          const float lo = b[i].min[k], hi = b[i].max[k];
-          ok &= (lo - lo == 0.0f) & (hi - hi == 0.0f) & (lo <= hi);
-          lane[k][i] = lo;
-          lane[3 + k][i] = hi;
-        }
-      }
-      return std::uint32_t(!ok);
+      return std::uint32_t(!detail::check_and_transpose(b, h, want, begin, end, lane));
     });
     if (failed) return false;
     std::swap(moving_boxes, staged_boxes);
