@@ -3,6 +3,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <cstring>
 
 namespace hbp::detail {
 
@@ -16,9 +17,27 @@ constexpr std::size_t kChunk = 1 << 14;
 inline std::uint64_t key(Pair p) { return (static_cast<std::uint64_t>(p.a) << 32) | p.b; }
 
 // Merges previous [p, p_end) with current [c, c_end). Most pairs are in both
-// (frame coherence), so the equal case comes first and is well predicted.
+// (frame coherence): runs of equal pairs are skipped four at a time (one
+// 32-byte compare), and the equal case comes first and is well predicted.
 void merge_range(const Pair* p, const Pair* p_end, const Pair* c, const Pair* c_end, std::vector<Pair>& created,
                  std::vector<Pair>& removed) {
+  static_assert(sizeof(Pair) == 8, "four pairs are 32 bytes");
+  while (p_end - p >= 4 && c_end - c >= 4) {
+    if (std::memcmp(p, c, 4 * sizeof(Pair)) == 0) {
+      p += 4;
+      c += 4;
+      continue;
+    }
+    const std::uint64_t kp = key(*p), kc = key(*c);
+    if (kp == kc) {
+      ++p;
+      ++c;
+    } else if (kp < kc) {
+      removed.push_back(*p++);
+    } else {
+      created.push_back(*c++);
+    }
+  }
   while (p != p_end && c != c_end) {
     const std::uint64_t kp = key(*p), kc = key(*c);
     if (kp == kc) {
