@@ -180,6 +180,8 @@ struct BroadPhase::Impl {
   bool static_pairs_valid = false;
   std::uint32_t moved = 0, static_changes = 0;
 
+  std::vector<std::uint32_t> batch_parts;  // for_batch's per-range results
+
   // Duplicate detection within a batch.
   std::vector<std::uint32_t> stamp;
   std::uint32_t stamp_value = 0;
@@ -288,12 +290,13 @@ struct BroadPhase::Impl {
     constexpr std::size_t kEdits = 16384;  // edits per parallel task
     if (n < 2 * kEdits) return body(std::size_t(0), n);
     const std::size_t chunks = (n + kEdits - 1) / kEdits;
-    std::vector<std::uint32_t> part(chunks);
+    batch_parts.assign(chunks, 0);  // kept: one entry per 16,384 edits
+    std::uint32_t* part = batch_parts.data();
     arena.execute([&] {
       tbb::parallel_for(std::size_t(0), chunks,
                         [&](std::size_t c) { part[c] = body(c * kEdits, std::min(n, (c + 1) * kEdits)); });
     });
-    return std::accumulate(part.begin(), part.end(), std::uint32_t(0));
+    return std::accumulate(batch_parts.begin(), batch_parts.end(), std::uint32_t(0));
   }
 
   // The whole-frame batch: every moving object, in handle (= dense) order,
