@@ -568,6 +568,10 @@ const std::vector<Pair>& HybridBroadPhase::update(const KdPartition& cells, cons
 }
 const std::vector<Pair>& HybridBroadPhase::pairs() const { return impl_->pairs; }
 
+const FrameStats& HybridBroadPhase::stats() const { return impl_->stats; }
+const BroadPhaseOptions& HybridBroadPhase::options() const { return impl_->options; }
+std::uint32_t HybridBroadPhase::cell_limit() const { return impl_->cell_limit; }
+
 const std::vector<Pair>& detail::HybridAccess::update_checked(HybridBroadPhase& hybrid, const BoxArray& boxes) {
   HybridBroadPhase::Impl& impl = *hybrid.impl_;
   impl.boxes_checked = true;
@@ -584,8 +588,5 @@ const std::vector<Pair>& detail::HybridAccess::update_checked(HybridBroadPhase& 
 void detail::HybridAccess::swap_pairs(HybridBroadPhase& hybrid, std::vector<Pair>& other) {
   hybrid.impl_->pairs.swap(other);
 }
-const FrameStats& HybridBroadPhase::stats() const { return impl_->stats; }
-const BroadPhaseOptions& HybridBroadPhase::options() const { return impl_->options; }
-std::uint32_t HybridBroadPhase::cell_limit() const { return impl_->cell_limit; }
 
 }  // namespace hbp
