@@ -567,7 +567,6 @@ const std::vector<Pair>& HybridBroadPhase::update(const KdPartition& cells, cons
   return impl_->pairs;
 }
 const std::vector<Pair>& HybridBroadPhase::pairs() const { return impl_->pairs; }
-
 const FrameStats& HybridBroadPhase::stats() const { return impl_->stats; }
 const BroadPhaseOptions& HybridBroadPhase::options() const { return impl_->options; }
 std::uint32_t HybridBroadPhase::cell_limit() const { return impl_->cell_limit; }
