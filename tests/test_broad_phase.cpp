@@ -569,6 +569,203 @@ TEST(BroadPhase, QueriesMatchBruteForce) {
   EXPECT_GT(inside_hits, 0u);
 }
 
+// ---- the all-moving frame (every object moving, no filter) -----------------
+
+// Exact pairs by sort and sweep on x, written here (the O(n^2) reference is
+// too slow for the tens of thousands of objects the parallel paths need).
+std::vector<Pair> sweep_pairs(const std::map<Handle, Aabb>& objects) {
+  std::vector<std::pair<Handle, Aabb>> v(objects.begin(), objects.end());
+  std::sort(v.begin(), v.end(), [](const auto& a, const auto& b) { return a.second.min[0] < b.second.min[0]; });
+  std::vector<Pair> out;
+  for (std::size_t i = 0; i < v.size(); ++i)
+    for (std::size_t j = i + 1; j < v.size() && v[j].second.min[0] <= v[i].second.max[0]; ++j)
+      if (hbp::overlaps(v[i].second, v[j].second)) out.push_back(hbp::make_pair(v[i].first, v[j].first));
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+// Enough objects that move() of a whole batch runs in parallel ranges
+// (>= 32768) and a frame's pairs span several merge ranges (>= 16384 each),
+// in a world long in x so that the reference's sweep stays short.
+constexpr std::size_t kManyObjects = 36000;
+constexpr float kManyLength = 2000, kManyWidth = 12;
+
+Aabb long_world_box(std::mt19937& rng) {
+  Aabb b = random_box(rng, kManyWidth);
+  const float x = 0.5f * static_cast<float>(std::uniform_int_distribution<int>(0, 2 * kManyLength)(rng));
+  b.max[0] += x - b.min[0];
+  b.min[0] = x;
+  return b;
+}
+
+struct AllMovingWorld {
+  std::mt19937 rng{23};
+  std::map<Handle, Aabb> objects;
+  std::vector<Pair> previous;
+  BroadPhase one{{.threads = 1}}, two{{.threads = 2}};
+
+  std::vector<Handle> add(std::size_t n) {
+    std::vector<Aabb> boxes(n);
+    for (Aabb& b : boxes) b = long_world_box(rng);
+    const auto h = one.add(boxes);
+    EXPECT_EQ(two.add(boxes), h);
+    for (std::size_t i = 0; i < n; ++i) objects[h[i]] = boxes[i];
+    return h;
+  }
+
+  // Moves `handles` (in the given order): nudges and a few teleports.
+  void move(const std::vector<Handle>& handles) {
+    std::vector<Aabb> boxes;
+    for (Handle x : handles) boxes.push_back(rng() % 20 == 0 ? long_world_box(rng) : nudged(rng, objects[x]));
+    one.move(handles, boxes);
+    two.move(handles, boxes);
+    for (std::size_t i = 0; i < handles.size(); ++i) objects[handles[i]] = boxes[i];
+  }
+
+  std::vector<Handle> all() const {
+    std::vector<Handle> h;
+    for (const auto& [x, b] : objects) h.push_back(x);
+    return h;  // ascending: handle order
+  }
+
+  // Checks one frame; returns the frame's pair count.
+  std::size_t check(int frame, std::vector<Pair> want = {}, bool given = false) {
+    if (!given) want = sweep_pairs(objects);
+    const auto created = minus(want, previous), removed = minus(previous, want);
+    for (BroadPhase* bp : {&one, &two}) {
+      const hbp::BroadPhaseUpdate& u = bp->update();
+      EXPECT_EQ(u.pairs, want) << "frame " << frame << (bp == &one ? " (1 thread)" : " (2 threads)");
+      EXPECT_EQ(u.created, created) << "frame " << frame;
+      EXPECT_EQ(u.removed, removed) << "frame " << frame;
+    }
+    previous = want;
+    return want.size();
+  }
+};
+
+TEST(BroadPhase, AllMovingFramesMatchReference) {
+  AllMovingWorld w;
+  w.add(kManyObjects);
+  std::size_t min_pairs = ~std::size_t(0);
+  std::uint64_t created = 0;
+  for (int frame = 0; frame < 8; ++frame) {
+    const std::vector<Handle> all = w.all();
+    switch (frame) {
+      case 1: {  // an increasing subset: the general move() with its screen
+        std::vector<Handle> some;
+        for (std::size_t i = 0; i < all.size(); i += 3) some.push_back(all[i]);
+        w.move(some);
+        break;
+      }
+      case 2: {  // removed and re-added: reused slots, new generations, so
+                 // handles are no longer dense indices (the mapped merge)
+        std::vector<Handle> gone;
+        for (std::size_t i = 0; i < all.size(); i += 7) gone.push_back(all[i]);
+        w.one.remove(gone);
+        w.two.remove(gone);
+        for (Handle x : gone) w.objects.erase(x);
+        w.add(gone.size() / 2);
+        break;
+      }
+      case 4: {  // a filtered frame (general path) between all-moving ones
+        std::vector<Handle> some(all.begin(), all.begin() + 5000);
+        w.one.set_layer(some, 1);
+        w.two.set_layer(some, 1);
+        w.one.set_collides(0, 1, false);
+        w.two.set_collides(0, 1, false);
+        w.move(all);
+        // Layer 1 (`some`, sorted) no longer meets layer 0.
+        auto in_some = [&](Handle x) { return std::binary_search(some.begin(), some.end(), x); };
+        std::vector<Pair> want;
+        for (const Pair p : sweep_pairs(w.objects))
+          if (in_some(p.a) == in_some(p.b)) want.push_back(p);
+        min_pairs = std::min(min_pairs, w.check(frame, want, true));
+        w.one.set_collides(0, 1, true);
+        w.two.set_collides(0, 1, true);
+        continue;
+      }
+      case 6: {  // a static object present: not the all-moving frame
+        const Aabb wall{{0, 0, 0}, {kManyLength, kManyWidth, 1}};
+        const auto s1 = w.one.add(std::span<const Aabb>(&wall, 1), {.is_static = true});
+        const auto s2 = w.two.add(std::span<const Aabb>(&wall, 1), {.is_static = true});
+        ASSERT_EQ(s1, s2);
+        w.move(all);
+        w.objects[s1[0]] = wall;
+        std::vector<Pair> want = sweep_pairs(w.objects);
+        min_pairs = std::min(min_pairs, w.check(frame, want, true));
+        w.one.remove(s1);
+        w.two.remove(s1);
+        w.objects.erase(s1[0]);
+        continue;
+      }
+      default:  // every object in handle order: the one-pass move()
+        w.move(all);
+    }
+    min_pairs = std::min(min_pairs, w.check(frame));
+    created += w.one.last_update().created.size();
+    if (HasFailure()) return;
+  }
+  EXPECT_GT(min_pairs, 2u * 16384u) << "several merge ranges per frame";
+  EXPECT_GT(created, 1000u);
+  // Boxes read back as last moved (moving boxes live in the dense arrays).
+  for (const auto& [x, b] : w.objects) {
+    const Aabb got = w.two.box(x);
+    ASSERT_EQ(std::memcmp(&got, &b, sizeof(Aabb)), 0) << "handle " << x;
+  }
+}
+
+// The one-pass move() of every object refuses a bad batch like the
+// row-by-row checks: same messages, nothing changed.
+TEST(BroadPhase, WholeBatchMoveErrorsChangeNothing) {
+  AllMovingWorld w;
+  const auto h = w.add(kManyObjects);
+  w.check(0);
+  const std::vector<Handle> all = w.all();
+  std::vector<Aabb> boxes;
+  for (Handle x : all) boxes.push_back(nudged(w.rng, w.objects[x]));
+  auto expect_row = [&](const std::vector<Handle>& handles, const std::vector<Aabb>& b, const char* text) {
+    try {
+      w.one.move(handles, b);
+      ADD_FAILURE() << "no throw, expected " << text;
+    } catch (const hbp::InvalidInput& e) {
+      EXPECT_NE(std::string(e.what()).find(text), std::string::npos) << e.what();
+    }
+  };
+  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+  std::vector<Aabb> bad = boxes;
+  bad.back().max[1] = nan;
+  expect_row(all, bad, "row 35999: NaN");
+  bad.back() = boxes.back();
+  bad[30000].min[2] = bad[30000].max[2] + 1;
+  expect_row(all, bad, "row 30000: min > max");
+  bad[30000] = boxes[30000];
+  bad[17].min[0] = -inf;
+  expect_row(all, bad, "row 17: infinite");
+  std::vector<Handle> dup = all;
+  dup[20001] = dup[20000];
+  expect_row(dup, boxes, "row 20001");
+  std::vector<Handle> unknown = all;
+  unknown[33333] = 0xFFFFFFu;
+  expect_row(unknown, boxes, "row 33333: unknown");
+  // An increasing subset (the general move's screen), bad late row.
+  std::vector<Handle> some(all.begin(), all.begin() + 34000);
+  std::vector<Aabb> some_boxes(boxes.begin(), boxes.begin() + 34000);
+  some_boxes[33999].max[0] = inf;
+  expect_row(some, some_boxes, "row 33999: infinite");
+  // Nothing changed: `one` still agrees with the reference (and `two`).
+  for (std::size_t i = 0; i < all.size(); i += 97) {
+    const Aabb got = w.one.box(all[i]), want = w.objects[all[i]];
+    ASSERT_EQ(std::memcmp(&got, &want, sizeof(Aabb)), 0) << "row " << i;
+  }
+  w.check(1);
+  // And the good batch then goes through.
+  w.one.move(all, boxes);
+  w.two.move(all, boxes);
+  for (std::size_t i = 0; i < all.size(); ++i) w.objects[all[i]] = boxes[i];
+  w.check(2);
+  EXPECT_EQ(h.size(), all.size());
+}
+
 TEST(BroadPhase, EmptyAndSingle) {
   BroadPhase bp;
   EXPECT_TRUE(bp.update().pairs.empty());

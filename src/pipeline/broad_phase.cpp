@@ -1,11 +1,13 @@
 // hbp::BroadPhase: handles over the hybrid system (moving objects), a flat
 // BVH (static objects) and fat-box candidate caches (moving vs static).
 //
-// Layout. Every object has a slot (handle_table.hpp) and its box in
-// slot_box_. Moving objects also live in dense SoA arrays (moving_boxes_,
-// moving_handle_) ordered by handle, so the hybrid system's sorted id pairs
-// map to sorted handle pairs; static objects in static_boxes_/static_handle_
-// and a BoxTree built when the statics change.
+// Layout. Every object has a slot (handle_table.hpp). Moving objects live in
+// dense SoA arrays (moving_boxes, moving_handle) ordered by handle, so the
+// hybrid system's sorted id pairs map to sorted handle pairs; an indexed
+// moving object's box is only there (slot_box holds it until the object
+// gets its index, and again when the moving membership changes). Static
+// objects have their box in slot_box, dense copies in
+// static_boxes/static_handle and a BoxTree built when the statics change.
 //
 // A frame: the hybrid system finds the moving/moving pairs; each moving
 // object re-tests the static candidates cached for its fat box (its box grown
@@ -16,6 +18,12 @@
 // frame's moving/static list instead of re-sorting it. Layer table and pair
 // filter apply before a pair is kept; the sorted lists are merged, and
 // created/removed come from a merge with the previous frame's pairs.
+//
+// The all-moving frame (no statics, no layer table or filter in force) is
+// the whole-frame path plus events: move() of every moving object in handle
+// order checks and writes the boxes in one pass, the hybrid system runs
+// without re-checking them, and its pair list becomes the result without a
+// copy (or is mapped to handles inside the event merge).
 #include "hbp/broad_phase.hpp"
 
 #include <tbb/parallel_for.h>
@@ -30,8 +38,10 @@
 #include <string>
 
 #include "hbp/error.hpp"
+#include "pipeline/box_transpose.hpp"
 #include "pipeline/box_tree.hpp"
 #include "pipeline/handle_table.hpp"
+#include "pipeline/hybrid_access.hpp"
 #include "pipeline/pair_events.hpp"
 #include "support/clock.hpp"
 
@@ -107,11 +117,18 @@ struct BroadPhase::Impl {
   HybridBroadPhase hybrid;
 
   HandleTable table;
-  std::vector<Aabb> slot_box;  // by slot
+  // By slot: the box of a static object, and of a moving object until it
+  // has a dense index (then its box is moving_boxes[index], written back
+  // here when the moving membership changes: see box_of and sync_moving).
+  std::vector<Aabb> slot_box;
 
   // Moving objects, dense, ordered by handle.
   BoxArray moving_boxes;
   std::vector<Handle> moving_handle;
+  bool moving_identity = false;  // moving_handle[d] == d for every d (no remapping)
+  // move() of every moving object writes the new boxes here while checking
+  // them, then swaps with moving_boxes (nothing changes when a row fails).
+  BoxArray staged_boxes;
   bool moving_membership_dirty = false;
 
   // Static objects, dense, ordered by handle, and their tree.
@@ -156,11 +173,14 @@ struct BroadPhase::Impl {
   BroadPhaseUpdate result;
   BroadPhaseUpdateStats stats;
   std::vector<Pair> moving_pairs, static_pairs, next, sort_scratch, flips;
+  detail::PairDiffScratch diff_scratch;
   // static_pairs holds last frame's moving/static pairs and every cached
   // candidate's `hit` agrees with it: true after an unfiltered frame in
   // which nothing but moving boxes changed since.
   bool static_pairs_valid = false;
   std::uint32_t moved = 0, static_changes = 0;
+
+  std::vector<std::uint32_t> batch_parts;  // for_batch's per-range results
 
   // Duplicate detection within a batch.
   std::vector<std::uint32_t> stamp;
@@ -239,24 +259,108 @@ struct BroadPhase::Impl {
     return handles;
   }
 
+  // Screens for the common batch: handles strictly increasing (so none
+  // repeats) and live, boxes finite with min <= max. One branch-free pass
+  // each (x - x == 0 exactly when x is finite); when a screen fails, the
+  // row-by-row checks above name the offending row.
+  bool handles_increasing_and_live(const Handle* h, std::size_t begin, std::size_t end) const {
+    bool ok = true;
+    Handle last = begin ? h[begin - 1] : 0;
+    for (std::size_t i = begin; i < end; ++i) {
+      ok &= table.live(h[i]) & (i == 0 || h[i] > last);
+      last = h[i];
+    }
+    return ok;
+  }
+
+  static bool boxes_well_formed(const Aabb* b, std::size_t begin, std::size_t end) {
+    bool ok = true;
+    for (std::size_t i = begin; i < end; ++i)
+      for (int k = 0; k < 3; ++k) {
+        const float lo = b[i].min[k], hi = b[i].max[k];
+        ok &= (lo - lo == 0.0f) & (hi - hi == 0.0f) & (lo <= hi);
+      }
+    return ok;
+  }
+
+  // Runs body(begin, end) over fixed ranges of [0, n), in parallel on the
+  // broad phase's threads when the batch is large; returns the sum.
+  template <class Body>
+  std::uint32_t for_batch(std::size_t n, Body&& body) {
+    constexpr std::size_t kEdits = 16384;  // edits per parallel task
+    if (n < 2 * kEdits) return body(std::size_t(0), n);
+    const std::size_t chunks = (n + kEdits - 1) / kEdits;
+    batch_parts.assign(chunks, 0);  // kept: one entry per 16,384 edits
+    std::uint32_t* part = batch_parts.data();
+    arena.execute([&] {
+      tbb::parallel_for(std::size_t(0), chunks,
+                        [&](std::size_t c) { part[c] = body(c * kEdits, std::min(n, (c + 1) * kEdits)); });
+    });
+    return std::accumulate(batch_parts.begin(), batch_parts.end(), std::uint32_t(0));
+  }
+
+  // The whole-frame batch: every moving object, in handle (= dense) order,
+  // with no membership change pending. One pass compares the handles with
+  // moving_handle, checks each box and writes it into staged_boxes, which
+  // then replaces moving_boxes: the input is read once and nothing is
+  // written in place, so a failed row (false: the general path below then
+  // names it) leaves everything as it was.
+  bool move_every_moving(const Handle* h, const Aabb* b, std::size_t n) {
+    if (moving_membership_dirty || n == 0 || n != moving_handle.size()) return false;
+    staged_boxes.resize(n);
+    float* lane[6];
+    for (int k = 0; k < 3; ++k) {
+      lane[k] = staged_boxes.min(k);
+      lane[3 + k] = staged_boxes.max(k);
+    }
+    // With handles equal to dense indices the expected handle is i itself
+    // (no second handle array to read).
+    const Handle* want = moving_identity ? nullptr : moving_handle.data();
+    const std::uint32_t failed = for_batch(n, [&](std::size_t begin, std::size_t end) {
+      return std::uint32_t(!detail::check_and_transpose(b, h, want, begin, end, lane));
+    });
+    if (failed) return false;
+    std::swap(moving_boxes, staged_boxes);
+    return true;
+  }
+
   void move(std::span<const Handle> handles, std::span<const Aabb> boxes) {
     if (handles.size() != boxes.size())
       throw InvalidInput("BroadPhase::move: " + std::to_string(handles.size()) + " handles but " +
                          std::to_string(boxes.size()) + " boxes");
-    check_handles("move", handles);
-    check_boxes("move", boxes);
-    std::uint32_t statics = 0, moving = 0;
-    for (std::size_t i = 0; i < handles.size(); ++i) {
-      const std::uint32_t s = HandleTable::slot_of(handles[i]);
-      slot_box[s] = boxes[i];
-      if (table.kind(s) == HandleTable::kStatic) {
-        ++statics;
-      } else {
-        ++moving;
-        const std::uint32_t d = table.index(s);
-        if (d != kNoIndex) moving_boxes.set(d, boxes[i]);
-      }
+    const std::size_t n = handles.size();
+    const Handle* h = handles.data();
+    const Aabb* b = boxes.data();
+    if (move_every_moving(h, b, n)) {
+      moved += static_cast<std::uint32_t>(n);
+      touched_moving();
+      return;
     }
+    // Ranges whose handles failed the screen in the low 16 bits, whose
+    // boxes did in the high 16 (at most kMaxObjects / 16384 ranges).
+    const std::uint32_t failed = for_batch(n, [&](std::size_t begin, std::size_t end) {
+      return std::uint32_t(!handles_increasing_and_live(h, begin, end)) +
+             (std::uint32_t(!boxes_well_formed(b, begin, end)) << 16);
+    });
+    if (failed & 0xFFFFu) check_handles("move", handles);
+    if (failed >> 16) check_boxes("move", boxes);
+    // Distinct handles: the ranges write distinct slots and dense indices.
+    const std::uint32_t statics = for_batch(n, [&](std::size_t begin, std::size_t end) {
+      std::uint32_t count = 0;
+      for (std::size_t i = begin; i < end; ++i) {
+        const std::uint32_t s = HandleTable::slot_of(h[i]);
+        if (table.kind(s) == HandleTable::kStatic) {
+          slot_box[s] = b[i];
+          ++count;
+        } else if (const std::uint32_t d = table.index(s); d != kNoIndex) {
+          moving_boxes.set(d, b[i]);
+        } else {
+          slot_box[s] = b[i];
+        }
+      }
+      return count;
+    });
+    const std::uint32_t moving = static_cast<std::uint32_t>(n) - statics;
     if (statics) statics_changed(statics);
     if (moving) {
       moved += moving;
@@ -291,6 +395,7 @@ struct BroadPhase::Impl {
   // table stays: its generations keep old handles stale).
   void release_memory() {
     moving_boxes = BoxArray();
+    staged_boxes = BoxArray();
     static_boxes = BoxArray();
     std::vector<Handle>().swap(moving_handle);
     std::vector<Handle>().swap(static_handle);
@@ -330,9 +435,22 @@ struct BroadPhase::Impl {
     statics_dirty = false;
   }
 
+  // The box of a live slot (see slot_box).
+  Aabb box_of(std::uint32_t s) const {
+    const std::uint32_t d = table.index(s);
+    return table.kind(s) == HandleTable::kMoving && d != kNoIndex ? moving_boxes.get(d) : slot_box[s];
+  }
+
   void sync_moving() {
     if (!moving_membership_dirty) return;
+    // The indexed moving objects' boxes back into slot_box, which gather reads.
+    for (std::uint32_t s = 0; s < table.slots(); ++s)
+      if (table.kind(s) == HandleTable::kMoving && table.index(s) != kNoIndex)
+        slot_box[s] = moving_boxes.get(table.index(s));
     gather(HandleTable::kMoving, moving_boxes, moving_handle);
+    if (staged_boxes.capacity() > 4 * moving_handle.size() + 4096) staged_boxes = BoxArray();
+    // Strictly increasing handles from 0 ending at size - 1 are 0, 1, 2 ...
+    moving_identity = !moving_handle.empty() && moving_handle.back() == moving_handle.size() - 1;
     moving_membership_dirty = false;
   }
 
@@ -568,6 +686,35 @@ struct BroadPhase::Impl {
     static_pairs_valid = all && !filter;
   }
 
+  // No static objects, no filtering: the frame's pairs are the hybrid
+  // system's. Its boxes were all checked by add/move, so it skips its own
+  // screen; with handles equal to dense indices its pair list is taken as
+  // the result without a copy (the previous list's storage goes back to it),
+  // else the indices are mapped to handles in the same parallel pass as the
+  // merge with the previous frame.
+  void all_moving_frame() {
+    static const std::vector<Pair> none;
+    const std::vector<Pair>& raw =
+        moving_handle.size() >= 2 ? detail::HybridAccess::update_checked(hybrid, moving_boxes) : none;
+    if (options.max_pairs && raw.size() > options.max_pairs)
+      throw CapacityExceeded("BroadPhase::update: " + std::to_string(raw.size()) + " pairs, more than max_pairs " +
+                             std::to_string(options.max_pairs));
+    moving_pairs.clear();
+    static_pairs.clear();
+    static_pairs_valid = false;
+    if (&raw == &none) {
+      detail::diff_sorted_pairs(result.pairs, none, result.created, result.removed, diff_scratch);
+      result.pairs.clear();
+    } else if (moving_identity) {
+      detail::diff_sorted_pairs(result.pairs, raw, result.created, result.removed, diff_scratch);
+      detail::HybridAccess::swap_pairs(hybrid, result.pairs);
+    } else {
+      detail::map_and_diff_sorted_pairs(result.pairs, raw, moving_handle.data(), next, result.created,
+                                        result.removed, diff_scratch);
+      result.pairs.swap(next);
+    }
+  }
+
   const BroadPhaseUpdate& update() {
     const auto start = SteadyClock::now();
     arena.execute([&] {
@@ -576,6 +723,10 @@ struct BroadPhase::Impl {
       const bool incremental = !statics_dirty && !moving_membership_dirty;
       sync_statics();
       sync_moving();
+      if (static_handle.empty() && all_layers_collide() && !filter) {
+        all_moving_frame();
+        return;
+      }
       find_moving_pairs();
       find_static_pairs(incremental);
       if (static_pairs.empty()) {
@@ -589,7 +740,7 @@ struct BroadPhase::Impl {
       if (options.max_pairs && next.size() > options.max_pairs)
         throw CapacityExceeded("BroadPhase::update: " + std::to_string(next.size()) + " pairs, more than max_pairs " +
                                std::to_string(options.max_pairs));
-      detail::diff_sorted_pairs(result.pairs, next, result.created, result.removed);
+      detail::diff_sorted_pairs(result.pairs, next, result.created, result.removed, diff_scratch);
       result.pairs.swap(next);
     });
     fit(next);
@@ -711,7 +862,7 @@ std::vector<Handle> BroadPhase::query_ray(const float origin[3], const float dir
 std::size_t BroadPhase::size() const { return impl_->table.live(); }
 bool BroadPhase::contains(Handle h) const { return impl_->table.live(h); }
 Aabb BroadPhase::box(Handle h) const {
-  return impl_->slot_box[HandleTable::slot_of(impl_->checked("box", h))];
+  return impl_->box_of(HandleTable::slot_of(impl_->checked("box", h)));
 }
 bool BroadPhase::is_static(Handle h) const {
   return impl_->table.kind(HandleTable::slot_of(impl_->checked("is_static", h))) == HandleTable::kStatic;
