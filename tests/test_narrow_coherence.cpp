@@ -82,8 +82,8 @@ TEST(NarrowFalseContacts, ContactsImplyIntersectionOnRandomPairs) {
 
 TEST(NarrowCacheTest, CommitAndFind) {
   NarrowCache cache;
-  std::vector<NarrowCacheEntry> l1 = {{{3, 7}, {1, 0, 0}}, {{0, 2}, {0, 1, 0}}};
-  std::vector<NarrowCacheEntry> l2 = {{{3, 4}, {0, 0, 1}}};
+  std::vector<NarrowCacheEntry> l1 = {{{3, 7}, {1, 0, 0}, 0}, {{0, 2}, {0, 1, 0}, 1}};
+  std::vector<NarrowCacheEntry> l2 = {{{3, 4}, {0, 0, 1}, 0}};
   const std::vector<NarrowCacheEntry> lists[] = {l1, l2};
   cache.commit(lists, 2, 8);
   EXPECT_EQ(cache.size(), 3u);
@@ -93,10 +93,13 @@ TEST(NarrowCacheTest, CommitAndFind) {
   EXPECT_EQ(cache.find({3, 4})[2], 1.0f);
   ASSERT_NE(cache.find({0, 2}), nullptr);
   EXPECT_EQ(cache.find({0, 2})[1], 1.0f);
+  ASSERT_NE(cache.entry({0, 2}), nullptr);
+  EXPECT_EQ(cache.entry({0, 2})->contact, 1u);
+  EXPECT_EQ(cache.entry({3, 7})->contact, 0u);
   EXPECT_EQ(cache.find({0, 3}), nullptr);
   EXPECT_EQ(cache.find({7, 9}), nullptr);
   EXPECT_EQ(cache.find({100, 101}), nullptr);
-  const std::vector<NarrowCacheEntry> bad = {{{3, 9}, {1, 0, 0}}};
+  const std::vector<NarrowCacheEntry> bad = {{{3, 9}, {1, 0, 0}, 0}};
   EXPECT_THROW(cache.commit(&bad, 1, 8), InvalidInput);
   cache.commit(&l2, 1, 8);  // the next frame forgets pairs it did not see
   EXPECT_EQ(cache.find({3, 7}), nullptr);

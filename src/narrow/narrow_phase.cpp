@@ -41,13 +41,15 @@ std::size_t NarrowPhase::process(const std::vector<Shape>& shapes, const Pair* p
     }
     const narrow::Convex b = narrow::make_convex(sb);
     narrow::Hit hit;
-    narrow::V3 warm, dir;
-    const float* cached = cache ? cache->find(p) : nullptr;
-    if (cached) warm = {cached[0], cached[1], cached[2]};
+    narrow::Coherence warm, now;
+    const NarrowCacheEntry* cached = cache ? cache->entry(p) : nullptr;
+    if (cached) warm = {{cached->dir[0], cached->dir[1], cached->dir[2]}, cached->contact != 0};
     const bool collide = narrow::intersect(a, b, options_.contacts ? &hit : nullptr, options_.method,
-                                           cached ? &warm : nullptr, learned ? &dir : nullptr);
-    if (learned && narrow::norm2(dir) > 0)
-      learned->push_back({p, {static_cast<float>(dir.x), static_cast<float>(dir.y), static_cast<float>(dir.z)}});
+                                           cached ? &warm : nullptr, learned ? &now : nullptr);
+    if (learned && narrow::norm2(now.dir) > 0)
+      learned->push_back({p,
+                          {static_cast<float>(now.dir.x), static_cast<float>(now.dir.y), static_cast<float>(now.dir.z)},
+                          now.contact ? 1u : 0u});
     if (!collide) continue;
     Contact c;
     c.a = p.a;
