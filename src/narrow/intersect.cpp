@@ -42,13 +42,16 @@ V3 unit(const V3& v) {
   return n > 0 ? v * (1.0 / n) : V3{};
 }
 
-bool gjk_epa(const Convex& a, const Convex& b, Hit* hit, const V3* warm, Coherence* learned) {
+// `start`: GJK's first search direction (null: the centre line); `warm`:
+// last frame's direction, kept for a colliding pair when no normal is
+// computed (intersection only).
+bool gjk_epa(const Convex& a, const Convex& b, Hit* hit, const V3* start, const V3* warm, Coherence* learned) {
   // The verdict never needs the distance of a separated pair: GJK stops at
   // the first separating plane in both modes, so contacts and intersection
   // only give the same verdicts.
   GjkOptions go;
   go.boolean_only = true;
-  if (warm) go.initial_direction = *warm;
+  if (start) go.initial_direction = *start;
   const GjkResult g = gjk(a, b, go);
   if (!g.intersecting) {
     if (learned) *learned = {unit(-g.v), false};
@@ -88,8 +91,11 @@ bool intersect(const Convex& a, const Convex& b, Hit* hit, NarrowMethod method, 
       if (applies) return r;
     }
     // A pair that collided last frame almost always still does: straight
-    // to GJK, started from its contact normal.
-    if (warm && warm->contact) return gjk_epa(a, b, hit, &warm->dir, learned);
+    // to GJK. GJK starts from the centre line, not from the cached normal:
+    // its final tetrahedron is then a better start for EPA (paper scene,
+    // n = 20,000: 14.1 EPA iterations per pair instead of 14.8, 5-9 % less
+    // CPU in all).
+    if (warm && warm->contact) return gjk_epa(a, b, hit, nullptr, &warm->dir, learned);
     // Last frame's axis still separates: one support query (h_D(u) < 0).
     if (warm) {
       const SupportVertex w = support_difference(a, b, warm->dir);
@@ -104,7 +110,7 @@ bool intersect(const Convex& a, const Convex& b, Hit* hit, NarrowMethod method, 
       if (learned) *learned = {axis, false};
       return false;
     }
-    return gjk_epa(a, b, hit, warm ? &warm->dir : nullptr, learned);
+    return gjk_epa(a, b, hit, warm ? &warm->dir : nullptr, warm ? &warm->dir : nullptr, learned);
   }
   switch (method) {
     case NarrowMethod::Auto:
