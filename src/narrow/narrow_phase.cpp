@@ -19,7 +19,22 @@ std::size_t NarrowPhase::process(const std::vector<Shape>& shapes, const Pair* p
   const std::size_t n = shapes.size();
   narrow::Convex a;
   std::uint32_t prepared_id = UINT32_MAX;
+  // Memory look-ahead: candidate pairs name objects all over the shape
+  // array and the cache (sorted or not), so the shapes and cache rows of a
+  // pair a few places ahead are requested while this one is computed.
+  constexpr std::size_t kAhead = 8;
   for (std::size_t k = 0; k < count; ++k) {
+    if (k + kAhead < count) {
+      const Pair q = pairs[k + kAhead];
+      if (q.a < n && q.b < n) {
+        // A Shape spans two cache lines.
+        __builtin_prefetch(&shapes[q.a]);
+        __builtin_prefetch(reinterpret_cast<const char*>(&shapes[q.a]) + sizeof(Shape) - 1);
+        __builtin_prefetch(&shapes[q.b]);
+        __builtin_prefetch(reinterpret_cast<const char*>(&shapes[q.b]) + sizeof(Shape) - 1);
+        if (cache) cache->prefetch(q.a);
+      }
+    }
     const Pair p = pairs[k];
     if (p.a >= n || p.b >= n) {
       throw InvalidInput("narrow phase: pair " + std::to_string(p.a) + "-" + std::to_string(p.b) +

@@ -34,6 +34,14 @@ class NarrowCache {
       if (entries_[k].pair.b == p.b) return &entries_[k];
     return nullptr;
   }
+  // Starts loading the row of first object `a` (the pairs of a cell come in
+  // no useful order: without this every lookup waits for memory).
+  void prefetch(std::uint32_t a) const {
+    if (a + 1 < row_.size()) {
+      __builtin_prefetch(&row_[a]);
+      __builtin_prefetch(&entries_[row_[a] < entries_.size() ? row_[a] : 0]);
+    }
+  }
   // The previous frame's direction for the pair, or null.
   const float* find(Pair p) const {
     const NarrowCacheEntry* e = entry(p);
