@@ -135,6 +135,25 @@ TEST(NarrowCacheTest, SameVerdictsWithAndWithoutCache) {
       EXPECT_EQ(cold[k].b, warm[k].b);
       EXPECT_NEAR(cold[k].depth, warm[k].depth, 2 * narrow::kContactDepthTolerance * cold[k].depth + 1e-6);
     }
+    // Contacts from GJK + EPA are remembered as contacts (next frame they
+    // skip the quick rejects; closed forms learn nothing); pairs found apart
+    // are remembered as separating axes.
+    std::size_t apart = 0, remembered = 0;
+    for (std::size_t k = 0, j = 0; k < pairs.size(); ++k) {
+      const NarrowCacheEntry* e = cache.entry(pairs[k]);
+      const bool hit = j < warm.size() && warm[j].a == pairs[k].a && warm[j].b == pairs[k].b;
+      if (hit) {
+        ++j;
+        if (!e) continue;
+        EXPECT_EQ(e->contact, 1u) << "frame " << f << " pair " << k;
+        ++remembered;
+      } else if (e) {
+        EXPECT_EQ(e->contact, 0u) << "frame " << f << " pair " << k;
+        ++apart;
+      }
+    }
+    EXPECT_GT(apart, 0u);
+    EXPECT_GT(remembered, warm.size() / 2);
     total += cold.size();
     if (f > 0) {
       EXPECT_GT(cache.size(), pairs.size() / 2) << "the cache learns most pairs";

@@ -38,8 +38,8 @@ class NarrowCache {
   // no useful order: without this every lookup waits for memory).
   void prefetch(std::uint32_t a) const {
     if (a + 1 < row_.size()) {
-      __builtin_prefetch(&row_[a]);
-      __builtin_prefetch(&entries_[row_[a] < entries_.size() ? row_[a] : 0]);
+      const std::uint32_t k = row_[a];
+      if (k < entries_.size()) __builtin_prefetch(entries_.data() + k);
     }
   }
   // The previous frame's direction for the pair, or null.
