@@ -19,7 +19,6 @@ struct Face {
   int adj[3];
   int adj_edge[3];
   unsigned pass;
-  bool alive;
 };
 
 // Fixed-size storage left uninitialised: V3's default member initialisers
@@ -83,13 +82,11 @@ class Polytope {
     F.adj[0] = F.adj[1] = F.adj[2] = -1;
     F.adj_edge[0] = F.adj_edge[1] = F.adj_edge[2] = 0;
     F.pass = 0;
-    F.alive = true;
     dist_[f] = F.d;
     return f;
   }
 
   void release(int f) {
-    faces_[f].alive = false;
     dist_[f] = INFINITY;
     free_[nfree_++] = f;
   }
