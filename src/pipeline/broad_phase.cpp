@@ -31,6 +31,7 @@
 
 #include "hbp/error.hpp"
 #include "pipeline/box_tree.hpp"
+#include "pipeline/fat_moving_pairs.hpp"
 #include "pipeline/handle_table.hpp"
 #include "pipeline/pair_events.hpp"
 #include "support/clock.hpp"
@@ -38,25 +39,15 @@
 namespace hbp {
 
 using detail::BoxTree;
+using detail::FatMovingPairs;
+using detail::fat_box;
+using detail::inside;
 using detail::HandleTable;
 
 namespace {
 
 constexpr std::uint32_t kNoIndex = HandleTable::kNoIndex;
 constexpr std::size_t kChunk = 1024;  // items per parallel task (fixed: deterministic output)
-
-// Fat box margin: half the box's largest side on every axis (scale
-// free; a zero-size box gets no margin and re-queries whenever it moves).
-Aabb fatten(const Aabb& b) {
-  const float side = std::max({b.max[0] - b.min[0], b.max[1] - b.min[1], b.max[2] - b.min[2]});
-  const float m = 0.5f * side;
-  return {{b.min[0] - m, b.min[1] - m, b.min[2] - m}, {b.max[0] + m, b.max[1] + m, b.max[2] + m}};
-}
-
-bool inside(const Aabb& in, const Aabb& out) {
-  return in.min[0] >= out.min[0] && in.min[1] >= out.min[1] && in.min[2] >= out.min[2] &&
-         in.max[0] <= out.max[0] && in.max[1] <= out.max[1] && in.max[2] <= out.max[2];
-}
 
 // Releases a buffer's memory when it holds far more than it needs now.
 template <class T>
@@ -113,6 +104,9 @@ struct BroadPhase::Impl {
   BoxArray moving_boxes;
   std::vector<Handle> moving_handle;
   bool moving_membership_dirty = false;
+  // Their pairs from fat-box candidates while few move (else the hybrid system).
+  FatMovingPairs fat_moving;
+  std::vector<Pair> fat_moving_pairs;
 
   // Static objects, dense, ordered by handle, and their tree.
   BoxArray static_boxes;
@@ -296,6 +290,8 @@ struct BroadPhase::Impl {
     std::vector<Handle>().swap(static_handle);
     static_tree.clear();
     moving_tree.clear();
+    fat_moving.release();
+    std::vector<Pair>().swap(fat_moving_pairs);
     std::vector<StaticCache>(slot_box.size()).swap(cache);
     static_pairs_valid = false;
   }
@@ -333,6 +329,7 @@ struct BroadPhase::Impl {
   void sync_moving() {
     if (!moving_membership_dirty) return;
     gather(HandleTable::kMoving, moving_boxes, moving_handle);
+    fat_moving.reset();
     moving_membership_dirty = false;
   }
 
@@ -372,7 +369,9 @@ struct BroadPhase::Impl {
   void find_moving_pairs() {
     moving_pairs.clear();
     if (moving_handle.size() < 2) return;
-    const std::vector<Pair>& raw = hybrid.update(moving_boxes);
+    const std::vector<Pair>& raw = fat_moving.find(moving_boxes, hybrid, options.max_pairs, fat_moving_pairs)
+                                       ? fat_moving_pairs
+                                       : hybrid.update(moving_boxes);
     const Handle* h = moving_handle.data();
     if (all_layers_collide() && !filter) {
       moving_pairs.resize(raw.size());
@@ -391,7 +390,7 @@ struct BroadPhase::Impl {
 
   // Rebuilds a moving object's candidate list from the static tree.
   void requery(StaticCache& c, const Aabb& box, std::uint32_t epoch) {
-    c.fat = fatten(box);
+    c.fat = fat_box(box);
     c.epoch = epoch;
     c.list.clear();
     static_tree.for_each_overlap(c.fat, [&](std::uint32_t i, const auto& leaf) {
