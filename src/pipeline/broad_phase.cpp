@@ -22,12 +22,18 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <array>
+#include <cmath>
 #include <atomic>
 #include <chrono>
 #include <mutex>
 #include <numeric>
 #include <limits>
 #include <string>
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "hbp/error.hpp"
 #include "pipeline/box_tree.hpp"
@@ -124,17 +130,48 @@ struct BroadPhase::Impl {
     Handle handle;
     std::uint32_t hit;  // overlapped at the last frame (kept when the pairs are unfiltered)
   };
-  // `lo`/`hi`: the quiet box. While each of the box's six coordinates stays
-  // in its interval (min[k]: lo[k] < v <= hi[k]; max[k]: lo[3+k] <= v <
-  // hi[3+k]) it crosses no candidate's face, so no candidate's overlap can
-  // flip and a frame skips the list without reading it.
-  struct StaticCache {
-    Aabb fat;
-    std::uint32_t epoch = 0;
-    float lo[6] = {}, hi[6] = {};  // all zero: never quiet (lo < v <= hi fails)
-    std::vector<Candidate> list;
+  // Per moving object, by dense index (moved along when the dense order
+  // changes, so the memory follows the moving objects, not the slots):
+  // `fat` and `epoch` say whether `list` is valid; `lo`/`hi` are the quiet
+  // box, one open interval per coordinate (0-2: box.min[k], 3-5:
+  // box.max[k]): while lo < v < hi for all six the box crosses no
+  // candidate's face and stays inside `fat`, so no candidate's overlap can
+  // flip and a frame skips the list without reading it. (All zero: never
+  // quiet.)
+  struct StaticCaches {
+    std::vector<Aabb> fat;
+    std::vector<std::uint32_t> epoch;
+    std::array<std::vector<float>, 6> lo, hi;
+    std::vector<std::vector<Candidate>> list;
+
+    std::size_t size() const { return epoch.size(); }
+    // New order: entry d is the old entry previous[d] (kNoIndex: a new object).
+    void permute(std::span<const std::uint32_t> previous) {
+      StaticCaches next;
+      const std::size_t n = previous.size();
+      next.fat.resize(n);
+      next.epoch.assign(n, 0);
+      for (int c = 0; c < 6; ++c) {
+        next.lo[c].assign(n, 0.0f);
+        next.hi[c].assign(n, 0.0f);
+      }
+      next.list.resize(n);
+      for (std::size_t d = 0; d < n; ++d) {
+        const std::uint32_t o = previous[d];
+        if (o == kNoIndex) continue;
+        next.fat[d] = fat[o];
+        next.epoch[d] = epoch[o];
+        for (int c = 0; c < 6; ++c) {
+          next.lo[c][d] = lo[c][o];
+          next.hi[c][d] = hi[c][o];
+        }
+        next.list[d] = std::move(list[o]);
+      }
+      *this = std::move(next);
+    }
   };
-  std::vector<StaticCache> cache;
+  StaticCaches cache;
+  std::vector<std::uint32_t> previous_index;  // scratch of sync_moving
 
   // Moving objects' tree, for queries only.
   BoxTree moving_tree;
@@ -215,12 +252,8 @@ struct BroadPhase::Impl {
     const auto kind = o.is_static ? HandleTable::kStatic : HandleTable::kMoving;
     for (std::size_t i = 0; i < boxes.size(); ++i) {
       const std::uint32_t s = table.allocate(kind, o.layer);
-      if (s >= slot_box.size()) {
-        slot_box.resize(s + 1);
-        cache.resize(s + 1);
-      }
+      if (s >= slot_box.size()) slot_box.resize(s + 1);
       slot_box[s] = boxes[i];
-      cache[s].epoch = 0;
       handles[i] = table.handle_of(s);
     }
     if (boxes.empty()) return handles;
@@ -264,7 +297,6 @@ struct BroadPhase::Impl {
     for (const Handle h : handles) {
       const std::uint32_t s = HandleTable::slot_of(h);
       (table.kind(s) == HandleTable::kStatic ? statics : moving) += 1;
-      cache[s] = StaticCache();
       table.release(s);
     }
     if (statics) statics_changed(statics);
@@ -292,14 +324,17 @@ struct BroadPhase::Impl {
     moving_tree.clear();
     fat_moving.release();
     std::vector<Pair>().swap(fat_moving_pairs);
-    std::vector<StaticCache>(slot_box.size()).swap(cache);
+    cache = StaticCaches();
+    std::vector<std::uint32_t>().swap(previous_index);
     static_pairs_valid = false;
   }
 
   // ---- structures ----------------------------------------------------------
 
   // Dense arrays of one kind, ordered by handle.
-  void gather(HandleTable::Kind kind, BoxArray& boxes, std::vector<Handle>& handles) {
+  // previous (if given): each object's old dense index (kNoIndex: new).
+  void gather(HandleTable::Kind kind, BoxArray& boxes, std::vector<Handle>& handles,
+              std::vector<std::uint32_t>* previous = nullptr) {
     handles.clear();
     for (std::uint32_t s = 0; s < table.slots(); ++s)
       if (table.kind(s) == kind) handles.push_back(table.handle_of(s));
@@ -307,8 +342,10 @@ struct BroadPhase::Impl {
     fit(handles);
     if (boxes.capacity() > 4 * handles.size() + 4096) boxes = BoxArray();
     boxes.resize(handles.size());
+    if (previous) previous->resize(handles.size());
     for (std::uint32_t d = 0; d < handles.size(); ++d) {
       const std::uint32_t s = HandleTable::slot_of(handles[d]);
+      if (previous) (*previous)[d] = table.index(s);
       boxes.set(d, slot_box[s]);
       table.set_index(s, d);
     }
@@ -328,7 +365,9 @@ struct BroadPhase::Impl {
 
   void sync_moving() {
     if (!moving_membership_dirty) return;
-    gather(HandleTable::kMoving, moving_boxes, moving_handle);
+    gather(HandleTable::kMoving, moving_boxes, moving_handle, &previous_index);
+    cache.permute(previous_index);
+    fit(previous_index);
     fat_moving.reset();
     moving_membership_dirty = false;
   }
@@ -388,52 +427,87 @@ struct BroadPhase::Impl {
     });
   }
 
-  // Rebuilds a moving object's candidate list from the static tree.
-  void requery(StaticCache& c, const Aabb& box, std::uint32_t epoch) {
-    c.fat = fat_box(box);
-    c.epoch = epoch;
-    c.list.clear();
-    static_tree.for_each_overlap(c.fat, [&](std::uint32_t i, const auto& leaf) {
-      c.list.push_back({{{leaf.min[0], leaf.min[1], leaf.min[2]}, {leaf.max[0], leaf.max[1], leaf.max[2]}},
-                        static_handle[i], 0});
+  // Rebuilds moving object d's candidate list from the static tree.
+  void requery(std::size_t d, const Aabb& box, std::uint32_t epoch) {
+    cache.fat[d] = fat_box(box);
+    cache.epoch[d] = epoch;
+    std::vector<Candidate>& list = cache.list[d];
+    list.clear();
+    static_tree.for_each_overlap(cache.fat[d], [&](std::uint32_t i, const auto& leaf) {
+      list.push_back({{{leaf.min[0], leaf.min[1], leaf.min[2]}, {leaf.max[0], leaf.max[1], leaf.max[2]}},
+                      static_handle[i], 0});
     });
-    fit(c.list);
+    fit(list);
   }
 
-  // Sets c's quiet box around `box` (every candidate's faces; see StaticCache).
-  static void set_quiet(StaticCache& c, const Aabb& box) {
+  // Sets d's quiet box around `box`: every candidate's faces, and the fat box.
+  void set_quiet(std::size_t d, const Aabb& box) {
     constexpr float inf = std::numeric_limits<float>::infinity();
+    // Closed bounds first: min[k] in (lo, hi], max[k] in [lo, hi).
+    float lo[6], hi[6];
     for (int k = 0; k < 6; ++k) {
-      c.lo[k] = -inf;
-      c.hi[k] = inf;
+      lo[k] = -inf;
+      hi[k] = inf;
     }
-    for (const Candidate& q : c.list) {
+    for (const Candidate& q : cache.list[d]) {
       for (int k = 0; k < 3; ++k) {
         // box.min[k] <= q.box.max[k] keeps its value while box.min[k] stays
         // on the same side of q.box.max[k].
         const float m = q.box.max[k];
         if (m >= box.min[k]) {
-          c.hi[k] = std::min(c.hi[k], m);
+          hi[k] = std::min(hi[k], m);
         } else {
-          c.lo[k] = std::max(c.lo[k], m);
+          lo[k] = std::max(lo[k], m);
         }
         // box.max[k] >= q.box.min[k]: likewise for box.max[k].
         const float n = q.box.min[k];
         if (n <= box.max[k]) {
-          c.lo[3 + k] = std::max(c.lo[3 + k], n);
+          lo[3 + k] = std::max(lo[3 + k], n);
         } else {
-          c.hi[3 + k] = std::min(c.hi[3 + k], n);
+          hi[3 + k] = std::min(hi[3 + k], n);
         }
       }
     }
+    // Open intervals (v is a float: v <= h iff v < next float above h), and
+    // inside the fat box: min[k] >= fat.min[k], max[k] <= fat.max[k].
+    const Aabb& fat = cache.fat[d];
+    for (int k = 0; k < 3; ++k) {
+      cache.lo[k][d] = std::max(lo[k], std::nextafter(fat.min[k], -inf));
+      cache.hi[k][d] = std::nextafter(hi[k], inf);
+      cache.lo[3 + k][d] = std::nextafter(lo[3 + k], -inf);
+      cache.hi[3 + k][d] = std::min(hi[3 + k], std::nextafter(fat.max[k], inf));
+    }
   }
 
-  static bool quiet(const StaticCache& c, const Aabb& box) {
-    bool q = true;
-    for (int k = 0; k < 3; ++k)
-      q &= (c.lo[k] < box.min[k]) & (box.min[k] <= c.hi[k]) & (c.lo[3 + k] <= box.max[k]) &
-           (box.max[k] < c.hi[3 + k]);
-    return q;
+  // Appends to busy the objects of [begin, end) outside their quiet box.
+  std::size_t collect_busy(std::size_t begin, std::size_t end, std::uint32_t* busy) const {
+    const float* v[6] = {moving_boxes.min(0), moving_boxes.min(1), moving_boxes.min(2),
+                         moving_boxes.max(0), moving_boxes.max(1), moving_boxes.max(2)};
+    const float* lo[6];
+    const float* hi[6];
+    for (int c = 0; c < 6; ++c) {
+      lo[c] = cache.lo[c].data();
+      hi[c] = cache.hi[c].data();
+    }
+    std::size_t n_busy = 0;
+    std::size_t d = begin;
+#if defined(__SSE2__)
+    for (; d + 4 <= end; d += 4) {
+      __m128 q = _mm_castsi128_ps(_mm_set1_epi32(-1));
+      for (int c = 0; c < 6; ++c) {
+        const __m128 x = _mm_loadu_ps(v[c] + d);
+        q = _mm_and_ps(q, _mm_and_ps(_mm_cmplt_ps(_mm_loadu_ps(lo[c] + d), x), _mm_cmplt_ps(x, _mm_loadu_ps(hi[c] + d))));
+      }
+      for (unsigned bits = ~static_cast<unsigned>(_mm_movemask_ps(q)) & 15u; bits; bits &= bits - 1)
+        busy[n_busy++] = static_cast<std::uint32_t>(d + static_cast<std::size_t>(__builtin_ctz(bits)));
+    }
+#endif
+    for (; d < end; ++d) {
+      bool q = true;
+      for (int c = 0; c < 6; ++c) q &= (lo[c][d] < v[c][d]) & (v[c][d] < hi[c][d]);
+      if (!q) busy[n_busy++] = static_cast<std::uint32_t>(d);
+    }
+    return n_busy;
   }
 
   static std::uint32_t hit_of(const Aabb& box, const Candidate& k) {
@@ -461,16 +535,10 @@ struct BroadPhase::Impl {
         // ten); pass 2 re-tests their lists, prefetched a few objects ahead
         // because the lists are scattered on the heap and mostly cold.
         std::uint32_t busy[kChunk];
-        std::size_t n_busy = 0;
-        for (std::size_t d = begin; d < end; ++d) {
-          const StaticCache& c = cache[HandleTable::slot_of(moving_handle[d])];
-          const Aabb box = moving_boxes.get(d);
-          if (c.epoch == epoch && inside(box, c.fat) && quiet(c, box)) continue;
-          busy[n_busy++] = static_cast<std::uint32_t>(d);
-        }
+        const std::size_t n_busy = collect_busy(begin, end, busy);
         constexpr std::size_t kAhead = 4;
         auto prefetch = [&](std::size_t j) {
-          const auto& list = cache[HandleTable::slot_of(moving_handle[busy[j]])].list;
+          const auto& list = cache.list[busy[j]];
           const char* first = reinterpret_cast<const char*>(list.data());
           const char* last = reinterpret_cast<const char*>(list.data() + list.size());
           for (const char* q = first; q < last && q < first + 512; q += 64) __builtin_prefetch(q);
@@ -481,28 +549,28 @@ struct BroadPhase::Impl {
           const std::size_t d = busy[j];
           const Handle hm = moving_handle[d];
           const Aabb box = moving_boxes.get(d);
-          StaticCache& c = cache[HandleTable::slot_of(hm)];
-          if (c.epoch == epoch && inside(box, c.fat)) {
-            for (Candidate& k : c.list) {
+          std::vector<Candidate>& list = cache.list[d];
+          if (cache.epoch[d] == epoch && inside(box, cache.fat[d])) {
+            for (Candidate& k : list) {
               const std::uint32_t hit = hit_of(box, k);
               if (hit != k.hit) {  // rare: the pair starts or stops here
                 k.hit = hit;
                 out.push_back(make_pair(hm, k.handle));
               }
             }
-            set_quiet(c, box);
+            set_quiet(d, box);
             continue;
           }
           // Left its fat box: the pairs it had, then the pairs it has; a
           // pair in both cancels in the XOR merge below.
-          for (const Candidate& k : c.list)
+          for (const Candidate& k : list)
             if (k.hit) out.push_back(make_pair(hm, k.handle));
-          requery(c, box, epoch);
-          for (Candidate& k : c.list) {
+          requery(d, box, epoch);
+          for (Candidate& k : list) {
             k.hit = hit_of(box, k);
             if (k.hit) out.push_back(make_pair(hm, k.handle));
           }
-          set_quiet(c, box);
+          set_quiet(d, box);
         }
       });
       sort_pairs(flips, sort_scratch);
@@ -538,22 +606,22 @@ struct BroadPhase::Impl {
                        for (std::size_t d = begin; d < end; ++d) {
                          const Handle hm = moving_handle[d];
                          const Aabb box = moving_boxes.get(d);
-                         StaticCache& c = cache[HandleTable::slot_of(hm)];
-                         if (c.epoch != epoch || !inside(box, c.fat)) requery(c, box, epoch);
+                         if (cache.epoch[d] != epoch || !inside(box, cache.fat[d])) requery(d, box, epoch);
+                         std::vector<Candidate>& list = cache.list[d];
                          if (all && !filter) {
                            // Branch-free: about half the candidates overlap.
                            std::size_t size = out.size();
-                           out.resize(size + c.list.size());
-                           for (Candidate& k : c.list) {
+                           out.resize(size + list.size());
+                           for (Candidate& k : list) {
                              k.hit = hit_of(box, k);
                              out[size] = make_pair(hm, k.handle);
                              size += k.hit;
                            }
                            out.resize(size);
-                           set_quiet(c, box);
+                           set_quiet(d, box);
                            continue;
                          }
-                         for (const Candidate& k : c.list) {
+                         for (const Candidate& k : list) {
                            if (!overlaps(box, k.box)) continue;
                            const Pair p = make_pair(hm, k.handle);
                            if (!all && !layers_collide(p.a, p.b)) continue;
