@@ -68,16 +68,20 @@ bool FatMovingPairs::find(const BoxArray& boxes, HybridBroadPhase& hybrid, std::
     if (left_.size() * n > kMaxRetests) {
       // Two such frames in a row: the world is not mostly quiet now.
       if (last_rebuilt_) {
-        last_rebuilt_ = false;
-        valid_ = false;
-        cooldown_ = kCooldownFrames;
+        give_up();
         return false;
       }
       if (!rebuild(boxes, hybrid)) return false;
       last_rebuilt_ = true;
     } else {
-      if (!left_.empty()) retest_left(boxes);
       last_rebuilt_ = false;
+      if (!left_.empty()) {
+        retest_left(boxes);
+        if (cand_.size() > kMaxCandidatesPerObject * n) {  // the moving objects crowd together
+          give_up();
+          return false;
+        }
+      }
     }
   }
   // Every overlapping pair is a candidate: test them exactly (branch-free).
@@ -105,10 +109,7 @@ bool FatMovingPairs::rebuild(const BoxArray& boxes, HybridBroadPhase& hybrid) {
     raw = nullptr;  // more fat pairs than max_pairs: the exact boxes decide
   }
   if (!raw || raw->size() > kMaxCandidatesPerObject * n) {
-    valid_ = false;
-    cooldown_ = kCooldownFrames;
-    cand_.clear();
-    fit(cand_);
+    give_up();
     return false;
   }
   cand_.assign(raw->begin(), raw->end());
@@ -161,6 +162,14 @@ void FatMovingPairs::retest_left(const BoxArray& boxes) {
   cand_.swap(merged_);
   fit(merged_);
   fit(fresh_);
+}
+
+void FatMovingPairs::give_up() {
+  valid_ = false;
+  last_rebuilt_ = false;
+  cooldown_ = kCooldownFrames;
+  cand_.clear();
+  fit(cand_);
 }
 
 void FatMovingPairs::release() {

@@ -63,6 +63,8 @@ class FatMovingPairs {
  private:
   bool rebuild(const BoxArray& boxes, HybridBroadPhase& hybrid);
   void retest_left(const BoxArray& boxes);
+  // The fat path does not pay now: the exact hybrid path for kCooldownFrames.
+  void give_up();
 
   BoxArray fat_;               // by dense index
   std::vector<Pair> cand_;     // fat boxes overlap: dense, a < b, sorted
