@@ -23,6 +23,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <atomic>
 #include <chrono>
@@ -54,6 +55,16 @@ namespace {
 
 constexpr std::uint32_t kNoIndex = HandleTable::kNoIndex;
 constexpr std::size_t kChunk = 1024;  // items per parallel task (fixed: deterministic output)
+
+// The float just above x (x not NaN; +inf stays), without a libm call.
+inline float next_up(float x) {
+  if (x == std::numeric_limits<float>::infinity()) return x;
+  if (x == 0.0f) return std::numeric_limits<float>::denorm_min();
+  const auto bits = std::bit_cast<std::uint32_t>(x);
+  return std::bit_cast<float>(x > 0.0f ? bits + 1 : bits - 1);
+}
+// The float just below x (x not NaN; -inf stays).
+inline float next_down(float x) { return -next_up(-x); }
 
 // Releases a buffer's memory when it holds far more than it needs now.
 template <class T>
@@ -440,7 +451,13 @@ struct BroadPhase::Impl {
     fit(list);
   }
 
-  // Sets d's quiet box around `box`: every candidate's faces, and the fat box.
+  // Sets d's quiet box around `box`. A candidate's overlap is six
+  // conditions (box.min[k] <= c.max[k], box.max[k] >= c.min[k]); it cannot
+  // change while the conditions it depends on keep their values: all six
+  // for an overlapping candidate, and for a separated one just one false
+  // condition (the widest gap), which keeps it separated whatever the
+  // others do. Each kept condition bounds one coordinate of the box; the
+  // quiet box is the intersection, and the fat box (the list's validity).
   void set_quiet(std::size_t d, const Aabb& box) {
     constexpr float inf = std::numeric_limits<float>::infinity();
     // Closed bounds first: min[k] in (lo, hi], max[k] in [lo, hi).
@@ -450,32 +467,42 @@ struct BroadPhase::Impl {
       hi[k] = inf;
     }
     for (const Candidate& q : cache.list[d]) {
+      // Condition c is false (c < 3: box.min[c] > q.max[c]; else
+      // box.max[c-3] < q.min[c-3]) by gap[c]; the comparisons decide, the
+      // gaps only rank.
+      int widest = -1;
+      float widest_gap = 0;
       for (int k = 0; k < 3; ++k) {
-        // box.min[k] <= q.box.max[k] keeps its value while box.min[k] stays
-        // on the same side of q.box.max[k].
-        const float m = q.box.max[k];
-        if (m >= box.min[k]) {
-          hi[k] = std::min(hi[k], m);
-        } else {
-          lo[k] = std::max(lo[k], m);
+        if (box.min[k] > q.box.max[k] && (widest < 0 || box.min[k] - q.box.max[k] > widest_gap)) {
+          widest = k;
+          widest_gap = box.min[k] - q.box.max[k];
         }
-        // box.max[k] >= q.box.min[k]: likewise for box.max[k].
-        const float n = q.box.min[k];
-        if (n <= box.max[k]) {
-          lo[3 + k] = std::max(lo[3 + k], n);
-        } else {
-          hi[3 + k] = std::min(hi[3 + k], n);
+        if (box.max[k] < q.box.min[k] && (widest < 0 || q.box.min[k] - box.max[k] > widest_gap)) {
+          widest = 3 + k;
+          widest_gap = q.box.min[k] - box.max[k];
         }
+      }
+      if (widest >= 0) {  // separated: keep that condition false
+        if (widest < 3) {
+          lo[widest] = std::max(lo[widest], q.box.max[widest]);
+        } else {
+          hi[widest] = std::min(hi[widest], q.box.min[widest - 3]);
+        }
+        continue;
+      }
+      for (int k = 0; k < 3; ++k) {  // overlapping: keep all six true
+        hi[k] = std::min(hi[k], q.box.max[k]);
+        lo[3 + k] = std::max(lo[3 + k], q.box.min[k]);
       }
     }
     // Open intervals (v is a float: v <= h iff v < next float above h), and
     // inside the fat box: min[k] >= fat.min[k], max[k] <= fat.max[k].
     const Aabb& fat = cache.fat[d];
     for (int k = 0; k < 3; ++k) {
-      cache.lo[k][d] = std::max(lo[k], std::nextafter(fat.min[k], -inf));
-      cache.hi[k][d] = std::nextafter(hi[k], inf);
-      cache.lo[3 + k][d] = std::nextafter(lo[3 + k], -inf);
-      cache.hi[3 + k][d] = std::min(hi[3 + k], std::nextafter(fat.max[k], inf));
+      cache.lo[k][d] = std::max(lo[k], next_down(fat.min[k]));
+      cache.hi[k][d] = next_up(hi[k]);
+      cache.lo[3 + k][d] = next_down(lo[3 + k]);
+      cache.hi[3 + k][d] = std::min(hi[3 + k], next_up(fat.max[k]));
     }
   }
 

@@ -60,7 +60,20 @@ bool FatMovingPairs::find(const BoxArray& boxes, HybridBroadPhase& hybrid, std::
     const float *x1 = boxes.max(0), *y1 = boxes.max(1), *z1 = boxes.max(2);
     const float *fx0 = fat_.min(0), *fy0 = fat_.min(1), *fz0 = fat_.min(2);
     const float *fx1 = fat_.max(0), *fy1 = fat_.max(1), *fz1 = fat_.max(2);
-    for (std::uint32_t d = 0; d < n; ++d) {
+    std::uint32_t d = 0;
+#if defined(__SSE2__)
+    for (; d + 4 <= n; d += 4) {
+      __m128 in = _mm_and_ps(_mm_cmpge_ps(_mm_loadu_ps(x0 + d), _mm_loadu_ps(fx0 + d)),
+                             _mm_cmpge_ps(_mm_loadu_ps(y0 + d), _mm_loadu_ps(fy0 + d)));
+      in = _mm_and_ps(in, _mm_cmpge_ps(_mm_loadu_ps(z0 + d), _mm_loadu_ps(fz0 + d)));
+      in = _mm_and_ps(in, _mm_cmple_ps(_mm_loadu_ps(x1 + d), _mm_loadu_ps(fx1 + d)));
+      in = _mm_and_ps(in, _mm_cmple_ps(_mm_loadu_ps(y1 + d), _mm_loadu_ps(fy1 + d)));
+      in = _mm_and_ps(in, _mm_cmple_ps(_mm_loadu_ps(z1 + d), _mm_loadu_ps(fz1 + d)));
+      for (unsigned out = ~static_cast<unsigned>(_mm_movemask_ps(in)) & 15u; out; out &= out - 1)
+        left_.push_back(d + static_cast<std::uint32_t>(__builtin_ctz(out)));
+    }
+#endif
+    for (; d < n; ++d) {
       const bool in = (x0[d] >= fx0[d]) & (y0[d] >= fy0[d]) & (z0[d] >= fz0[d]) & (x1[d] <= fx1[d]) &
                       (y1[d] <= fy1[d]) & (z1[d] <= fz1[d]);
       if (!in) left_.push_back(d);
