@@ -451,14 +451,17 @@ struct BroadPhase::Impl {
     fit(list);
   }
 
-  // Sets d's quiet box around `box`. A candidate's overlap is six
-  // conditions (box.min[k] <= c.max[k], box.max[k] >= c.min[k]); it cannot
-  // change while the conditions it depends on keep their values: all six
-  // for an overlapping candidate, and for a separated one just one false
-  // condition (the widest gap), which keeps it separated whatever the
-  // others do. Each kept condition bounds one coordinate of the box; the
-  // quiet box is the intersection, and the fat box (the list's validity).
-  void set_quiet(std::size_t d, const Aabb& box) {
+  // Re-tests d's candidates against `box` (seen(candidate, hit) for each)
+  // and sets d's quiet box around `box`, in one pass over the list. A
+  // candidate's overlap is six conditions (box.min[k] <= c.max[k],
+  // box.max[k] >= c.min[k]); it cannot change while the conditions it
+  // depends on keep their values: all six for an overlapping candidate, and
+  // for a separated one just one false condition (the widest gap), which
+  // keeps it separated whatever the others do. Each kept condition bounds
+  // one coordinate of the box; the quiet box is the intersection, and the
+  // fat box (the list's validity).
+  template <class Seen>
+  void retest(std::size_t d, const Aabb& box, Seen&& seen) {
     constexpr float inf = std::numeric_limits<float>::infinity();
     // Closed bounds first: min[k] in (lo, hi], max[k] in [lo, hi).
     float lo[6], hi[6];
@@ -466,22 +469,24 @@ struct BroadPhase::Impl {
       lo[k] = -inf;
       hi[k] = inf;
     }
-    for (const Candidate& q : cache.list[d]) {
-      // Condition c is false (c < 3: box.min[c] > q.max[c]; else
-      // box.max[c-3] < q.min[c-3]) by gap[c]; the comparisons decide, the
-      // gaps only rank.
+    for (Candidate& q : cache.list[d]) {
+      // Condition c false (c < 3: box.min[c] > q.max[c]; else box.max[c-3]
+      // < q.min[c-3]) by gap[c] > 0; the comparisons decide, the gaps only
+      // rank.
       int widest = -1;
       float widest_gap = 0;
       for (int k = 0; k < 3; ++k) {
-        if (box.min[k] > q.box.max[k] && (widest < 0 || box.min[k] - q.box.max[k] > widest_gap)) {
+        const float g0 = box.min[k] - q.box.max[k], g1 = q.box.min[k] - box.max[k];
+        if (box.min[k] > q.box.max[k] && (widest < 0 || g0 > widest_gap)) {
           widest = k;
-          widest_gap = box.min[k] - q.box.max[k];
+          widest_gap = g0;
         }
-        if (box.max[k] < q.box.min[k] && (widest < 0 || q.box.min[k] - box.max[k] > widest_gap)) {
+        if (box.max[k] < q.box.min[k] && (widest < 0 || g1 > widest_gap)) {
           widest = 3 + k;
-          widest_gap = q.box.min[k] - box.max[k];
+          widest_gap = g1;
         }
       }
+      seen(q, static_cast<std::uint32_t>(widest < 0));
       if (widest >= 0) {  // separated: keep that condition false
         if (widest < 3) {
           lo[widest] = std::max(lo[widest], q.box.max[widest]);
@@ -537,11 +542,6 @@ struct BroadPhase::Impl {
     return n_busy;
   }
 
-  static std::uint32_t hit_of(const Aabb& box, const Candidate& k) {
-    return (box.max[0] >= k.box.min[0]) & (box.min[0] <= k.box.max[0]) & (box.max[1] >= k.box.min[1]) &
-           (box.min[1] <= k.box.max[1]) & (box.max[2] >= k.box.min[2]) & (box.min[2] <= k.box.max[2]);
-  }
-
   // The moving/static pairs. `incremental` (unfiltered, and since the last
   // frame only moving boxes changed): only the candidates whose overlap
   // flipped are collected, sorted (a few hundred a frame) and XOR-merged
@@ -578,14 +578,12 @@ struct BroadPhase::Impl {
           const Aabb box = moving_boxes.get(d);
           std::vector<Candidate>& list = cache.list[d];
           if (cache.epoch[d] == epoch && inside(box, cache.fat[d])) {
-            for (Candidate& k : list) {
-              const std::uint32_t hit = hit_of(box, k);
+            retest(d, box, [&](Candidate& k, std::uint32_t hit) {
               if (hit != k.hit) {  // rare: the pair starts or stops here
                 k.hit = hit;
                 out.push_back(make_pair(hm, k.handle));
               }
-            }
-            set_quiet(d, box);
+            });
             continue;
           }
           // Left its fat box: the pairs it had, then the pairs it has; a
@@ -593,11 +591,10 @@ struct BroadPhase::Impl {
           for (const Candidate& k : list)
             if (k.hit) out.push_back(make_pair(hm, k.handle));
           requery(d, box, epoch);
-          for (Candidate& k : list) {
-            k.hit = hit_of(box, k);
-            if (k.hit) out.push_back(make_pair(hm, k.handle));
-          }
-          set_quiet(d, box);
+          retest(d, box, [&](Candidate& k, std::uint32_t hit) {
+            k.hit = hit;
+            if (hit) out.push_back(make_pair(hm, k.handle));
+          });
         }
       });
       sort_pairs(flips, sort_scratch);
@@ -639,13 +636,12 @@ struct BroadPhase::Impl {
                            // Branch-free: about half the candidates overlap.
                            std::size_t size = out.size();
                            out.resize(size + list.size());
-                           for (Candidate& k : list) {
-                             k.hit = hit_of(box, k);
+                           retest(d, box, [&](Candidate& k, std::uint32_t hit) {
+                             k.hit = hit;
                              out[size] = make_pair(hm, k.handle);
-                             size += k.hit;
-                           }
+                             size += hit;
+                           });
                            out.resize(size);
-                           set_quiet(d, box);
                            continue;
                          }
                          for (const Candidate& k : list) {
