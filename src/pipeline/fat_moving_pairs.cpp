@@ -97,6 +97,7 @@ bool FatMovingPairs::find(const BoxArray& boxes, HybridBroadPhase& hybrid, std::
       }
     }
   }
+  next_cooldown_ = kCooldownFrames;  // the fat path works this frame
   // Every overlapping pair is a candidate: test them exactly (branch-free).
   out.resize(cand_.size());
   std::size_t k = 0;
@@ -180,7 +181,8 @@ void FatMovingPairs::retest_left(const BoxArray& boxes) {
 void FatMovingPairs::give_up() {
   valid_ = false;
   last_rebuilt_ = false;
-  cooldown_ = kCooldownFrames;
+  cooldown_ = next_cooldown_;
+  next_cooldown_ = std::min(2 * next_cooldown_, kMaxCooldownFrames);
   cand_.clear();
   fit(cand_);
 }
