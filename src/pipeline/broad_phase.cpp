@@ -5,13 +5,16 @@
 // slot_box_. Moving objects also live in dense SoA arrays (moving_boxes_,
 // moving_handle_) ordered by handle, so the hybrid system's sorted id pairs
 // map to sorted handle pairs; static objects in static_boxes_/static_handle_
-// and a BoxTree built when the statics change.
+// and a BoxTree built when the statics change. The moving objects' caches
+// of static candidates are dense too (memory follows the moving objects).
 //
-// A frame: the hybrid system finds the moving/moving pairs; each moving
-// object re-tests the static candidates cached for its fat box (its box grown
-// by half its largest side) and re-queries the static tree only when
-// its box left the fat box or the statics changed; an object still inside
-// its quiet box (no candidate face crossed) skips its list, and when only
+// A frame: the hybrid system finds the moving/moving pairs (or, while the
+// moving objects are few and sparse, fat-box candidate pairs kept across
+// frames: fat_moving_pairs.hpp); each moving object re-tests the static
+// candidates cached for its fat box (its box grown by half its largest side)
+// and re-queries the static tree only when its box left the fat box or the
+// statics changed; an object still inside its quiet box (no candidate's
+// overlap can change) skips its list, and when only
 // moving boxes changed the pairs whose overlap flipped are merged into last
 // frame's moving/static list instead of re-sorting it. Layer table and pair
 // filter apply before a pair is kept; the sorted lists are merged, and
