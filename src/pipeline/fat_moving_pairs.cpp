@@ -157,7 +157,10 @@ void FatMovingPairs::retest_left(const BoxArray& boxes) {
     const __m128 qx0 = _mm_set1_ps(q.min[0]), qy0 = _mm_set1_ps(q.min[1]), qz0 = _mm_set1_ps(q.min[2]);
     const __m128 qx1 = _mm_set1_ps(q.max[0]), qy1 = _mm_set1_ps(q.max[1]), qz1 = _mm_set1_ps(q.max[2]);
     for (; j + 4 <= n; j += 4) {
+      // x first: few boxes overlap on x (a few percent), so most groups of
+      // four stop after two compares.
       __m128 m = _mm_and_ps(_mm_cmple_ps(_mm_loadu_ps(x0 + j), qx1), _mm_cmpge_ps(_mm_loadu_ps(x1 + j), qx0));
+      if (!_mm_movemask_ps(m)) continue;
       m = _mm_and_ps(m, _mm_and_ps(_mm_cmple_ps(_mm_loadu_ps(y0 + j), qy1), _mm_cmpge_ps(_mm_loadu_ps(y1 + j), qy0)));
       m = _mm_and_ps(m, _mm_and_ps(_mm_cmple_ps(_mm_loadu_ps(z0 + j), qz1), _mm_cmpge_ps(_mm_loadu_ps(z1 + j), qz0)));
       for (unsigned bits = static_cast<unsigned>(_mm_movemask_ps(m)); bits; bits &= bits - 1)
