@@ -146,40 +146,40 @@ struct BroadPhase::Impl {
   };
   // Per moving object, by dense index (moved along when the dense order
   // changes, so the memory follows the moving objects, not the slots):
-  // `fat` and `epoch` say whether `list` is valid; `lo`/`hi` are the quiet
+  // `fat` and `epoch` say whether `list` is valid (one record, so an object
+  // that re-tests reads one line before its list); `lo`/`hi` are the quiet
   // box, one open interval per coordinate (0-2: box.min[k], 3-5:
   // box.max[k]): while lo < v < hi for all six the box crosses no
   // candidate's face and stays inside `fat`, so no candidate's overlap can
   // flip and a frame skips the list without reading it. (All zero: never
   // quiet.)
+  struct ListEntry {
+    Aabb fat;
+    std::uint32_t epoch = 0;
+    std::vector<Candidate> list;
+  };
   struct StaticCaches {
-    std::vector<Aabb> fat;
-    std::vector<std::uint32_t> epoch;
+    std::vector<ListEntry> entry;
     std::array<std::vector<float>, 6> lo, hi;
-    std::vector<std::vector<Candidate>> list;
 
-    std::size_t size() const { return epoch.size(); }
+    std::size_t size() const { return entry.size(); }
     // New order: entry d is the old entry previous[d] (kNoIndex: a new object).
     void permute(std::span<const std::uint32_t> previous) {
       StaticCaches next;
       const std::size_t n = previous.size();
-      next.fat.resize(n);
-      next.epoch.assign(n, 0);
+      next.entry.resize(n);
       for (int c = 0; c < 6; ++c) {
         next.lo[c].assign(n, 0.0f);
         next.hi[c].assign(n, 0.0f);
       }
-      next.list.resize(n);
       for (std::size_t d = 0; d < n; ++d) {
         const std::uint32_t o = previous[d];
         if (o == kNoIndex) continue;
-        next.fat[d] = fat[o];
-        next.epoch[d] = epoch[o];
+        next.entry[d] = std::move(entry[o]);
         for (int c = 0; c < 6; ++c) {
           next.lo[c][d] = lo[c][o];
           next.hi[c][d] = hi[c][o];
         }
-        next.list[d] = std::move(list[o]);
       }
       *this = std::move(next);
     }
@@ -443,11 +443,12 @@ struct BroadPhase::Impl {
 
   // Rebuilds moving object d's candidate list from the static tree.
   void requery(std::size_t d, const Aabb& box, std::uint32_t epoch) {
-    cache.fat[d] = fat_box(box);
-    cache.epoch[d] = epoch;
-    std::vector<Candidate>& list = cache.list[d];
+    ListEntry& e = cache.entry[d];
+    e.fat = fat_box(box);
+    e.epoch = epoch;
+    std::vector<Candidate>& list = e.list;
     list.clear();
-    static_tree.for_each_overlap(cache.fat[d], [&](std::uint32_t i, const auto& leaf) {
+    static_tree.for_each_overlap(e.fat, [&](std::uint32_t i, const auto& leaf) {
       list.push_back({{{leaf.min[0], leaf.min[1], leaf.min[2]}, {leaf.max[0], leaf.max[1], leaf.max[2]}},
                       static_handle[i], 0});
     });
@@ -472,7 +473,7 @@ struct BroadPhase::Impl {
       lo[k] = -inf;
       hi[k] = inf;
     }
-    for (Candidate& q : cache.list[d]) {
+    for (Candidate& q : cache.entry[d].list) {
       // Condition c false (c < 3: box.min[c] > q.max[c]; else box.max[c-3]
       // < q.min[c-3]) by gap[c] > 0; the comparisons decide, the gaps only
       // rank.
@@ -505,7 +506,7 @@ struct BroadPhase::Impl {
     }
     // Open intervals (v is a float: v <= h iff v < next float above h), and
     // inside the fat box: min[k] >= fat.min[k], max[k] <= fat.max[k].
-    const Aabb& fat = cache.fat[d];
+    const Aabb& fat = cache.entry[d].fat;
     for (int k = 0; k < 3; ++k) {
       cache.lo[k][d] = std::max(lo[k], next_down(fat.min[k]));
       cache.hi[k][d] = next_up(hi[k]);
@@ -568,7 +569,7 @@ struct BroadPhase::Impl {
         const std::size_t n_busy = collect_busy(begin, end, busy);
         constexpr std::size_t kAhead = 4;
         auto prefetch = [&](std::size_t j) {
-          const auto& list = cache.list[busy[j]];
+          const auto& list = cache.entry[busy[j]].list;
           const char* first = reinterpret_cast<const char*>(list.data());
           const char* last = reinterpret_cast<const char*>(list.data() + list.size());
           for (const char* q = first; q < last && q < first + 512; q += 64) __builtin_prefetch(q);
@@ -579,8 +580,9 @@ struct BroadPhase::Impl {
           const std::size_t d = busy[j];
           const Handle hm = moving_handle[d];
           const Aabb box = moving_boxes.get(d);
-          std::vector<Candidate>& list = cache.list[d];
-          if (cache.epoch[d] == epoch && inside(box, cache.fat[d])) {
+          ListEntry& e = cache.entry[d];
+          std::vector<Candidate>& list = e.list;
+          if (e.epoch == epoch && inside(box, e.fat)) {
             retest(d, box, [&](Candidate& k, std::uint32_t hit) {
               if (hit != k.hit) {  // rare: the pair starts or stops here
                 k.hit = hit;
@@ -633,8 +635,9 @@ struct BroadPhase::Impl {
                        for (std::size_t d = begin; d < end; ++d) {
                          const Handle hm = moving_handle[d];
                          const Aabb box = moving_boxes.get(d);
-                         if (cache.epoch[d] != epoch || !inside(box, cache.fat[d])) requery(d, box, epoch);
-                         std::vector<Candidate>& list = cache.list[d];
+                         const ListEntry& e = cache.entry[d];
+                         if (e.epoch != epoch || !inside(box, e.fat)) requery(d, box, epoch);
+                         std::vector<Candidate>& list = cache.entry[d].list;
                          if (all && !filter) {
                            // Branch-free: about half the candidates overlap.
                            std::size_t size = out.size();
