@@ -7,16 +7,17 @@
 // as for the static candidates). The candidates are the pairs whose fat
 // boxes overlap; while both boxes stay inside their fat boxes every
 // overlapping pair is a candidate, so a frame only tests the candidates
-// exactly (a few per object). An object whose box left its fat box gets a new
-// one; its candidates are dropped and found again by testing its new fat box
-// against every fat box (SSE, a few a frame). The candidates are found from
+// exactly (0.15 per object in the mostly-static benchmark). An object whose
+// box left its fat box gets a new one; its candidates are dropped and found
+// again by testing its new fat box against every fat box (SSE, a few a
+// frame). The candidates are found from
 // scratch by the hybrid system run on the fat boxes when the membership
 // changed or too many objects left their fat boxes in one frame.
 //
 // Used only while it pays, that is while the moving objects are sparse among
 // themselves: at most kMaxObjects moving objects and kMaxCandidatesPerObject
 // fat candidates per object on average (the mostly-static benchmark has
-// 0.14; a world of moving objects at the paper's density has 12, where
+// 0.15; a world of moving objects at the paper's density has 12, where
 // testing them costs more than the hybrid system). Otherwise (and after two
 // rebuilds in a row, or when the fat pairs pass max_pairs) the caller runs
 // the hybrid system on the exact boxes for a cooldown, which doubles each
