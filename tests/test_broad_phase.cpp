@@ -349,6 +349,133 @@ TEST(BroadPhase, CandidatesFlipInsideFatBoxes) {
   EXPECT_GT(changed, 400u);  // the pairs really did start and stop
 }
 
+// Many moving objects among few statics (the mostly-static world's
+// moving/moving path: fat-box candidates kept across frames): objects walk
+// in quarter steps (a few leave their fat boxes each frame); statics change
+// while the moving objects stay put; objects are removed and added with
+// their slots reused across kinds (a moving object's slot to a static and
+// back), so the dense per-object caches are reordered; a crowd gathers in
+// one corner (too many candidates: the exact path for a while) and scatters;
+// every object teleports for two frames (a rebuild, then the exact path).
+// 1 and 2 threads, every frame against the reference.
+TEST(BroadPhase, FewMovingObjectsEveryFallback) {
+  BroadPhase one({.threads = 1}), two({.threads = 2});
+  std::vector<BroadPhase*> systems{&one, &two};
+  Reference ref;
+  auto add = [&](const std::vector<Aabb>& boxes, bool is_static) {
+    std::vector<Handle> h;
+    for (BroadPhase* s : systems) h = s->add(boxes, {.is_static = is_static});
+    for (std::size_t i = 0; i < boxes.size(); ++i) ref.objects[h[i]] = {boxes[i], is_static, 0};
+    return h;
+  };
+  auto move = [&](const std::vector<Handle>& h, const std::vector<Aabb>& boxes) {
+    for (BroadPhase* s : systems) s->move(h, boxes);
+    for (std::size_t i = 0; i < h.size(); ++i) ref.objects[h[i]].box = boxes[i];
+  };
+  auto remove = [&](const std::vector<Handle>& h) {
+    for (BroadPhase* s : systems) s->remove(h);
+    for (Handle x : h) ref.objects.erase(x);
+  };
+  std::mt19937 rng(11);
+  const float world = 60;
+  auto place = [&](float side) {
+    const float x = 0.25f * static_cast<float>(rng() % static_cast<unsigned>(4 * world)),
+                y = 0.25f * static_cast<float>(rng() % static_cast<unsigned>(4 * world)),
+                z = 0.25f * static_cast<float>(rng() % static_cast<unsigned>(4 * world));
+    return Aabb{{x, y, z}, {x + side, y + side, z + side}};
+  };
+  std::vector<Aabb> statics;
+  for (int i = 0; i < 150; ++i) statics.push_back(place(static_cast<float>(1 + i % 4)));
+  std::vector<Handle> fixed = add(statics, true);
+  // More than 1024 moving objects: all of them teleporting is too many
+  // re-tests for the fat path.
+  std::vector<Aabb> boxes;
+  for (int i = 0; i < 1100; ++i) boxes.push_back(place(i % 3 == 0 ? 0.5f : 2.0f));
+  std::vector<Handle> moving = add(boxes, false);
+  std::size_t changed = 0, pairs = 0;
+  for (int frame = 0; frame < 70; ++frame) {
+    std::vector<Aabb> moved(moving.size());
+    for (std::size_t i = 0; i < moving.size(); ++i) {
+      Aabb b = ref.objects[moving[i]].box;
+      const float side = b.max[0] - b.min[0];
+      if (frame == 60 || frame == 61 || (frame == 26 && i < 200)) {
+        b = place(side);  // everybody teleports (26: the crowd scatters)
+      } else if (frame == 25 && i < 200) {
+        const float x = 0.25f * static_cast<float>(rng() % 8);
+        b = {{x, x, x}, {x + side, x + side, x + side}};  // a crowd in one corner
+      } else if (frame != 5) {  // frame 5: only statics change
+        const int axis = static_cast<int>(rng() % 3);
+        const float step = (rng() % 2 ? 0.25f : -0.25f) * (rng() % 16 == 0 ? 8.0f : 1.0f);
+        b.min[axis] += step;
+        b.max[axis] += step;
+        if (rng() % 3 == 0) b = ref.objects[moving[i]].box;  // stays put
+      }
+      moved[i] = b;
+    }
+    move(moving, moved);
+    if (frame == 5) {  // statics move and appear while the moving objects stay
+      const std::vector<Handle> some(fixed.begin(), fixed.begin() + 10);
+      std::vector<Aabb> to;
+      for (std::size_t i = 0; i < some.size(); ++i) to.push_back(place(2));
+      move(some, to);
+      const auto more = add({place(3), place(1)}, true);
+      fixed.insert(fixed.end(), more.begin(), more.end());
+    }
+    if (frame == 8) {  // a moving object's slot goes to a static, a static's to a moving object
+      const Handle gone_static = fixed.back(), gone_moving = moving[7];
+      remove({gone_static});
+      remove({gone_moving});
+      fixed.pop_back();
+      moving.erase(moving.begin() + 7);
+      const auto s = add({place(2)}, true);    // last freed first: gone_moving's slot
+      const auto m = add({place(2)}, false);  // gone_static's slot
+      EXPECT_EQ(s[0] & 0xFFFFFFu, gone_moving & 0xFFFFFFu);
+      EXPECT_EQ(m[0] & 0xFFFFFFu, gone_static & 0xFFFFFFu);
+      fixed.push_back(s[0]);
+      moving.push_back(m[0]);
+    }
+    if (frame == 12 || frame == 64) {  // remove some, then add as many in the same frame
+      std::vector<Handle> gone(moving.begin() + 100, moving.begin() + 140);
+      std::vector<Aabb> back;
+      for (Handle h : gone) back.push_back(ref.objects[h].box);
+      remove(gone);
+      moving.erase(moving.begin() + 100, moving.begin() + 140);
+      const auto again = add(back, false);
+      moving.insert(moving.end(), again.begin(), again.end());
+    }
+    const std::vector<Pair> want = ref.pairs();
+    const std::vector<Pair> created = minus(want, ref.previous);
+    const std::vector<Pair> removed = minus(ref.previous, want);
+    changed += created.size() + removed.size();
+    pairs += want.size();
+    for (BroadPhase* s : systems) {
+      const hbp::BroadPhaseUpdate& u = s->update();
+      ASSERT_EQ(u.pairs, want) << "frame " << frame;
+      ASSERT_EQ(u.created, created) << "frame " << frame;
+      ASSERT_EQ(u.removed, removed) << "frame " << frame;
+    }
+    ref.previous = want;
+  }
+  EXPECT_GT(pairs, 70u * 50);
+  EXPECT_GT(changed, 1000u);
+}
+
+// max_pairs counts exact moving/moving pairs, not fat candidates.
+TEST(BroadPhase, MaxPairsCountsExactPairsWhenFewMove) {
+  BroadPhase bp({.threads = 1, .max_pairs = 1});
+  // a and b touch; c is near both (their fat boxes overlap) but touches neither.
+  const auto h = bp.add(std::vector<Aabb>{Aabb{{0, 0, 0}, {1, 1, 1}}, Aabb{{1, 0, 0}, {2, 1, 1}},
+                                          Aabb{{2.25f, 0, 0}, {3.25f, 1, 1}}});
+  for (int frame = 0; frame < 40; ++frame) {
+    const float d = 0.001f * static_cast<float>(frame % 2);
+    bp.move(std::span<const Handle>(&h[2], 1), std::vector<Aabb>{Aabb{{2.25f + d, 0, 0}, {3.25f + d, 1, 1}}});
+    EXPECT_EQ(bp.update().pairs, (std::vector<Pair>{{h[0], h[1]}})) << "frame " << frame;
+  }
+  bp.move(std::span<const Handle>(&h[2], 1), std::vector<Aabb>{Aabb{{2, 0, 0}, {3, 1, 1}}});  // touches b
+  EXPECT_THROW(bp.update(), hbp::CapacityExceeded);
+  EXPECT_EQ(bp.last_update().pairs, (std::vector<Pair>{{h[0], h[1]}}));
+}
+
 TEST(BroadPhase, StaleHandlesRejected) {
   BroadPhase bp;
   const Aabb b{{0, 0, 0}, {1, 1, 1}};
