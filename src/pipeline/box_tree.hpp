@@ -1,19 +1,29 @@
 #pragma once
-// A flat 4-wide BVH over a BoxArray answering exact closed box and ray
-// queries with the indices of the boxes. BroadPhase keeps one over its static
-// objects (built when statics change) and one over its moving objects (built
-// lazily for queries, refitted while the membership does not change).
+// A flat BVH over a BoxArray answering exact closed box and ray queries with
+// the indices of the boxes. BroadPhase keeps one over its static objects
+// (built when statics change) and one over its moving objects (built lazily
+// for queries, refitted while the membership does not change).
 //
 // Built by the binned-SAH builder of hierarchy/cell_bvh (one box per leaf),
-// then collapsed: every node takes up to four children (opening the
-// grandchild of largest surface area first), their boxes side by side (SoA)
-// so one SSE test covers all four. A child is another node or one object,
-// whose exact box is the lane's box: the node test is the object test, with
-// no item array to fetch and no data-dependent branch per object.
-// On a million boxes a query is bound by cache misses, not arithmetic: a
-// quarter of a binary tree's depth is far fewer misses, and a node's
-// children are prefetched as soon as they pass, so their misses overlap.
+// then cut and collapsed into two kinds of block, each a whole number of
+// cache lines:
+// - Leaf (128 bytes): up to four objects, their exact boxes side by side
+//   (SoA) with their indices and ids: one SSE test is the exact test of four
+//   objects. A leaf is a binary subtree of at most four objects.
+// - Node (128 bytes): up to eight children (nodes or leaves), their boxes
+//   quantised to 8 bits per bound relative to the node's own box (origin lo,
+//   step per axis), rounded outward: a child's decoded box contains its real
+//   box, so the test is conservative and only a leaf's exact test reports.
+//   Decoding is lo + q * step in float, the very operations the build
+//   verified the rounding with.
+// On a million boxes a query is bound by cache misses, not arithmetic: eight
+// quantised children fit where four float ones did, so the walk is shallower
+// (at most 9 blocks instead of 12 on the paper frame's 10^6 boxes), a
+// leaf is four full-precision objects, and passing children are prefetched
+// at once and tested first in, first out (traverse), so misses overlap.
+#include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <span>
 #include <utility>
 #include <vector>
@@ -24,6 +34,7 @@
 
 #include "hbp/aabb.hpp"
 #include "hbp/box_array.hpp"
+#include "partition/raw_buffer.hpp"
 #include "pipeline/ray_segment.hpp"
 
 namespace hbp::detail {
@@ -31,10 +42,13 @@ namespace hbp::detail {
 class BoxTree {
  public:
   static constexpr std::uint32_t kWidth = 4;
-  // link of an object child: kObject | its box index.
-  static constexpr std::uint32_t kObject = 0x80000000u;
-  // The most boxes a tree holds (indices below kObject).
-  static constexpr std::uint32_t kMaxBoxes = kObject;
+  static constexpr std::uint32_t kNodeWidth = 8;
+  // link of a leaf: kLeaf | leaf index; of a node: its index; kNone: unused lane.
+  static constexpr std::uint32_t kLeaf = 0x80000000u;
+  static constexpr std::uint32_t kNone = 0xffffffffu;
+  // The most boxes a tree holds.
+  static constexpr std::uint32_t kMaxBoxes = kLeaf;
+  static constexpr std::uint32_t kStack = 128;
 
   // An object found by a query: its box, index and the caller's id for it
   // (the id saves a query a random read per hit: the caller's index ->
@@ -45,15 +59,23 @@ class BoxTree {
     std::uint32_t index;
     std::uint32_t id;
   };
-  // Up to four children, boxes SoA: min[axis][lane]. link[lane]: a node
-  // index (> 0: the root is nobody's child), kObject | box index, or 0 for
-  // an unused lane, whose box is empty (+inf, -inf): no closed box overlaps
-  // it, rays mask it. id[lane]: an object's id.
-  struct alignas(64) Node {
+  // Up to four objects, exact boxes SoA: min[axis][lane]; an unused lane has
+  // index kNone and the empty box (+inf, -inf).
+  struct alignas(64) Leaf {
     float min[3][kWidth];
     float max[3][kWidth];
-    std::uint32_t link[kWidth];
+    std::uint32_t index[kWidth];
     std::uint32_t id[kWidth];
+  };
+  static_assert(sizeof(Leaf) == 128, "a leaf is two cache lines");
+  // Up to eight children; child c's decoded box on axis k is
+  // [lo[k] + qmin[k][c] * step[k], lo[k] + qmax[k][c] * step[k]] (float).
+  struct alignas(64) Node {
+    float lo[3];
+    float step[3];
+    std::uint8_t qmin[3][kNodeWidth];
+    std::uint8_t qmax[3][kNodeWidth];
+    std::uint32_t link[kNodeWidth];
   };
   static_assert(sizeof(Node) == 128, "a node is two cache lines");
 
@@ -63,62 +85,53 @@ class BoxTree {
   // Same membership, new boxes.
   void refit(const BoxArray& boxes);
   void clear();
-  bool empty() const { return nodes_.empty(); }
+  bool empty() const { return leaves_.size() == 0; }
+  // Blocks on the longest root-to-leaf path (0 when empty); a walk keeps
+  // kStack pending nodes before it recurses.
+  std::uint32_t depth() const;
+  // Bytes held (both arrays' capacity).
+  std::size_t node_count() const { return nodes_.size(); }
+  std::size_t leaf_count() const { return leaves_.size(); }
+  std::size_t bytes() const { return nodes_.capacity() * sizeof(Node) + leaves_.capacity() * sizeof(Leaf); }
 
   // Calls hit(index, item) for every box overlapping the closed box q.
   template <class Hit>
   void for_each_overlap(const Aabb& q, Hit&& hit) const {
-    if (nodes_.empty()) return;
-    std::uint32_t stack[kStack];
-    std::uint32_t top = 0;
-    std::uint32_t i = 0;
-    for (;;) {
-      const Node& n = nodes_[i];
-      const std::uint32_t mask = overlap_mask(n, q);
-      const std::uint32_t objects = object_mask(n);
-      for (std::uint32_t m = mask & objects; m; m &= m - 1) report(n, lane(m), hit);
-      for (std::uint32_t m = mask & ~objects; m; m &= m - 1) {
-        const std::uint32_t child = n.link[lane(m)];
-        prefetch(child);
-        if (top == kStack)  // deeper than any SAH tree of 2^31 boxes: walk the rest recursively
-          walk_overlap(child, q, hit);
-        else
-          stack[top++] = child;
-      }
-      if (top == 0) return;
-      i = stack[--top];
-    }
+    if (empty()) return;
+    const auto node_mask = [&](const Node& n) { return node_overlap_mask(n, q); };
+    const auto visit_leaf = [&](std::uint32_t link) {
+      const Leaf& l = leaves_[link & ~kLeaf];
+      for (std::uint32_t m = leaf_overlap_mask(l, q); m; m &= m - 1) report(l, lane(m), hit);
+    };
+    traverse(root_, node_mask, visit_leaf);
   }
 
   // Calls hit(item, entry_t) for every box the segment touches.
   template <class Hit>
   void for_each_ray_hit(const RaySegment& ray, Hit&& hit) const {
-    if (nodes_.empty()) return;
+    if (empty()) return;
     const RayLanes lanes(ray);
-    std::uint32_t stack[kStack];
-    std::uint32_t top = 0;
-    std::uint32_t i = 0;
-    for (;;) {
-      const Node& n = nodes_[i];
+    const auto node_mask = [&](const Node& n) { return node_ray_mask(n, ray, lanes); };
+    const auto visit_leaf = [&](std::uint32_t link) {
+      const Leaf& l = leaves_[link & ~kLeaf];
       float entry[kWidth];
-      const std::uint32_t mask = ray_mask(n, ray, lanes, entry);
-      const std::uint32_t objects = object_mask(n);
-      for (std::uint32_t m = mask & objects; m; m &= m - 1) report_ray(n, lane(m), entry, hit);
-      for (std::uint32_t m = mask & ~objects; m; m &= m - 1) {
-        const std::uint32_t child = n.link[lane(m)];
-        prefetch(child);
-        if (top == kStack)
-          walk_ray(child, ray, lanes, hit);
-        else
-          stack[top++] = child;
-      }
-      if (top == 0) return;
-      i = stack[--top];
+      for (std::uint32_t m = leaf_ray_mask(l, ray, lanes, entry); m; m &= m - 1) hit(item(l, lane(m)), entry[lane(m)]);
+    };
+    traverse(root_, node_mask, visit_leaf);
+  }
+
+  // The decoded (conservative) box of node n's lane c; also what build and
+  // refit verify the rounding with.
+  static void decode(const Node& n, std::uint32_t c, float mn[3], float mx[3]) {
+    for (int k = 0; k < 3; ++k) {
+      mn[k] = n.lo[k] + static_cast<float>(n.qmin[k][c]) * n.step[k];
+      mx[k] = n.lo[k] + static_cast<float>(n.qmax[k][c]) * n.step[k];
     }
   }
 
  private:
-  static constexpr std::uint32_t kStack = 128;
+  static constexpr std::uint32_t kRing = 8;
+  static constexpr std::uint32_t kDeepStack = 32;
 
   static std::uint32_t lane(std::uint32_t mask) { return static_cast<std::uint32_t>(__builtin_ctz(mask)); }
 
@@ -127,49 +140,84 @@ class BoxTree {
            (mx[2] >= q.min[2]) & (mn[2] <= q.max[2]);
   }
 
-  // Bit c: lane c holds an object.
-  static std::uint32_t object_mask(const Node& n) {
+  // Bit c: lane c holds a child / an object.
+  static std::uint32_t used_mask(const std::uint32_t* link) {
+#if defined(__SSE2__)
+    const __m128i unused = _mm_cmpeq_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(link)), _mm_set1_epi32(-1));
+    return static_cast<std::uint32_t>(_mm_movemask_ps(_mm_castsi128_ps(unused))) ^ 0xFu;
+#else
     std::uint32_t mask = 0;
-    for (std::uint32_t c = 0; c < kWidth; ++c) mask |= (n.link[c] >> 31) << c;
+    for (std::uint32_t c = 0; c < kWidth; ++c) mask |= static_cast<std::uint32_t>(link[c] != kNone) << c;
     return mask;
-  }
-  // Bit c: lane c is used.
-  static std::uint32_t used_mask(const Node& n) {
-    std::uint32_t mask = 0;
-    for (std::uint32_t c = 0; c < kWidth; ++c) mask |= static_cast<std::uint32_t>(n.link[c] != 0) << c;
-    return mask;
+#endif
   }
 
-  static Item item(const Node& n, std::uint32_t c) {
-    return {{n.min[0][c], n.min[1][c], n.min[2][c]}, {n.max[0][c], n.max[1][c], n.max[2][c]}, n.link[c] & ~kObject,
-            n.id[c]};
+  static Item item(const Leaf& l, std::uint32_t c) {
+    return {{l.min[0][c], l.min[1][c], l.min[2][c]}, {l.max[0][c], l.max[1][c], l.max[2][c]}, l.index[c], l.id[c]};
   }
   template <class Hit>
-  static void report(const Node& n, std::uint32_t c, Hit& hit) {
-    const Item it = item(n, c);
+  static void report(const Leaf& l, std::uint32_t c, Hit& hit) {
+    const Item it = item(l, c);
     hit(it.index, it);
   }
-  template <class Hit>
-  static void report_ray(const Node& n, std::uint32_t c, const float* entry, Hit& hit) {
-    hit(item(n, c), entry[c]);
-  }
 
-  // Bit c: lane c's box overlaps the closed box q (unused lanes never do).
-  static std::uint32_t overlap_mask(const Node& n, const Aabb& q) {
 #if defined(__SSE2__)
-    __m128 m = _mm_and_ps(_mm_cmpge_ps(_mm_load_ps(n.max[0]), _mm_set1_ps(q.min[0])),
-                          _mm_cmple_ps(_mm_load_ps(n.min[0]), _mm_set1_ps(q.max[0])));
+  // Lanes h..h+3's decoded bounds on every axis: lo + q * step.
+  static void decode_lanes(const Node& n, std::uint32_t h, __m128* mn, __m128* mx) {
+    const __m128i zero = _mm_setzero_si128();
+    for (int k = 0; k < 3; ++k) {
+      const __m128 lo = _mm_set1_ps(n.lo[k]), step = _mm_set1_ps(n.step[k]);
+      std::int32_t a, b;
+      std::memcpy(&a, n.qmin[k] + h, 4);
+      std::memcpy(&b, n.qmax[k] + h, 4);
+      const __m128i ca = _mm_unpacklo_epi16(_mm_unpacklo_epi8(_mm_cvtsi32_si128(a), zero), zero);
+      const __m128i cb = _mm_unpacklo_epi16(_mm_unpacklo_epi8(_mm_cvtsi32_si128(b), zero), zero);
+      mn[k] = _mm_add_ps(lo, _mm_mul_ps(_mm_cvtepi32_ps(ca), step));
+      mx[k] = _mm_add_ps(lo, _mm_mul_ps(_mm_cvtepi32_ps(cb), step));
+    }
+  }
+  static std::uint32_t sse_overlap_mask(const __m128* mn, const __m128* mx, const Aabb& q) {
+    __m128 m = _mm_and_ps(_mm_cmpge_ps(mx[0], _mm_set1_ps(q.min[0])), _mm_cmple_ps(mn[0], _mm_set1_ps(q.max[0])));
     for (int k = 1; k < 3; ++k)
-      m = _mm_and_ps(m, _mm_and_ps(_mm_cmpge_ps(_mm_load_ps(n.max[k]), _mm_set1_ps(q.min[k])),
-                                   _mm_cmple_ps(_mm_load_ps(n.min[k]), _mm_set1_ps(q.max[k]))));
+      m = _mm_and_ps(m, _mm_and_ps(_mm_cmpge_ps(mx[k], _mm_set1_ps(q.min[k])), _mm_cmple_ps(mn[k], _mm_set1_ps(q.max[k]))));
     return static_cast<std::uint32_t>(_mm_movemask_ps(m));
+  }
+#endif
+
+  // Bit c: leaf lane c's box overlaps the closed box q.
+  static std::uint32_t leaf_overlap_mask(const Leaf& l, const Aabb& q) {
+#if defined(__SSE2__)
+    const __m128 mn[3] = {_mm_load_ps(l.min[0]), _mm_load_ps(l.min[1]), _mm_load_ps(l.min[2])};
+    const __m128 mx[3] = {_mm_load_ps(l.max[0]), _mm_load_ps(l.max[1]), _mm_load_ps(l.max[2])};
+    return sse_overlap_mask(mn, mx, q) & used_mask(l.index);
 #else
     std::uint32_t mask = 0;
     for (std::uint32_t c = 0; c < kWidth; ++c) {
-      const Item it = item(n, c);
+      const Item it = item(l, c);
       mask |= static_cast<std::uint32_t>(overlaps(it.min, it.max, q)) << c;
     }
-    return mask;
+    return mask & used_mask(l.index);
+#endif
+  }
+  // Bit c: node lane c's decoded box overlaps q (every object under it that
+  // overlaps q does, since the decoded box contains the child's).
+  static std::uint32_t node_overlap_mask(const Node& n, const Aabb& q) {
+#if defined(__SSE2__)
+    std::uint32_t mask = 0;
+    for (std::uint32_t h = 0; h < kNodeWidth; h += 4) {
+      __m128 mn[3], mx[3];
+      decode_lanes(n, h, mn, mx);
+      mask |= sse_overlap_mask(mn, mx, q) << h;
+    }
+    return mask & (used_mask(n.link) | used_mask(n.link + 4) << 4);
+#else
+    std::uint32_t mask = 0;
+    for (std::uint32_t c = 0; c < kNodeWidth; ++c) {
+      float mn[3], mx[3];
+      decode(n, c, mn, mx);
+      mask |= static_cast<std::uint32_t>(overlaps(mn, mx, q)) << c;
+    }
+    return mask & (used_mask(n.link) | used_mask(n.link + 4) << 4);
 #endif
   }
 
@@ -188,64 +236,128 @@ class BoxTree {
     }
   };
 
-  // Bit c: the segment touches lane c's box; entry[c] its entry t. The
-  // arithmetic is RaySegment::hits' operation for operation (min(a, b) is
-  // the swapped a, max the same order from t = 0), so an object's lane gives
-  // the very answer and t of the scalar rule, and a node's lane passes
-  // whenever one of its boxes would (rounding is monotone).
-  static std::uint32_t ray_mask(const Node& n, const RaySegment& ray, [[maybe_unused]] const RayLanes& lanes,
-                                float* entry) {
 #if defined(__SSE2__)
-    __m128 t0 = _mm_setzero_ps(), t1 = _mm_set1_ps(ray.max_t);
+  // Four-lane slab test: the arithmetic is RaySegment::hits' operation for
+  // operation (min(a, b) is the swapped a, max the same order from t = 0), so
+  // a leaf lane gives the very answer and t of the scalar rule, and a node's
+  // decoded lane passes whenever one of the boxes inside it would (rounding
+  // is monotone).
+  static __m128 sse_ray_lanes(const __m128* mn, const __m128* mx, const RaySegment& ray, const RayLanes& lanes,
+                              __m128& t0) {
+    t0 = _mm_setzero_ps();
+    __m128 t1 = _mm_set1_ps(ray.max_t);
     __m128 inside = _mm_castsi128_ps(_mm_set1_epi32(-1));
     for (int k = 0; k < 3; ++k) {
-      const __m128 mn = _mm_load_ps(n.min[k]), mx = _mm_load_ps(n.max[k]);
       if (ray.parallel[k]) {
-        inside = _mm_and_ps(inside, _mm_and_ps(_mm_cmple_ps(mn, lanes.origin[k]), _mm_cmpge_ps(mx, lanes.origin[k])));
+        inside = _mm_and_ps(inside, _mm_and_ps(_mm_cmple_ps(mn[k], lanes.origin[k]), _mm_cmpge_ps(mx[k], lanes.origin[k])));
         continue;
       }
-      const __m128 a = _mm_mul_ps(_mm_sub_ps(mn, lanes.origin[k]), lanes.inverse[k]);
-      const __m128 b = _mm_mul_ps(_mm_sub_ps(mx, lanes.origin[k]), lanes.inverse[k]);
+      const __m128 a = _mm_mul_ps(_mm_sub_ps(mn[k], lanes.origin[k]), lanes.inverse[k]);
+      const __m128 b = _mm_mul_ps(_mm_sub_ps(mx[k], lanes.origin[k]), lanes.inverse[k]);
       t0 = _mm_max_ps(t0, _mm_min_ps(a, b));
       t1 = _mm_min_ps(t1, _mm_max_ps(a, b));
     }
+    return _mm_and_ps(inside, _mm_cmple_ps(t0, t1));
+  }
+#endif
+
+  // Bit c: the segment touches leaf lane c's box; entry[c] its entry t.
+  static std::uint32_t leaf_ray_mask(const Leaf& l, const RaySegment& ray, [[maybe_unused]] const RayLanes& lanes,
+                                     float* entry) {
+#if defined(__SSE2__)
+    const __m128 mn[3] = {_mm_load_ps(l.min[0]), _mm_load_ps(l.min[1]), _mm_load_ps(l.min[2])};
+    const __m128 mx[3] = {_mm_load_ps(l.max[0]), _mm_load_ps(l.max[1]), _mm_load_ps(l.max[2])};
+    __m128 t0;
+    const __m128 m = sse_ray_lanes(mn, mx, ray, lanes, t0);
     _mm_storeu_ps(entry, t0);
-    const __m128 m = _mm_and_ps(inside, _mm_cmple_ps(t0, t1));
-    return static_cast<std::uint32_t>(_mm_movemask_ps(m)) & used_mask(n);
+    return static_cast<std::uint32_t>(_mm_movemask_ps(m)) & used_mask(l.index);
 #else
     std::uint32_t mask = 0;
     for (std::uint32_t c = 0; c < kWidth; ++c) {
-      const Item it = item(n, c);
+      const Item it = item(l, c);
       mask |= static_cast<std::uint32_t>(ray.hits(it.min, it.max, entry[c])) << c;
     }
-    return mask & used_mask(n);
+    return mask & used_mask(l.index);
+#endif
+  }
+  // Bit c: the segment touches node lane c's decoded box.
+  static std::uint32_t node_ray_mask(const Node& n, const RaySegment& ray, [[maybe_unused]] const RayLanes& lanes) {
+#if defined(__SSE2__)
+    std::uint32_t mask = 0;
+    for (std::uint32_t h = 0; h < kNodeWidth; h += 4) {
+      __m128 mn[3], mx[3];
+      decode_lanes(n, h, mn, mx);
+      __m128 t0;
+      mask |= static_cast<std::uint32_t>(_mm_movemask_ps(sse_ray_lanes(mn, mx, ray, lanes, t0))) << h;
+    }
+    return mask & (used_mask(n.link) | used_mask(n.link + 4) << 4);
+#else
+    std::uint32_t mask = 0;
+    for (std::uint32_t c = 0; c < kNodeWidth; ++c) {
+      float mn[3], mx[3], t;
+      decode(n, c, mn, mx);
+      mask |= static_cast<std::uint32_t>(ray.hits(mn, mx, t)) << c;
+    }
+    return mask & (used_mask(n.link) | used_mask(n.link + 4) << 4);
 #endif
   }
 
-  void prefetch(std::uint32_t node) const {
-    const char* p = reinterpret_cast<const char*>(&nodes_[node]);
-    __builtin_prefetch(p);
-    __builtin_prefetch(p + 64);
+  void prefetch(std::uint32_t link) const {
+    if (link & kLeaf) {
+      const char* p = reinterpret_cast<const char*>(&leaves_[link & ~kLeaf]);
+      __builtin_prefetch(p);
+      __builtin_prefetch(p + 64);
+    } else {
+      const char* p = reinterpret_cast<const char*>(&nodes_[link]);
+      __builtin_prefetch(p);
+      __builtin_prefetch(p + 64);
+    }
   }
 
-  // The subtree at `root`, recursively (only past kStack levels).
-  template <class Hit>
-  void walk_overlap(std::uint32_t root, const Aabb& q, Hit& hit) const {
-    const Node& n = nodes_[root];
-    const std::uint32_t mask = overlap_mask(n, q), objects = object_mask(n);
-    for (std::uint32_t m = mask & objects; m; m &= m - 1) report(n, lane(m), hit);
-    for (std::uint32_t m = mask & ~objects; m; m &= m - 1) walk_overlap(n.link[lane(m)], q, hit);
-  }
-  template <class Hit>
-  void walk_ray(std::uint32_t root, const RaySegment& ray, const RayLanes& lanes, Hit& hit) const {
-    const Node& n = nodes_[root];
-    float entry[kWidth];
-    const std::uint32_t mask = ray_mask(n, ray, lanes, entry), objects = object_mask(n);
-    for (std::uint32_t m = mask & objects; m; m &= m - 1) report_ray(n, lane(m), entry, hit);
-    for (std::uint32_t m = mask & ~objects; m; m &= m - 1) walk_ray(n.link[lane(m)], ray, lanes, hit);
+  // Walk of the subtree at `link`: node_mask(node) gives the passing lanes,
+  // visit_leaf(link) tests a leaf. A passing child is prefetched at once and
+  // queued in a small ring that is served first in, first out, so by the time
+  // a block is tested its miss has overlapped the tests of up to kRing blocks
+  // queued before it (a plain depth-first walk tests the child it has just
+  // asked for, and waits). Children that find the ring full go on a stack,
+  // served when the ring is empty or the stack holds more than kDeepStack
+  // (then the walk is depth-first, which bounds the stack by the depth).
+  template <class NodeMask, class VisitLeaf>
+  void traverse(std::uint32_t link, const NodeMask& node_mask, const VisitLeaf& visit_leaf) const {
+    std::uint32_t stack[kStack];
+    std::uint32_t top = 0;
+    std::uint32_t ring[kRing];
+    std::uint32_t head = 0, tail = 0;
+    for (;;) {
+      if (link & kLeaf) {
+        visit_leaf(link);
+      } else {
+        const Node& n = nodes_[link];
+        for (std::uint32_t m = node_mask(n); m; m &= m - 1) {
+          const std::uint32_t child = n.link[lane(m)];
+          prefetch(child);
+          if (tail - head < kRing)
+            ring[tail++ % kRing] = child;
+          else if (top == kStack)  // deeper than any SAH tree of 2^31 boxes: a fresh walk
+            traverse(child, node_mask, visit_leaf);
+          else
+            stack[top++] = child;
+        }
+      }
+      if (head != tail && top <= kDeepStack)
+        link = ring[head++ % kRing];
+      else if (top != 0)
+        link = stack[--top];
+      else
+        return;
+    }
   }
 
-  std::vector<Node> nodes_;  // root at 0, a node before its descendants
+  // On huge pages when large (RawBuffer): a query's random walk over tens of
+  // megabytes would otherwise miss the TLB at almost every block.
+  RawBuffer<Node> nodes_;    // a node before its descendants
+  RawBuffer<Leaf> leaves_;   // a node's leaf children side by side
+  std::uint32_t root_ = kNone;  // link of the root (a leaf when <= 4 boxes)
 };
 
 }  // namespace hbp::detail
