@@ -14,6 +14,11 @@ namespace {
 using Lanes = dedup::Avx512Lanes;
 using RegionVec = dedup::RegionLanes<Lanes>;
 
+// Vectors of candidates every sweep row scans before it tests for its end
+// (paper scene, 1,024,000 objects: rows reach 2.6 vectors on average; 3
+// took 9 % fewer kernel samples than 1, 2 and 4 about as many as 1).
+constexpr std::uint32_t kSweepVectors = 3;
+
 // Where a row's hits go: stored (row id, candidate id), or only counted.
 struct Store {
   std::uint32_t* first;
@@ -46,10 +51,11 @@ struct Rows {
     const __m512 ly = _mm512_set1_ps(miny[i]), hy = _mm512_set1_ps(maxy[i]);
     const __m512 lz = _mm512_set1_ps(minz[i]), hz = _mm512_set1_ps(maxz[i]);
     const __m512i id_i = _mm512_set1_epi32(static_cast<int>(in.ids[i]));
-    for (std::uint32_t j = i + 1;; j += 16) {
+    // One vector of candidates j..j+15; returns the lanes within the row's
+    // x reach (all 16: the scan goes on).
+    auto step = [&](std::uint32_t j) {
       const __m512 vminx = _mm512_loadu_ps(minx + j);
       const __m512 vminy = _mm512_loadu_ps(miny + j), vminz = _mm512_loadu_ps(minz + j);
-      // Padding boxes have min = +inf, so the scan always ends inside the lane.
       const __mmask16 mx = _mm512_cmp_ps_mask(vminx, bx, _CMP_LE_OQ);
       // Independent compares joined by kand: a short dependency chain.
       const __mmask16 my = _mm512_cmp_ps_mask(_mm512_loadu_ps(maxy + j), ly, _CMP_GE_OQ) &
@@ -58,7 +64,26 @@ struct Rows {
                            _mm512_cmp_ps_mask(vminz, hz, _CMP_LE_OQ);
       const __mmask16 m = mx & my & mz & dedup::owns_sorted_x(rv, ly, lz, vminx, vminy, vminz);
       out.emit(id_i, in.ids + j, m);
-      if (mx != 0xFFFF) break;
+      return mx;
+    };
+    // The first kSweepVectors vectors run without a data-dependent exit:
+    // a row's reach varies from row to row, so an exit test after every
+    // vector mispredicts about once a row, which costs more than the few
+    // vectors scanned past the reach (boxes are sorted by min x: once a
+    // lane is out of reach every later one is, and such lanes emit nothing).
+    // Index n is a padding box (min = +inf), so a vector that covers it ends
+    // the scan; the padding spans 16 floats past n, so a vector at j is read
+    // only while j <= n.
+    std::uint32_t j = i + 1;
+    __mmask16 mx = step(j);
+    for (std::uint32_t k = 1; k < kSweepVectors; ++k) {
+      if (j + 16 > in.n) return;  // the vector at j covered the padding
+      j += 16;
+      mx = step(j);
+    }
+    while (mx == 0xFFFF) {
+      j += 16;
+      mx = step(j);
     }
   }
 

