@@ -111,6 +111,7 @@ struct KdPartition::State {
   std::vector<std::uint32_t> add_ids;
   std::vector<std::size_t> cell_offsets;
   tbb::enumerable_thread_specific<std::vector<CellEntry>> merge_scratch;
+  tbb::enumerable_thread_specific<std::vector<std::uint32_t>> movers;  // find_crossings: objects to descend
   std::vector<CellEntry> merged;
   std::vector<std::uint32_t> sizes;
   RawBuffer<CellEntry> latest;                 // object -> this frame's box and id, as a cell entry
@@ -315,28 +316,45 @@ void KdPartition::find_crossings(const BoxArray& boxes) {
     std::vector<std::uint64_t>& adds = s.chunk_adds[c];
     adds.clear();
     std::array<std::uint32_t, kMaxDepth + 1> stack;
-    const std::uint32_t end = std::min(n, (c + 1) * kChunkObjects);
-    for (std::uint32_t i = c * kChunkObjects; i < end; ++i) {
+    const std::uint32_t begin = c * kChunkObjects, end = std::min(n, (c + 1) * kChunkObjects);
+    std::vector<std::uint32_t>& movers = s.movers.local();
+    movers.resize(kChunkObjects);
+    // Pass 1, branch-free over every object: this frame's entry, and whether
+    // the object is quiet (its cells cannot have changed): still inside its
+    // home leaf, or, homed at an inner node (in several cells), still inside
+    // the home's region with no face moved by half the margin of its last
+    // descent (then every plane test of that descent comes out the same,
+    // and so do its cells; half: float rounding). Both tests are computed
+    // for every object: a branch on the kind of object mispredicted for
+    // about one object in four, and the previous boxes, read for every
+    // object, stream in sequentially instead of missing one by one. (The
+    // previous box and margin of an object in one cell are stale or never
+    // written: read, but masked out by `leaf`.)
+    std::uint32_t moving = 0;
+    for (std::uint32_t i = begin; i < end; ++i) {
       const Box6 box = load(boxes, i);
       const float* b = box.b;
       latest[i] = make_entry(box, i);  // one cache line per object for refresh_cells' gather
       const std::uint32_t h = home[i];
-      std::uint32_t node = 0;
-      if (h != kNoHome) {
-        const bool in = inside(b, node_regions[h]);
-        if (in && nodes[h].axis < 0) continue;  // the common case: still inside its one cell
-        if (in) {
-          // In several cells: if no face moved by as much as the margin of its
-          // last descent, every plane test of that descent comes out the same,
-          // and so do its cells (half the margin: float rounding).
-          const StoredBox& p = prev[i];
-          float moved = 0;
-          for (int a = 0; a < 3; ++a)
-            moved = std::max(moved, std::max(std::abs(b[a] - p.min[a]), std::abs(b[3 + a] - p.max[a])));
-          if (moved < 0.5f * margin[i]) continue;
-          node = h;
-        }
-      }
+      const std::uint32_t at = h == kNoHome ? 0 : h;
+      const bool in = inside(b, node_regions[at]);
+      const bool leaf = nodes[at].axis < 0;
+      const StoredBox& p = prev[i];
+      float moved = 0;
+      for (int a = 0; a < 3; ++a)
+        moved = std::max(moved, std::max(std::abs(b[a] - p.min[a]), std::abs(b[3 + a] - p.max[a])));
+      const bool quiet = (h != kNoHome) & in & (leaf | (moved < 0.5f * margin[i]));
+      movers[moving] = i;
+      moving += !quiet;
+    }
+    // Pass 2, the others: a descent, from the home when the box is still
+    // inside the home's region, else from the root.
+    for (std::uint32_t k = 0; k < moving; ++k) {
+      const std::uint32_t i = movers[k];
+      const CellEntry& e = latest[i];
+      const float b[6] = {e.min[0], e.min[1], e.min[2], e.max[0], e.max[1], e.max[2]};
+      const std::uint32_t h = home[i];
+      const std::uint32_t start = h != kNoHome && inside(b, node_regions[h]) ? h : 0;
       const bool was_leaf = h != kNoHome && nodes[h].axis < 0;
       float old[6] = {};
       if (h != kNoHome && !was_leaf) {
@@ -345,6 +363,7 @@ void KdPartition::find_crossings(const BoxArray& boxes) {
       }
       std::uint32_t top = 0, fork = kNoHome;
       float m = std::numeric_limits<float>::infinity();
+      std::uint32_t node = start;
       while (true) {
         while (nodes[node].axis >= 0) {
           const KdTreeNode& nd = nodes[node];
