@@ -47,10 +47,6 @@ struct Box6 {
   float b[6];  // min x y z, max x y z
 };
 
-Box6 load(const BoxArray& boxes, std::uint32_t i) {
-  return {{boxes.min(0)[i], boxes.min(1)[i], boxes.min(2)[i], boxes.max(0)[i], boxes.max(1)[i], boxes.max(2)[i]}};
-}
-
 // The box reaches the half-open region (the routing rule: min < hi, max >= lo).
 bool overlaps(const float* b, const CellRegion& r) {
   return (b[0] < r.hi[0]) & (b[3] >= r.lo[0]) & (b[1] < r.hi[1]) & (b[4] >= r.lo[1]) & (b[2] < r.hi[2]) &
@@ -93,6 +89,34 @@ void merge_tail(CellEntry* e, std::uint32_t k, std::uint32_t m, std::vector<Cell
     if (i >= 0 && kd::entry_less(tmp[static_cast<std::size_t>(j)], e[i])) e[out--] = e[i--];
     else e[out--] = tmp[static_cast<std::size_t>(j--)];
   }
+}
+
+// The members of one cell (src[0..size)) that still reach its region, with
+// this frame's boxes from latest, copied to dst; returns how many. Everything
+// it reads is a local (a parameter or a copy): the entry stores could alias
+// anything reached through a pointer, which made the compiler reload the
+// bases of every array once per entry.
+std::uint32_t keep_members(const CellEntry* src, std::uint32_t size, const CellEntry* latest, std::uint32_t n,
+                           const CellRegion& region, CellEntry* dst) {
+  if (n == 0) return 0;  // every object removed
+  const float lo0 = region.lo[0], lo1 = region.lo[1], lo2 = region.lo[2];
+  const float hi0 = region.hi[0], hi1 = region.hi[1], hi2 = region.hi[2];
+  // Prefetch distance: the gather is random in id and a miss (~100 ns on the
+  // measuring VM) outlasts eight entries' work (8: 30 % more refresh samples
+  // than 24 or 48).
+  constexpr std::uint32_t kAhead = 24;
+  std::uint32_t k = 0;
+  for (std::uint32_t e = 0; e < size; ++e) {
+    if (e + kAhead < size) __builtin_prefetch(latest + std::min(src[e + kAhead].id, n - 1));
+    const std::uint32_t id = src[e].id;
+    if (id >= n) continue;  // object removed
+    const CellEntry x = latest[id];
+    const bool keep = (x.min[0] < hi0) & (x.max[0] >= lo0) & (x.min[1] < hi1) & (x.max[1] >= lo1) &
+                      (x.min[2] < hi2) & (x.max[2] >= lo2);
+    dst[k] = x;  // branch-free: kept when k advances (k <= e: inside the cell's room)
+    k += keep;
+  }
+  return k;
 }
 
 }  // namespace
@@ -312,13 +336,19 @@ void KdPartition::find_crossings(const BoxArray& boxes) {
   float* margin = s.margin.data();
   s.latest.resize(n);
   CellEntry* latest = s.latest.data();
-  auto chunk = [&](std::uint32_t c) {
+  const float* const lanes[6] = {boxes.min(0), boxes.min(1), boxes.min(2), boxes.max(0), boxes.max(1), boxes.max(2)};
+  auto chunk = [&, nodes, node_regions, home, prev, margin, latest](std::uint32_t c) {
+    // Pointers by value and the lanes copied: the entry stores below could
+    // alias anything reached through a reference (reloads on every object).
+    const float* const l0 = lanes[0], *const l1 = lanes[1], *const l2 = lanes[2];
+    const float* const l3 = lanes[3], *const l4 = lanes[4], *const l5 = lanes[5];
     std::vector<std::uint64_t>& adds = s.chunk_adds[c];
     adds.clear();
     std::array<std::uint32_t, kMaxDepth + 1> stack;
     const std::uint32_t begin = c * kChunkObjects, end = std::min(n, (c + 1) * kChunkObjects);
-    std::vector<std::uint32_t>& movers = s.movers.local();
-    movers.resize(kChunkObjects);
+    std::vector<std::uint32_t>& mover_list = s.movers.local();
+    mover_list.resize(kChunkObjects);
+    std::uint32_t* const movers = mover_list.data();
     // Pass 1, branch-free over every object: this frame's entry, and whether
     // the object is quiet (its cells cannot have changed): still inside its
     // home leaf, or, homed at an inner node (in several cells), still inside
@@ -332,7 +362,7 @@ void KdPartition::find_crossings(const BoxArray& boxes) {
     // written: read, but masked out by `leaf`.)
     std::uint32_t moving = 0;
     for (std::uint32_t i = begin; i < end; ++i) {
-      const Box6 box = load(boxes, i);
+      const Box6 box = {{l0[i], l1[i], l2[i], l3[i], l4[i], l5[i]}};
       const float* b = box.b;
       latest[i] = make_entry(box, i);  // one cache line per object for refresh_cells' gather
       const std::uint32_t h = home[i];
@@ -443,22 +473,8 @@ void KdPartition::refresh_cells(const BoxArray& boxes) {
     std::vector<CellEntry>& tmp = s.merge_scratch.local();
     for (std::uint32_t c = range.begin(); c != range.end(); ++c) {
       KdTreeNode& leaf = nodes_[leaf_nodes_[c]];
-      const CellRegion& region = regions_[c];
-      const CellEntry* src = from + leaf.first;
       CellEntry* dst = to + s.cell_offsets[c];
-      std::uint32_t k = 0;
-      // Prefetch distance: the gather is random in id and a miss (~100 ns on
-      // the measuring VM) outlasts eight entries' work (8: 30 % more refresh
-      // samples than 24 or 48).
-      constexpr std::uint32_t kAhead = 24;
-      for (std::uint32_t e = 0; e < leaf.size; ++e) {
-        if (e + kAhead < leaf.size && src[e + kAhead].id < n) __builtin_prefetch(latest + src[e + kAhead].id);
-        const std::uint32_t id = src[e].id;
-        if (id >= n) continue;  // object removed
-        const CellEntry& x = latest[id];
-        const float b[6] = {x.min[0], x.min[1], x.min[2], x.max[0], x.max[1], x.max[2]};
-        if (overlaps(b, region)) dst[k++] = x;
-      }
+      std::uint32_t k = keep_members(from + leaf.first, leaf.size, latest, n, regions_[c], dst);
       insertion_sort(dst, k);
       const std::uint32_t a0 = s.add_offsets[c], m = s.add_offsets[c + 1] - a0;
       for (std::uint32_t e = 0; e < m; ++e) {
