@@ -213,7 +213,11 @@ void KdPartition::maintain(const BoxArray& boxes) {
     s.home.resize(n);
     s.prev.resize(n);
     s.margin.resize(n);
-    for (std::size_t i = s.objects; i < n; ++i) s.home[i] = kNoHome;
+    for (std::size_t i = s.objects; i < n; ++i) {
+      s.home[i] = kNoHome;
+      s.prev[i] = {};  // read (and masked out) by find_crossings' first pass
+      s.margin[i] = 0;
+    }
     s.objects = n;
   }
   merge_sparse();
