@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
+#include <cstring>
 #include <array>
 #include <limits>
 #include <stdexcept>
@@ -99,8 +101,18 @@ void merge_tail(CellEntry* e, std::uint32_t k, std::uint32_t m, std::vector<Cell
 std::uint32_t keep_members(const CellEntry* src, std::uint32_t size, const CellEntry* latest, std::uint32_t n,
                            const CellRegion& region, CellEntry* dst) {
   if (n == 0) return 0;  // every object removed
-  const float lo0 = region.lo[0], lo1 = region.lo[1], lo2 = region.lo[2];
-  const float hi0 = region.hi[0], hi1 = region.hi[1], hi2 = region.hi[2];
+  // The routing rule (min < hi and max >= lo on every axis) as two 4-lane
+  // compares on overlapping loads of the entry: {min x, min y, min z, max x}
+  // < {hi x, hi y, hi z, +inf} and {min z, max x, max y, max z} >=
+  // {-inf, lo x, lo y, lo z} (the padding lanes always pass: boxes are
+  // finite). Portable vector extensions: SSE on x86-64, a third fewer
+  // instructions per entry than six scalar compares.
+  using V4 = float __attribute__((vector_size(16)));
+  using I4 = std::int32_t __attribute__((vector_size(16)));
+  static_assert(offsetof(CellEntry, min) == 0 && offsetof(CellEntry, max) == 12 && sizeof(CellEntry) == 32);
+  const float inf = std::numeric_limits<float>::infinity();
+  const V4 upper = {region.hi[0], region.hi[1], region.hi[2], inf};
+  const V4 lower = {-inf, region.lo[0], region.lo[1], region.lo[2]};
   // Prefetch distance: the gather is random in id and a miss (~100 ns on the
   // measuring VM) outlasts eight entries' work (8: 30 % more refresh samples
   // than 24 or 48).
@@ -110,11 +122,15 @@ std::uint32_t keep_members(const CellEntry* src, std::uint32_t size, const CellE
     if (e + kAhead < size) __builtin_prefetch(latest + std::min(src[e + kAhead].id, n - 1));
     const std::uint32_t id = src[e].id;
     if (id >= n) continue;  // object removed
-    const CellEntry x = latest[id];
-    const bool keep = (x.min[0] < hi0) & (x.max[0] >= lo0) & (x.min[1] < hi1) & (x.max[1] >= lo1) &
-                      (x.min[2] < hi2) & (x.max[2] >= lo2);
-    dst[k] = x;  // branch-free: kept when k advances (k <= e: inside the cell's room)
-    k += keep;
+    const CellEntry* x = latest + id;
+    V4 a, b;
+    std::memcpy(&a, &x->min[0], sizeof a);
+    std::memcpy(&b, &x->min[2], sizeof b);
+    const I4 in = (a < upper) & (b >= lower);
+    std::uint64_t halves[2];
+    std::memcpy(halves, &in, sizeof halves);
+    dst[k] = *x;  // branch-free: kept when k advances (k <= e: inside the cell's room)
+    k += (halves[0] & halves[1]) == ~std::uint64_t{0};
   }
   return k;
 }
