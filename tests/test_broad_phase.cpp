@@ -349,6 +349,133 @@ TEST(BroadPhase, CandidatesFlipInsideFatBoxes) {
   EXPECT_GT(changed, 400u);  // the pairs really did start and stop
 }
 
+// Many moving objects among few statics (the mostly-static world's
+// moving/moving path: fat-box candidates kept across frames): objects walk
+// in quarter steps (a few leave their fat boxes each frame); statics change
+// while the moving objects stay put; objects are removed and added with
+// their slots reused across kinds (a moving object's slot to a static and
+// back), so the dense per-object caches are reordered; a crowd gathers in
+// one corner (too many candidates: the exact path for a while) and scatters;
+// every object teleports for two frames (a rebuild, then the exact path).
+// 1 and 2 threads, every frame against the reference.
+TEST(BroadPhase, FewMovingObjectsEveryFallback) {
+  BroadPhase one({.threads = 1}), two({.threads = 2});
+  std::vector<BroadPhase*> systems{&one, &two};
+  Reference ref;
+  auto add = [&](const std::vector<Aabb>& boxes, bool is_static) {
+    std::vector<Handle> h;
+    for (BroadPhase* s : systems) h = s->add(boxes, {.is_static = is_static});
+    for (std::size_t i = 0; i < boxes.size(); ++i) ref.objects[h[i]] = {boxes[i], is_static, 0};
+    return h;
+  };
+  auto move = [&](const std::vector<Handle>& h, const std::vector<Aabb>& boxes) {
+    for (BroadPhase* s : systems) s->move(h, boxes);
+    for (std::size_t i = 0; i < h.size(); ++i) ref.objects[h[i]].box = boxes[i];
+  };
+  auto remove = [&](const std::vector<Handle>& h) {
+    for (BroadPhase* s : systems) s->remove(h);
+    for (Handle x : h) ref.objects.erase(x);
+  };
+  std::mt19937 rng(11);
+  const float world = 60;
+  auto place = [&](float side) {
+    const float x = 0.25f * static_cast<float>(rng() % static_cast<unsigned>(4 * world)),
+                y = 0.25f * static_cast<float>(rng() % static_cast<unsigned>(4 * world)),
+                z = 0.25f * static_cast<float>(rng() % static_cast<unsigned>(4 * world));
+    return Aabb{{x, y, z}, {x + side, y + side, z + side}};
+  };
+  std::vector<Aabb> statics;
+  for (int i = 0; i < 150; ++i) statics.push_back(place(static_cast<float>(1 + i % 4)));
+  std::vector<Handle> fixed = add(statics, true);
+  // More than 1024 moving objects: all of them teleporting is too many
+  // re-tests for the fat path.
+  std::vector<Aabb> boxes;
+  for (int i = 0; i < 1100; ++i) boxes.push_back(place(i % 3 == 0 ? 0.5f : 2.0f));
+  std::vector<Handle> moving = add(boxes, false);
+  std::size_t changed = 0, pairs = 0;
+  for (int frame = 0; frame < 70; ++frame) {
+    std::vector<Aabb> moved(moving.size());
+    for (std::size_t i = 0; i < moving.size(); ++i) {
+      Aabb b = ref.objects[moving[i]].box;
+      const float side = b.max[0] - b.min[0];
+      if (frame == 60 || frame == 61 || (frame == 26 && i < 200)) {
+        b = place(side);  // everybody teleports (26: the crowd scatters)
+      } else if (frame == 25 && i < 200) {
+        const float x = 0.25f * static_cast<float>(rng() % 8);
+        b = {{x, x, x}, {x + side, x + side, x + side}};  // a crowd in one corner
+      } else if (frame != 5) {  // frame 5: only statics change
+        const int axis = static_cast<int>(rng() % 3);
+        const float step = (rng() % 2 ? 0.25f : -0.25f) * (rng() % 16 == 0 ? 8.0f : 1.0f);
+        b.min[axis] += step;
+        b.max[axis] += step;
+        if (rng() % 3 == 0) b = ref.objects[moving[i]].box;  // stays put
+      }
+      moved[i] = b;
+    }
+    move(moving, moved);
+    if (frame == 5) {  // statics move and appear while the moving objects stay
+      const std::vector<Handle> some(fixed.begin(), fixed.begin() + 10);
+      std::vector<Aabb> to;
+      for (std::size_t i = 0; i < some.size(); ++i) to.push_back(place(2));
+      move(some, to);
+      const auto more = add({place(3), place(1)}, true);
+      fixed.insert(fixed.end(), more.begin(), more.end());
+    }
+    if (frame == 8) {  // a moving object's slot goes to a static, a static's to a moving object
+      const Handle gone_static = fixed.back(), gone_moving = moving[7];
+      remove({gone_static});
+      remove({gone_moving});
+      fixed.pop_back();
+      moving.erase(moving.begin() + 7);
+      const auto s = add({place(2)}, true);    // last freed first: gone_moving's slot
+      const auto m = add({place(2)}, false);  // gone_static's slot
+      EXPECT_EQ(s[0] & 0xFFFFFFu, gone_moving & 0xFFFFFFu);
+      EXPECT_EQ(m[0] & 0xFFFFFFu, gone_static & 0xFFFFFFu);
+      fixed.push_back(s[0]);
+      moving.push_back(m[0]);
+    }
+    if (frame == 12 || frame == 64) {  // remove some, then add as many in the same frame
+      std::vector<Handle> gone(moving.begin() + 100, moving.begin() + 140);
+      std::vector<Aabb> back;
+      for (Handle h : gone) back.push_back(ref.objects[h].box);
+      remove(gone);
+      moving.erase(moving.begin() + 100, moving.begin() + 140);
+      const auto again = add(back, false);
+      moving.insert(moving.end(), again.begin(), again.end());
+    }
+    const std::vector<Pair> want = ref.pairs();
+    const std::vector<Pair> created = minus(want, ref.previous);
+    const std::vector<Pair> removed = minus(ref.previous, want);
+    changed += created.size() + removed.size();
+    pairs += want.size();
+    for (BroadPhase* s : systems) {
+      const hbp::BroadPhaseUpdate& u = s->update();
+      ASSERT_EQ(u.pairs, want) << "frame " << frame;
+      ASSERT_EQ(u.created, created) << "frame " << frame;
+      ASSERT_EQ(u.removed, removed) << "frame " << frame;
+    }
+    ref.previous = want;
+  }
+  EXPECT_GT(pairs, 70u * 50);
+  EXPECT_GT(changed, 1000u);
+}
+
+// max_pairs counts exact moving/moving pairs, not fat candidates.
+TEST(BroadPhase, MaxPairsCountsExactPairsWhenFewMove) {
+  BroadPhase bp({.threads = 1, .max_pairs = 1});
+  // a and b touch; c is near both (their fat boxes overlap) but touches neither.
+  const auto h = bp.add(std::vector<Aabb>{Aabb{{0, 0, 0}, {1, 1, 1}}, Aabb{{1, 0, 0}, {2, 1, 1}},
+                                          Aabb{{2.25f, 0, 0}, {3.25f, 1, 1}}});
+  for (int frame = 0; frame < 40; ++frame) {
+    const float d = 0.001f * static_cast<float>(frame % 2);
+    bp.move(std::span<const Handle>(&h[2], 1), std::vector<Aabb>{Aabb{{2.25f + d, 0, 0}, {3.25f + d, 1, 1}}});
+    EXPECT_EQ(bp.update().pairs, (std::vector<Pair>{{h[0], h[1]}})) << "frame " << frame;
+  }
+  bp.move(std::span<const Handle>(&h[2], 1), std::vector<Aabb>{Aabb{{2, 0, 0}, {3, 1, 1}}});  // touches b
+  EXPECT_THROW(bp.update(), hbp::CapacityExceeded);
+  EXPECT_EQ(bp.last_update().pairs, (std::vector<Pair>{{h[0], h[1]}}));
+}
+
 TEST(BroadPhase, StaleHandlesRejected) {
   BroadPhase bp;
   const Aabb b{{0, 0, 0}, {1, 1, 1}};
@@ -567,6 +694,203 @@ TEST(BroadPhase, QueriesMatchBruteForce) {
   EXPECT_GT(box_hits, 450u);
   EXPECT_GT(ray_hits, 450u);
   EXPECT_GT(inside_hits, 0u);
+}
+
+// ---- the all-moving frame (every object moving, no filter) -----------------
+
+// Exact pairs by sort and sweep on x, written here (the O(n^2) reference is
+// too slow for the tens of thousands of objects the parallel paths need).
+std::vector<Pair> sweep_pairs(const std::map<Handle, Aabb>& objects) {
+  std::vector<std::pair<Handle, Aabb>> v(objects.begin(), objects.end());
+  std::sort(v.begin(), v.end(), [](const auto& a, const auto& b) { return a.second.min[0] < b.second.min[0]; });
+  std::vector<Pair> out;
+  for (std::size_t i = 0; i < v.size(); ++i)
+    for (std::size_t j = i + 1; j < v.size() && v[j].second.min[0] <= v[i].second.max[0]; ++j)
+      if (hbp::overlaps(v[i].second, v[j].second)) out.push_back(hbp::make_pair(v[i].first, v[j].first));
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+// Enough objects that move() of a whole batch runs in parallel ranges
+// (>= 32768) and a frame's pairs span several merge ranges (>= 16384 each),
+// in a world long in x so that the reference's sweep stays short.
+constexpr std::size_t kManyObjects = 36000;
+constexpr float kManyLength = 2000, kManyWidth = 12;
+
+Aabb long_world_box(std::mt19937& rng) {
+  Aabb b = random_box(rng, kManyWidth);
+  const float x = 0.5f * static_cast<float>(std::uniform_int_distribution<int>(0, 2 * kManyLength)(rng));
+  b.max[0] += x - b.min[0];
+  b.min[0] = x;
+  return b;
+}
+
+struct AllMovingWorld {
+  std::mt19937 rng{23};
+  std::map<Handle, Aabb> objects;
+  std::vector<Pair> previous;
+  BroadPhase one{{.threads = 1}}, two{{.threads = 2}};
+
+  std::vector<Handle> add(std::size_t n) {
+    std::vector<Aabb> boxes(n);
+    for (Aabb& b : boxes) b = long_world_box(rng);
+    const auto h = one.add(boxes);
+    EXPECT_EQ(two.add(boxes), h);
+    for (std::size_t i = 0; i < n; ++i) objects[h[i]] = boxes[i];
+    return h;
+  }
+
+  // Moves `handles` (in the given order): nudges and a few teleports.
+  void move(const std::vector<Handle>& handles) {
+    std::vector<Aabb> boxes;
+    for (Handle x : handles) boxes.push_back(rng() % 20 == 0 ? long_world_box(rng) : nudged(rng, objects[x]));
+    one.move(handles, boxes);
+    two.move(handles, boxes);
+    for (std::size_t i = 0; i < handles.size(); ++i) objects[handles[i]] = boxes[i];
+  }
+
+  std::vector<Handle> all() const {
+    std::vector<Handle> h;
+    for (const auto& [x, b] : objects) h.push_back(x);
+    return h;  // ascending: handle order
+  }
+
+  // Checks one frame; returns the frame's pair count.
+  std::size_t check(int frame, std::vector<Pair> want = {}, bool given = false) {
+    if (!given) want = sweep_pairs(objects);
+    const auto created = minus(want, previous), removed = minus(previous, want);
+    for (BroadPhase* bp : {&one, &two}) {
+      const hbp::BroadPhaseUpdate& u = bp->update();
+      EXPECT_EQ(u.pairs, want) << "frame " << frame << (bp == &one ? " (1 thread)" : " (2 threads)");
+      EXPECT_EQ(u.created, created) << "frame " << frame;
+      EXPECT_EQ(u.removed, removed) << "frame " << frame;
+    }
+    previous = want;
+    return want.size();
+  }
+};
+
+TEST(BroadPhase, AllMovingFramesMatchReference) {
+  AllMovingWorld w;
+  w.add(kManyObjects);
+  std::size_t min_pairs = ~std::size_t(0);
+  std::uint64_t created = 0;
+  for (int frame = 0; frame < 8; ++frame) {
+    const std::vector<Handle> all = w.all();
+    switch (frame) {
+      case 1: {  // an increasing subset: the general move() with its screen
+        std::vector<Handle> some;
+        for (std::size_t i = 0; i < all.size(); i += 3) some.push_back(all[i]);
+        w.move(some);
+        break;
+      }
+      case 2: {  // removed and re-added: reused slots, new generations, so
+                 // handles are no longer dense indices (the mapped merge)
+        std::vector<Handle> gone;
+        for (std::size_t i = 0; i < all.size(); i += 7) gone.push_back(all[i]);
+        w.one.remove(gone);
+        w.two.remove(gone);
+        for (Handle x : gone) w.objects.erase(x);
+        w.add(gone.size() / 2);
+        break;
+      }
+      case 4: {  // a filtered frame (general path) between all-moving ones
+        std::vector<Handle> some(all.begin(), all.begin() + 5000);
+        w.one.set_layer(some, 1);
+        w.two.set_layer(some, 1);
+        w.one.set_collides(0, 1, false);
+        w.two.set_collides(0, 1, false);
+        w.move(all);
+        // Layer 1 (`some`, sorted) no longer meets layer 0.
+        auto in_some = [&](Handle x) { return std::binary_search(some.begin(), some.end(), x); };
+        std::vector<Pair> want;
+        for (const Pair p : sweep_pairs(w.objects))
+          if (in_some(p.a) == in_some(p.b)) want.push_back(p);
+        min_pairs = std::min(min_pairs, w.check(frame, want, true));
+        w.one.set_collides(0, 1, true);
+        w.two.set_collides(0, 1, true);
+        continue;
+      }
+      case 6: {  // a static object present: not the all-moving frame
+        const Aabb wall{{0, 0, 0}, {kManyLength, kManyWidth, 1}};
+        const auto s1 = w.one.add(std::span<const Aabb>(&wall, 1), {.is_static = true});
+        const auto s2 = w.two.add(std::span<const Aabb>(&wall, 1), {.is_static = true});
+        ASSERT_EQ(s1, s2);
+        w.move(all);
+        w.objects[s1[0]] = wall;
+        std::vector<Pair> want = sweep_pairs(w.objects);
+        min_pairs = std::min(min_pairs, w.check(frame, want, true));
+        w.one.remove(s1);
+        w.two.remove(s1);
+        w.objects.erase(s1[0]);
+        continue;
+      }
+      default:  // every object in handle order: the one-pass move()
+        w.move(all);
+    }
+    min_pairs = std::min(min_pairs, w.check(frame));
+    created += w.one.last_update().created.size();
+    if (HasFailure()) return;
+  }
+  EXPECT_GT(min_pairs, 2u * 16384u) << "several merge ranges per frame";
+  EXPECT_GT(created, 1000u);
+  // Boxes read back as last moved (moving boxes live in the dense arrays).
+  for (const auto& [x, b] : w.objects) {
+    const Aabb got = w.two.box(x);
+    ASSERT_EQ(std::memcmp(&got, &b, sizeof(Aabb)), 0) << "handle " << x;
+  }
+}
+
+// The one-pass move() of every object refuses a bad batch like the
+// row-by-row checks: same messages, nothing changed.
+TEST(BroadPhase, WholeBatchMoveErrorsChangeNothing) {
+  AllMovingWorld w;
+  const auto h = w.add(kManyObjects);
+  w.check(0);
+  const std::vector<Handle> all = w.all();
+  std::vector<Aabb> boxes;
+  for (Handle x : all) boxes.push_back(nudged(w.rng, w.objects[x]));
+  auto expect_row = [&](const std::vector<Handle>& handles, const std::vector<Aabb>& b, const char* text) {
+    try {
+      w.one.move(handles, b);
+      ADD_FAILURE() << "no throw, expected " << text;
+    } catch (const hbp::InvalidInput& e) {
+      EXPECT_NE(std::string(e.what()).find(text), std::string::npos) << e.what();
+    }
+  };
+  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+  std::vector<Aabb> bad = boxes;
+  bad.back().max[1] = nan;
+  expect_row(all, bad, "row 35999: NaN");
+  bad.back() = boxes.back();
+  bad[30000].min[2] = bad[30000].max[2] + 1;
+  expect_row(all, bad, "row 30000: min > max");
+  bad[30000] = boxes[30000];
+  bad[17].min[0] = -inf;
+  expect_row(all, bad, "row 17: infinite");
+  std::vector<Handle> dup = all;
+  dup[20001] = dup[20000];
+  expect_row(dup, boxes, "row 20001");
+  std::vector<Handle> unknown = all;
+  unknown[33333] = 0xFFFFFFu;
+  expect_row(unknown, boxes, "row 33333: unknown");
+  // An increasing subset (the general move's screen), bad late row.
+  std::vector<Handle> some(all.begin(), all.begin() + 34000);
+  std::vector<Aabb> some_boxes(boxes.begin(), boxes.begin() + 34000);
+  some_boxes[33999].max[0] = inf;
+  expect_row(some, some_boxes, "row 33999: infinite");
+  // Nothing changed: `one` still agrees with the reference (and `two`).
+  for (std::size_t i = 0; i < all.size(); i += 97) {
+    const Aabb got = w.one.box(all[i]), want = w.objects[all[i]];
+    ASSERT_EQ(std::memcmp(&got, &want, sizeof(Aabb)), 0) << "row " << i;
+  }
+  w.check(1);
+  // And the good batch then goes through.
+  w.one.move(all, boxes);
+  w.two.move(all, boxes);
+  for (std::size_t i = 0; i < all.size(); ++i) w.objects[all[i]] = boxes[i];
+  w.check(2);
+  EXPECT_EQ(h.size(), all.size());
 }
 
 TEST(BroadPhase, EmptyAndSingle) {

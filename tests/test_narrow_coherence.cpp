@@ -82,8 +82,8 @@ TEST(NarrowFalseContacts, ContactsImplyIntersectionOnRandomPairs) {
 
 TEST(NarrowCacheTest, CommitAndFind) {
   NarrowCache cache;
-  std::vector<NarrowCacheEntry> l1 = {{{3, 7}, {1, 0, 0}}, {{0, 2}, {0, 1, 0}}};
-  std::vector<NarrowCacheEntry> l2 = {{{3, 4}, {0, 0, 1}}};
+  std::vector<NarrowCacheEntry> l1 = {{{3, 7}, {1, 0, 0}, 0}, {{0, 2}, {0, 1, 0}, 1}};
+  std::vector<NarrowCacheEntry> l2 = {{{3, 4}, {0, 0, 1}, 0}};
   const std::vector<NarrowCacheEntry> lists[] = {l1, l2};
   cache.commit(lists, 2, 8);
   EXPECT_EQ(cache.size(), 3u);
@@ -93,10 +93,13 @@ TEST(NarrowCacheTest, CommitAndFind) {
   EXPECT_EQ(cache.find({3, 4})[2], 1.0f);
   ASSERT_NE(cache.find({0, 2}), nullptr);
   EXPECT_EQ(cache.find({0, 2})[1], 1.0f);
+  ASSERT_NE(cache.entry({0, 2}), nullptr);
+  EXPECT_EQ(cache.entry({0, 2})->contact, 1u);
+  EXPECT_EQ(cache.entry({3, 7})->contact, 0u);
   EXPECT_EQ(cache.find({0, 3}), nullptr);
   EXPECT_EQ(cache.find({7, 9}), nullptr);
   EXPECT_EQ(cache.find({100, 101}), nullptr);
-  const std::vector<NarrowCacheEntry> bad = {{{3, 9}, {1, 0, 0}}};
+  const std::vector<NarrowCacheEntry> bad = {{{3, 9}, {1, 0, 0}, 0}};
   EXPECT_THROW(cache.commit(&bad, 1, 8), InvalidInput);
   cache.commit(&l2, 1, 8);  // the next frame forgets pairs it did not see
   EXPECT_EQ(cache.find({3, 7}), nullptr);
@@ -132,6 +135,25 @@ TEST(NarrowCacheTest, SameVerdictsWithAndWithoutCache) {
       EXPECT_EQ(cold[k].b, warm[k].b);
       EXPECT_NEAR(cold[k].depth, warm[k].depth, 2 * narrow::kContactDepthTolerance * cold[k].depth + 1e-6);
     }
+    // Contacts from GJK + EPA are remembered as contacts (next frame they
+    // skip the quick rejects; closed forms learn nothing); pairs found apart
+    // are remembered as separating axes.
+    std::size_t apart = 0, remembered = 0;
+    for (std::size_t k = 0, j = 0; k < pairs.size(); ++k) {
+      const NarrowCacheEntry* e = cache.entry(pairs[k]);
+      const bool hit = j < warm.size() && warm[j].a == pairs[k].a && warm[j].b == pairs[k].b;
+      if (hit) {
+        ++j;
+        if (!e) continue;
+        EXPECT_EQ(e->contact, 1u) << "frame " << f << " pair " << k;
+        ++remembered;
+      } else if (e) {
+        EXPECT_EQ(e->contact, 0u) << "frame " << f << " pair " << k;
+        ++apart;
+      }
+    }
+    EXPECT_GT(apart, 0u);
+    EXPECT_GT(remembered, warm.size() / 2);
     total += cold.size();
     if (f > 0) {
       EXPECT_GT(cache.size(), pairs.size() / 2) << "the cache learns most pairs";

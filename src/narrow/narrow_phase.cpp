@@ -19,7 +19,22 @@ std::size_t NarrowPhase::process(const std::vector<Shape>& shapes, const Pair* p
   const std::size_t n = shapes.size();
   narrow::Convex a;
   std::uint32_t prepared_id = UINT32_MAX;
+  // Memory look-ahead: candidate pairs name objects all over the shape
+  // array and the cache (sorted or not), so the shapes and cache rows of a
+  // pair a few places ahead are requested while this one is computed.
+  constexpr std::size_t kAhead = 8;
   for (std::size_t k = 0; k < count; ++k) {
+    if (k + kAhead < count) {
+      const Pair q = pairs[k + kAhead];
+      if (q.a < n && q.b < n) {
+        // A Shape spans two cache lines.
+        __builtin_prefetch(&shapes[q.a]);
+        __builtin_prefetch(reinterpret_cast<const char*>(&shapes[q.a]) + sizeof(Shape) - 1);
+        __builtin_prefetch(&shapes[q.b]);
+        __builtin_prefetch(reinterpret_cast<const char*>(&shapes[q.b]) + sizeof(Shape) - 1);
+        if (cache) cache->prefetch(q.a);
+      }
+    }
     const Pair p = pairs[k];
     if (p.a >= n || p.b >= n) {
       throw InvalidInput("narrow phase: pair " + std::to_string(p.a) + "-" + std::to_string(p.b) +
@@ -41,13 +56,15 @@ std::size_t NarrowPhase::process(const std::vector<Shape>& shapes, const Pair* p
     }
     const narrow::Convex b = narrow::make_convex(sb);
     narrow::Hit hit;
-    narrow::V3 warm, dir;
-    const float* cached = cache ? cache->find(p) : nullptr;
-    if (cached) warm = {cached[0], cached[1], cached[2]};
+    narrow::Coherence warm, now;
+    const NarrowCacheEntry* cached = cache ? cache->entry(p) : nullptr;
+    if (cached) warm = {{cached->dir[0], cached->dir[1], cached->dir[2]}, cached->contact != 0};
     const bool collide = narrow::intersect(a, b, options_.contacts ? &hit : nullptr, options_.method,
-                                           cached ? &warm : nullptr, learned ? &dir : nullptr);
-    if (learned && narrow::norm2(dir) > 0)
-      learned->push_back({p, {static_cast<float>(dir.x), static_cast<float>(dir.y), static_cast<float>(dir.z)}});
+                                           cached ? &warm : nullptr, learned ? &now : nullptr);
+    if (learned && narrow::norm2(now.dir) > 0)
+      learned->push_back({p,
+                          {static_cast<float>(now.dir.x), static_cast<float>(now.dir.y), static_cast<float>(now.dir.z)},
+                          now.contact ? 1u : 0u});
     if (!collide) continue;
     Contact c;
     c.a = p.a;

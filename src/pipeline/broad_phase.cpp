@@ -1,27 +1,42 @@
 // hbp::BroadPhase: handles over the hybrid system (moving objects), a flat
 // BVH (static objects) and fat-box candidate caches (moving vs static).
 //
-// Layout. Every object has a slot (handle_table.hpp) and its box in
-// slot_box_. Moving objects also live in dense SoA arrays (moving_boxes_,
-// moving_handle_) ordered by handle, so the hybrid system's sorted id pairs
-// map to sorted handle pairs; static objects in static_boxes_/static_handle_
-// and a BoxTree built when the statics change.
+// Layout. Every object has a slot (handle_table.hpp). Moving objects live in
+// dense SoA arrays (moving_boxes, moving_handle) ordered by handle, so the
+// hybrid system's sorted id pairs map to sorted handle pairs; an indexed
+// moving object's box is only there (slot_box holds it until the object
+// gets its index, and again when the moving membership changes). Static
+// objects have their box in slot_box, dense copies in
+// static_boxes/static_handle and a BoxTree built when the statics change.
+// The moving objects' caches of static candidates are dense too (memory
+// follows the moving objects).
 //
-// A frame: the hybrid system finds the moving/moving pairs; each moving
-// object re-tests the static candidates cached for its fat box (its box grown
-// by half its largest side) and re-queries the static tree only when
-// its box left the fat box or the statics changed; an object still inside
-// its quiet box (no candidate face crossed) skips its list, and when only
+// A frame: the hybrid system finds the moving/moving pairs (or, while the
+// moving objects are few and sparse, fat-box candidate pairs kept across
+// frames: fat_moving_pairs.hpp); each moving object re-tests the static
+// candidates cached for its fat box (its box grown by half its largest side)
+// and re-queries the static tree only when its box left the fat box or the
+// statics changed; an object still inside its quiet box (no candidate's
+// overlap can change) skips its list, and when only
 // moving boxes changed the pairs whose overlap flipped are merged into last
 // frame's moving/static list instead of re-sorting it. Layer table and pair
 // filter apply before a pair is kept; the sorted lists are merged, and
 // created/removed come from a merge with the previous frame's pairs.
+//
+// The all-moving frame (no statics, no layer table or filter in force) is
+// the whole-frame path plus events: move() of every moving object in handle
+// order checks and writes the boxes in one pass, the hybrid system runs
+// without re-checking them, and its pair list becomes the result without a
+// copy (or is mapped to handles inside the event merge).
 #include "hbp/broad_phase.hpp"
 
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <array>
+#include <bit>
+#include <cmath>
 #include <atomic>
 #include <chrono>
 #include <mutex>
@@ -29,15 +44,25 @@
 #include <limits>
 #include <string>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 #include "hbp/error.hpp"
+#include "pipeline/box_transpose.hpp"
 #include "pipeline/box_tree.hpp"
+#include "pipeline/fat_moving_pairs.hpp"
 #include "pipeline/handle_table.hpp"
+#include "pipeline/hybrid_access.hpp"
 #include "pipeline/pair_events.hpp"
 #include "support/clock.hpp"
 
 namespace hbp {
 
 using detail::BoxTree;
+using detail::FatMovingPairs;
+using detail::fat_box;
+using detail::inside;
 using detail::HandleTable;
 
 namespace {
@@ -45,18 +70,15 @@ namespace {
 constexpr std::uint32_t kNoIndex = HandleTable::kNoIndex;
 constexpr std::size_t kChunk = 1024;  // items per parallel task (fixed: deterministic output)
 
-// Fat box margin: half the box's largest side on every axis (scale
-// free; a zero-size box gets no margin and re-queries whenever it moves).
-Aabb fatten(const Aabb& b) {
-  const float side = std::max({b.max[0] - b.min[0], b.max[1] - b.min[1], b.max[2] - b.min[2]});
-  const float m = 0.5f * side;
-  return {{b.min[0] - m, b.min[1] - m, b.min[2] - m}, {b.max[0] + m, b.max[1] + m, b.max[2] + m}};
+// The float just above x (x not NaN; +inf stays), without a libm call.
+inline float next_up(float x) {
+  if (x == std::numeric_limits<float>::infinity()) return x;
+  if (x == 0.0f) return std::numeric_limits<float>::denorm_min();
+  const auto bits = std::bit_cast<std::uint32_t>(x);
+  return std::bit_cast<float>(x > 0.0f ? bits + 1 : bits - 1);
 }
-
-bool inside(const Aabb& in, const Aabb& out) {
-  return in.min[0] >= out.min[0] && in.min[1] >= out.min[1] && in.min[2] >= out.min[2] &&
-         in.max[0] <= out.max[0] && in.max[1] <= out.max[1] && in.max[2] <= out.max[2];
-}
+// The float just below x (x not NaN; -inf stays).
+inline float next_down(float x) { return -next_up(-x); }
 
 // Releases a buffer's memory when it holds far more than it needs now.
 template <class T>
@@ -107,12 +129,22 @@ struct BroadPhase::Impl {
   HybridBroadPhase hybrid;
 
   HandleTable table;
-  std::vector<Aabb> slot_box;  // by slot
+  // By slot: the box of a static object, and of a moving object until it
+  // has a dense index (then its box is moving_boxes[index], written back
+  // here when the moving membership changes: see box_of and sync_moving).
+  std::vector<Aabb> slot_box;
 
   // Moving objects, dense, ordered by handle.
   BoxArray moving_boxes;
   std::vector<Handle> moving_handle;
+  bool moving_identity = false;  // moving_handle[d] == d for every d (no remapping)
+  // move() of every moving object writes the new boxes here while checking
+  // them, then swaps with moving_boxes (nothing changes when a row fails).
+  BoxArray staged_boxes;
   bool moving_membership_dirty = false;
+  // Their pairs from fat-box candidates while few move (else the hybrid system).
+  FatMovingPairs fat_moving;
+  std::vector<Pair> fat_moving_pairs;
 
   // Static objects, dense, ordered by handle, and their tree.
   BoxArray static_boxes;
@@ -130,17 +162,48 @@ struct BroadPhase::Impl {
     Handle handle;
     std::uint32_t hit;  // overlapped at the last frame (kept when the pairs are unfiltered)
   };
-  // `lo`/`hi`: the quiet box. While each of the box's six coordinates stays
-  // in its interval (min[k]: lo[k] < v <= hi[k]; max[k]: lo[3+k] <= v <
-  // hi[3+k]) it crosses no candidate's face, so no candidate's overlap can
-  // flip and a frame skips the list without reading it.
-  struct StaticCache {
+  // Per moving object, by dense index (moved along when the dense order
+  // changes, so the memory follows the moving objects, not the slots):
+  // `fat` and `epoch` say whether `list` is valid (one record, so an object
+  // that re-tests reads one line before its list); `lo`/`hi` are the quiet
+  // box, one open interval per coordinate (0-2: box.min[k], 3-5:
+  // box.max[k]): while lo < v < hi for all six the box crosses no
+  // candidate's face and stays inside `fat`, so no candidate's overlap can
+  // flip and a frame skips the list without reading it. (All zero: never
+  // quiet.)
+  struct ListEntry {
     Aabb fat;
     std::uint32_t epoch = 0;
-    float lo[6] = {}, hi[6] = {};  // all zero: never quiet (lo < v <= hi fails)
     std::vector<Candidate> list;
   };
-  std::vector<StaticCache> cache;
+  struct StaticCaches {
+    std::vector<ListEntry> entry;
+    std::array<std::vector<float>, 6> lo, hi;
+
+    std::size_t size() const { return entry.size(); }
+    // New order: entry d is the old entry previous[d] (kNoIndex: a new object).
+    void permute(std::span<const std::uint32_t> previous) {
+      StaticCaches next;
+      const std::size_t n = previous.size();
+      next.entry.resize(n);
+      for (int c = 0; c < 6; ++c) {
+        next.lo[c].assign(n, 0.0f);
+        next.hi[c].assign(n, 0.0f);
+      }
+      for (std::size_t d = 0; d < n; ++d) {
+        const std::uint32_t o = previous[d];
+        if (o == kNoIndex) continue;
+        next.entry[d] = std::move(entry[o]);
+        for (int c = 0; c < 6; ++c) {
+          next.lo[c][d] = lo[c][o];
+          next.hi[c][d] = hi[c][o];
+        }
+      }
+      *this = std::move(next);
+    }
+  };
+  StaticCaches cache;
+  std::vector<std::uint32_t> previous_index;  // scratch of sync_moving
 
   // Moving objects' tree, for queries only.
   BoxTree moving_tree;
@@ -156,11 +219,14 @@ struct BroadPhase::Impl {
   BroadPhaseUpdate result;
   BroadPhaseUpdateStats stats;
   std::vector<Pair> moving_pairs, static_pairs, next, sort_scratch, flips;
+  detail::PairDiffScratch diff_scratch;
   // static_pairs holds last frame's moving/static pairs and every cached
   // candidate's `hit` agrees with it: true after an unfiltered frame in
   // which nothing but moving boxes changed since.
   bool static_pairs_valid = false;
   std::uint32_t moved = 0, static_changes = 0;
+
+  std::vector<std::uint32_t> batch_parts;  // for_batch's per-range results
 
   // Duplicate detection within a batch.
   std::vector<std::uint32_t> stamp;
@@ -221,12 +287,8 @@ struct BroadPhase::Impl {
     const auto kind = o.is_static ? HandleTable::kStatic : HandleTable::kMoving;
     for (std::size_t i = 0; i < boxes.size(); ++i) {
       const std::uint32_t s = table.allocate(kind, o.layer);
-      if (s >= slot_box.size()) {
-        slot_box.resize(s + 1);
-        cache.resize(s + 1);
-      }
+      if (s >= slot_box.size()) slot_box.resize(s + 1);
       slot_box[s] = boxes[i];
-      cache[s].epoch = 0;
       handles[i] = table.handle_of(s);
     }
     if (boxes.empty()) return handles;
@@ -239,24 +301,108 @@ struct BroadPhase::Impl {
     return handles;
   }
 
+  // Screens for the common batch: handles strictly increasing (so none
+  // repeats) and live, boxes finite with min <= max. One branch-free pass
+  // each (x - x == 0 exactly when x is finite); when a screen fails, the
+  // row-by-row checks above name the offending row.
+  bool handles_increasing_and_live(const Handle* h, std::size_t begin, std::size_t end) const {
+    bool ok = true;
+    Handle last = begin ? h[begin - 1] : 0;
+    for (std::size_t i = begin; i < end; ++i) {
+      ok &= table.live(h[i]) & (i == 0 || h[i] > last);
+      last = h[i];
+    }
+    return ok;
+  }
+
+  static bool boxes_well_formed(const Aabb* b, std::size_t begin, std::size_t end) {
+    bool ok = true;
+    for (std::size_t i = begin; i < end; ++i)
+      for (int k = 0; k < 3; ++k) {
+        const float lo = b[i].min[k], hi = b[i].max[k];
+        ok &= (lo - lo == 0.0f) & (hi - hi == 0.0f) & (lo <= hi);
+      }
+    return ok;
+  }
+
+  // Runs body(begin, end) over fixed ranges of [0, n), in parallel on the
+  // broad phase's threads when the batch is large; returns the sum.
+  template <class Body>
+  std::uint32_t for_batch(std::size_t n, Body&& body) {
+    constexpr std::size_t kEdits = 16384;  // edits per parallel task
+    if (n < 2 * kEdits) return body(std::size_t(0), n);
+    const std::size_t chunks = (n + kEdits - 1) / kEdits;
+    batch_parts.assign(chunks, 0);  // kept: one entry per 16,384 edits
+    std::uint32_t* part = batch_parts.data();
+    arena.execute([&] {
+      tbb::parallel_for(std::size_t(0), chunks,
+                        [&](std::size_t c) { part[c] = body(c * kEdits, std::min(n, (c + 1) * kEdits)); });
+    });
+    return std::accumulate(batch_parts.begin(), batch_parts.end(), std::uint32_t(0));
+  }
+
+  // The whole-frame batch: every moving object, in handle (= dense) order,
+  // with no membership change pending. One pass compares the handles with
+  // moving_handle, checks each box and writes it into staged_boxes, which
+  // then replaces moving_boxes: the input is read once and nothing is
+  // written in place, so a failed row (false: the general path below then
+  // names it) leaves everything as it was.
+  bool move_every_moving(const Handle* h, const Aabb* b, std::size_t n) {
+    if (moving_membership_dirty || n == 0 || n != moving_handle.size()) return false;
+    staged_boxes.resize(n);
+    float* lane[6];
+    for (int k = 0; k < 3; ++k) {
+      lane[k] = staged_boxes.min(k);
+      lane[3 + k] = staged_boxes.max(k);
+    }
+    // With handles equal to dense indices the expected handle is i itself
+    // (no second handle array to read).
+    const Handle* want = moving_identity ? nullptr : moving_handle.data();
+    const std::uint32_t failed = for_batch(n, [&](std::size_t begin, std::size_t end) {
+      return std::uint32_t(!detail::check_and_transpose(b, h, want, begin, end, lane));
+    });
+    if (failed) return false;
+    std::swap(moving_boxes, staged_boxes);
+    return true;
+  }
+
   void move(std::span<const Handle> handles, std::span<const Aabb> boxes) {
     if (handles.size() != boxes.size())
       throw InvalidInput("BroadPhase::move: " + std::to_string(handles.size()) + " handles but " +
                          std::to_string(boxes.size()) + " boxes");
-    check_handles("move", handles);
-    check_boxes("move", boxes);
-    std::uint32_t statics = 0, moving = 0;
-    for (std::size_t i = 0; i < handles.size(); ++i) {
-      const std::uint32_t s = HandleTable::slot_of(handles[i]);
-      slot_box[s] = boxes[i];
-      if (table.kind(s) == HandleTable::kStatic) {
-        ++statics;
-      } else {
-        ++moving;
-        const std::uint32_t d = table.index(s);
-        if (d != kNoIndex) moving_boxes.set(d, boxes[i]);
-      }
+    const std::size_t n = handles.size();
+    const Handle* h = handles.data();
+    const Aabb* b = boxes.data();
+    if (move_every_moving(h, b, n)) {
+      moved += static_cast<std::uint32_t>(n);
+      touched_moving();
+      return;
     }
+    // Ranges whose handles failed the screen in the low 16 bits, whose
+    // boxes did in the high 16 (at most kMaxObjects / 16384 ranges).
+    const std::uint32_t failed = for_batch(n, [&](std::size_t begin, std::size_t end) {
+      return std::uint32_t(!handles_increasing_and_live(h, begin, end)) +
+             (std::uint32_t(!boxes_well_formed(b, begin, end)) << 16);
+    });
+    if (failed & 0xFFFFu) check_handles("move", handles);
+    if (failed >> 16) check_boxes("move", boxes);
+    // Distinct handles: the ranges write distinct slots and dense indices.
+    const std::uint32_t statics = for_batch(n, [&](std::size_t begin, std::size_t end) {
+      std::uint32_t count = 0;
+      for (std::size_t i = begin; i < end; ++i) {
+        const std::uint32_t s = HandleTable::slot_of(h[i]);
+        if (table.kind(s) == HandleTable::kStatic) {
+          slot_box[s] = b[i];
+          ++count;
+        } else if (const std::uint32_t d = table.index(s); d != kNoIndex) {
+          moving_boxes.set(d, b[i]);
+        } else {
+          slot_box[s] = b[i];
+        }
+      }
+      return count;
+    });
+    const std::uint32_t moving = static_cast<std::uint32_t>(n) - statics;
     if (statics) statics_changed(statics);
     if (moving) {
       moved += moving;
@@ -270,7 +416,6 @@ struct BroadPhase::Impl {
     for (const Handle h : handles) {
       const std::uint32_t s = HandleTable::slot_of(h);
       (table.kind(s) == HandleTable::kStatic ? statics : moving) += 1;
-      cache[s] = StaticCache();
       table.release(s);
     }
     if (statics) statics_changed(statics);
@@ -291,19 +436,25 @@ struct BroadPhase::Impl {
   // table stays: its generations keep old handles stale).
   void release_memory() {
     moving_boxes = BoxArray();
+    staged_boxes = BoxArray();
     static_boxes = BoxArray();
     std::vector<Handle>().swap(moving_handle);
     std::vector<Handle>().swap(static_handle);
     static_tree.clear();
     moving_tree.clear();
-    std::vector<StaticCache>(slot_box.size()).swap(cache);
+    fat_moving.release();
+    std::vector<Pair>().swap(fat_moving_pairs);
+    cache = StaticCaches();
+    std::vector<std::uint32_t>().swap(previous_index);
     static_pairs_valid = false;
   }
 
   // ---- structures ----------------------------------------------------------
 
   // Dense arrays of one kind, ordered by handle.
-  void gather(HandleTable::Kind kind, BoxArray& boxes, std::vector<Handle>& handles) {
+  // previous (if given): each object's old dense index (kNoIndex: new).
+  void gather(HandleTable::Kind kind, BoxArray& boxes, std::vector<Handle>& handles,
+              std::vector<std::uint32_t>* previous = nullptr) {
     handles.clear();
     for (std::uint32_t s = 0; s < table.slots(); ++s)
       if (table.kind(s) == kind) handles.push_back(table.handle_of(s));
@@ -311,8 +462,10 @@ struct BroadPhase::Impl {
     fit(handles);
     if (boxes.capacity() > 4 * handles.size() + 4096) boxes = BoxArray();
     boxes.resize(handles.size());
+    if (previous) previous->resize(handles.size());
     for (std::uint32_t d = 0; d < handles.size(); ++d) {
       const std::uint32_t s = HandleTable::slot_of(handles[d]);
+      if (previous) (*previous)[d] = table.index(s);
       boxes.set(d, slot_box[s]);
       table.set_index(s, d);
     }
@@ -330,9 +483,25 @@ struct BroadPhase::Impl {
     statics_dirty = false;
   }
 
+  // The box of a live slot (see slot_box).
+  Aabb box_of(std::uint32_t s) const {
+    const std::uint32_t d = table.index(s);
+    return table.kind(s) == HandleTable::kMoving && d != kNoIndex ? moving_boxes.get(d) : slot_box[s];
+  }
+
   void sync_moving() {
     if (!moving_membership_dirty) return;
-    gather(HandleTable::kMoving, moving_boxes, moving_handle);
+    // The indexed moving objects' boxes back into slot_box, which gather reads.
+    for (std::uint32_t s = 0; s < table.slots(); ++s)
+      if (table.kind(s) == HandleTable::kMoving && table.index(s) != kNoIndex)
+        slot_box[s] = moving_boxes.get(table.index(s));
+    gather(HandleTable::kMoving, moving_boxes, moving_handle, &previous_index);
+    cache.permute(previous_index);
+    fit(previous_index);
+    fat_moving.reset();
+    if (staged_boxes.capacity() > 4 * moving_handle.size() + 4096) staged_boxes = BoxArray();
+    // Strictly increasing handles from 0 ending at size - 1 are 0, 1, 2 ...
+    moving_identity = !moving_handle.empty() && moving_handle.back() == moving_handle.size() - 1;
     moving_membership_dirty = false;
   }
 
@@ -372,7 +541,9 @@ struct BroadPhase::Impl {
   void find_moving_pairs() {
     moving_pairs.clear();
     if (moving_handle.size() < 2) return;
-    const std::vector<Pair>& raw = hybrid.update(moving_boxes);
+    const std::vector<Pair>& raw = fat_moving.find(moving_boxes, hybrid, options.max_pairs, fat_moving_pairs)
+                                       ? fat_moving_pairs
+                                       : hybrid.update(moving_boxes);
     const Handle* h = moving_handle.data();
     if (all_layers_collide() && !filter) {
       moving_pairs.resize(raw.size());
@@ -389,57 +560,109 @@ struct BroadPhase::Impl {
     });
   }
 
-  // Rebuilds a moving object's candidate list from the static tree.
-  void requery(StaticCache& c, const Aabb& box, std::uint32_t epoch) {
-    c.fat = fatten(box);
-    c.epoch = epoch;
-    c.list.clear();
-    static_tree.for_each_overlap(c.fat, [&](std::uint32_t i, const auto& leaf) {
-      c.list.push_back({{{leaf.min[0], leaf.min[1], leaf.min[2]}, {leaf.max[0], leaf.max[1], leaf.max[2]}},
-                        static_handle[i], 0});
+  // Rebuilds moving object d's candidate list from the static tree.
+  void requery(std::size_t d, const Aabb& box, std::uint32_t epoch) {
+    ListEntry& e = cache.entry[d];
+    e.fat = fat_box(box);
+    e.epoch = epoch;
+    std::vector<Candidate>& list = e.list;
+    list.clear();
+    static_tree.for_each_overlap(e.fat, [&](std::uint32_t i, const auto& leaf) {
+      list.push_back({{{leaf.min[0], leaf.min[1], leaf.min[2]}, {leaf.max[0], leaf.max[1], leaf.max[2]}},
+                      static_handle[i], 0});
     });
-    fit(c.list);
+    fit(list);
   }
 
-  // Sets c's quiet box around `box` (every candidate's faces; see StaticCache).
-  static void set_quiet(StaticCache& c, const Aabb& box) {
+  // Re-tests d's candidates against `box` (seen(candidate, hit) for each)
+  // and sets d's quiet box around `box`, in one pass over the list. A
+  // candidate's overlap is six conditions (box.min[k] <= c.max[k],
+  // box.max[k] >= c.min[k]); it cannot change while the conditions it
+  // depends on keep their values: all six for an overlapping candidate, and
+  // for a separated one just one false condition (the widest gap), which
+  // keeps it separated whatever the others do. Each kept condition bounds
+  // one coordinate of the box; the quiet box is the intersection, and the
+  // fat box (the list's validity).
+  template <class Seen>
+  void retest(std::size_t d, const Aabb& box, Seen&& seen) {
     constexpr float inf = std::numeric_limits<float>::infinity();
+    // Closed bounds first: min[k] in (lo, hi], max[k] in [lo, hi).
+    float lo[6], hi[6];
     for (int k = 0; k < 6; ++k) {
-      c.lo[k] = -inf;
-      c.hi[k] = inf;
+      lo[k] = -inf;
+      hi[k] = inf;
     }
-    for (const Candidate& q : c.list) {
+    for (Candidate& q : cache.entry[d].list) {
+      // Condition c false (c < 3: box.min[c] > q.max[c]; else box.max[c-3]
+      // < q.min[c-3]) by gap[c] > 0; the comparisons decide, the gaps only
+      // rank.
+      int widest = -1;
+      float widest_gap = 0;
       for (int k = 0; k < 3; ++k) {
-        // box.min[k] <= q.box.max[k] keeps its value while box.min[k] stays
-        // on the same side of q.box.max[k].
-        const float m = q.box.max[k];
-        if (m >= box.min[k]) {
-          c.hi[k] = std::min(c.hi[k], m);
-        } else {
-          c.lo[k] = std::max(c.lo[k], m);
+        const float g0 = box.min[k] - q.box.max[k], g1 = q.box.min[k] - box.max[k];
+        if (box.min[k] > q.box.max[k] && (widest < 0 || g0 > widest_gap)) {
+          widest = k;
+          widest_gap = g0;
         }
-        // box.max[k] >= q.box.min[k]: likewise for box.max[k].
-        const float n = q.box.min[k];
-        if (n <= box.max[k]) {
-          c.lo[3 + k] = std::max(c.lo[3 + k], n);
-        } else {
-          c.hi[3 + k] = std::min(c.hi[3 + k], n);
+        if (box.max[k] < q.box.min[k] && (widest < 0 || g1 > widest_gap)) {
+          widest = 3 + k;
+          widest_gap = g1;
         }
       }
+      seen(q, static_cast<std::uint32_t>(widest < 0));
+      if (widest >= 0) {  // separated: keep that condition false
+        if (widest < 3) {
+          lo[widest] = std::max(lo[widest], q.box.max[widest]);
+        } else {
+          hi[widest] = std::min(hi[widest], q.box.min[widest - 3]);
+        }
+        continue;
+      }
+      for (int k = 0; k < 3; ++k) {  // overlapping: keep all six true
+        hi[k] = std::min(hi[k], q.box.max[k]);
+        lo[3 + k] = std::max(lo[3 + k], q.box.min[k]);
+      }
+    }
+    // Open intervals (v is a float: v <= h iff v < next float above h), and
+    // inside the fat box: min[k] >= fat.min[k], max[k] <= fat.max[k].
+    const Aabb& fat = cache.entry[d].fat;
+    for (int k = 0; k < 3; ++k) {
+      cache.lo[k][d] = std::max(lo[k], next_down(fat.min[k]));
+      cache.hi[k][d] = next_up(hi[k]);
+      cache.lo[3 + k][d] = next_down(lo[3 + k]);
+      cache.hi[3 + k][d] = std::min(hi[3 + k], next_up(fat.max[k]));
     }
   }
 
-  static bool quiet(const StaticCache& c, const Aabb& box) {
-    bool q = true;
-    for (int k = 0; k < 3; ++k)
-      q &= (c.lo[k] < box.min[k]) & (box.min[k] <= c.hi[k]) & (c.lo[3 + k] <= box.max[k]) &
-           (box.max[k] < c.hi[3 + k]);
-    return q;
-  }
-
-  static std::uint32_t hit_of(const Aabb& box, const Candidate& k) {
-    return (box.max[0] >= k.box.min[0]) & (box.min[0] <= k.box.max[0]) & (box.max[1] >= k.box.min[1]) &
-           (box.min[1] <= k.box.max[1]) & (box.max[2] >= k.box.min[2]) & (box.min[2] <= k.box.max[2]);
+  // Appends to busy the objects of [begin, end) outside their quiet box.
+  std::size_t collect_busy(std::size_t begin, std::size_t end, std::uint32_t* busy) const {
+    const float* v[6] = {moving_boxes.min(0), moving_boxes.min(1), moving_boxes.min(2),
+                         moving_boxes.max(0), moving_boxes.max(1), moving_boxes.max(2)};
+    const float* lo[6];
+    const float* hi[6];
+    for (int c = 0; c < 6; ++c) {
+      lo[c] = cache.lo[c].data();
+      hi[c] = cache.hi[c].data();
+    }
+    std::size_t n_busy = 0;
+    std::size_t d = begin;
+#if defined(__SSE2__)
+    for (; d + 4 <= end; d += 4) {
+      __m128 q = _mm_castsi128_ps(_mm_set1_epi32(-1));
+      for (int c = 0; c < 6; ++c) {
+        const __m128 x = _mm_loadu_ps(v[c] + d);
+        q = _mm_and_ps(q, _mm_and_ps(_mm_cmplt_ps(_mm_loadu_ps(lo[c] + d), x), _mm_cmplt_ps(x, _mm_loadu_ps(hi[c] + d))));
+      }
+      for (unsigned bits = ~static_cast<unsigned>(_mm_movemask_ps(q)) & 15u; bits; bits &= bits - 1)
+        busy[n_busy++] = static_cast<std::uint32_t>(d + static_cast<std::size_t>(__builtin_ctz(bits)));
+    }
+#endif
+    for (; d < end; ++d) {
+      bool q = true;
+      for (int c = 0; c < 6; ++c) q &= (lo[c][d] < v[c][d]) & (v[c][d] < hi[c][d]);
+      if (!q) busy[n_busy++] = static_cast<std::uint32_t>(d);
+    }
+    return n_busy;
   }
 
   // The moving/static pairs. `incremental` (unfiltered, and since the last
@@ -462,16 +685,10 @@ struct BroadPhase::Impl {
         // ten); pass 2 re-tests their lists, prefetched a few objects ahead
         // because the lists are scattered on the heap and mostly cold.
         std::uint32_t busy[kChunk];
-        std::size_t n_busy = 0;
-        for (std::size_t d = begin; d < end; ++d) {
-          const StaticCache& c = cache[HandleTable::slot_of(moving_handle[d])];
-          const Aabb box = moving_boxes.get(d);
-          if (c.epoch == epoch && inside(box, c.fat) && quiet(c, box)) continue;
-          busy[n_busy++] = static_cast<std::uint32_t>(d);
-        }
+        const std::size_t n_busy = collect_busy(begin, end, busy);
         constexpr std::size_t kAhead = 4;
         auto prefetch = [&](std::size_t j) {
-          const auto& list = cache[HandleTable::slot_of(moving_handle[busy[j]])].list;
+          const auto& list = cache.entry[busy[j]].list;
           const char* first = reinterpret_cast<const char*>(list.data());
           const char* last = reinterpret_cast<const char*>(list.data() + list.size());
           for (const char* q = first; q < last && q < first + 512; q += 64) __builtin_prefetch(q);
@@ -482,28 +699,26 @@ struct BroadPhase::Impl {
           const std::size_t d = busy[j];
           const Handle hm = moving_handle[d];
           const Aabb box = moving_boxes.get(d);
-          StaticCache& c = cache[HandleTable::slot_of(hm)];
-          if (c.epoch == epoch && inside(box, c.fat)) {
-            for (Candidate& k : c.list) {
-              const std::uint32_t hit = hit_of(box, k);
+          ListEntry& e = cache.entry[d];
+          std::vector<Candidate>& list = e.list;
+          if (e.epoch == epoch && inside(box, e.fat)) {
+            retest(d, box, [&](Candidate& k, std::uint32_t hit) {
               if (hit != k.hit) {  // rare: the pair starts or stops here
                 k.hit = hit;
                 out.push_back(make_pair(hm, k.handle));
               }
-            }
-            set_quiet(c, box);
+            });
             continue;
           }
           // Left its fat box: the pairs it had, then the pairs it has; a
           // pair in both cancels in the XOR merge below.
-          for (const Candidate& k : c.list)
+          for (const Candidate& k : list)
             if (k.hit) out.push_back(make_pair(hm, k.handle));
-          requery(c, box, epoch);
-          for (Candidate& k : c.list) {
-            k.hit = hit_of(box, k);
-            if (k.hit) out.push_back(make_pair(hm, k.handle));
-          }
-          set_quiet(c, box);
+          requery(d, box, epoch);
+          retest(d, box, [&](Candidate& k, std::uint32_t hit) {
+            k.hit = hit;
+            if (hit) out.push_back(make_pair(hm, k.handle));
+          });
         }
       });
       sort_pairs(flips, sort_scratch);
@@ -539,22 +754,22 @@ struct BroadPhase::Impl {
                        for (std::size_t d = begin; d < end; ++d) {
                          const Handle hm = moving_handle[d];
                          const Aabb box = moving_boxes.get(d);
-                         StaticCache& c = cache[HandleTable::slot_of(hm)];
-                         if (c.epoch != epoch || !inside(box, c.fat)) requery(c, box, epoch);
+                         const ListEntry& e = cache.entry[d];
+                         if (e.epoch != epoch || !inside(box, e.fat)) requery(d, box, epoch);
+                         std::vector<Candidate>& list = cache.entry[d].list;
                          if (all && !filter) {
                            // Branch-free: about half the candidates overlap.
                            std::size_t size = out.size();
-                           out.resize(size + c.list.size());
-                           for (Candidate& k : c.list) {
-                             k.hit = hit_of(box, k);
+                           out.resize(size + list.size());
+                           retest(d, box, [&](Candidate& k, std::uint32_t hit) {
+                             k.hit = hit;
                              out[size] = make_pair(hm, k.handle);
-                             size += k.hit;
-                           }
+                             size += hit;
+                           });
                            out.resize(size);
-                           set_quiet(c, box);
                            continue;
                          }
-                         for (const Candidate& k : c.list) {
+                         for (const Candidate& k : list) {
                            if (!overlaps(box, k.box)) continue;
                            const Pair p = make_pair(hm, k.handle);
                            if (!all && !layers_collide(p.a, p.b)) continue;
@@ -568,6 +783,35 @@ struct BroadPhase::Impl {
     static_pairs_valid = all && !filter;
   }
 
+  // No static objects, no filtering: the frame's pairs are the hybrid
+  // system's. Its boxes were all checked by add/move, so it skips its own
+  // screen; with handles equal to dense indices its pair list is taken as
+  // the result without a copy (the previous list's storage goes back to it),
+  // else the indices are mapped to handles in the same parallel pass as the
+  // merge with the previous frame.
+  void all_moving_frame() {
+    static const std::vector<Pair> none;
+    const std::vector<Pair>& raw =
+        moving_handle.size() >= 2 ? detail::HybridAccess::update_checked(hybrid, moving_boxes) : none;
+    if (options.max_pairs && raw.size() > options.max_pairs)
+      throw CapacityExceeded("BroadPhase::update: " + std::to_string(raw.size()) + " pairs, more than max_pairs " +
+                             std::to_string(options.max_pairs));
+    moving_pairs.clear();
+    static_pairs.clear();
+    static_pairs_valid = false;
+    if (&raw == &none) {
+      detail::diff_sorted_pairs(result.pairs, none, result.created, result.removed, diff_scratch);
+      result.pairs.clear();
+    } else if (moving_identity) {
+      detail::diff_sorted_pairs(result.pairs, raw, result.created, result.removed, diff_scratch);
+      detail::HybridAccess::swap_pairs(hybrid, result.pairs);
+    } else {
+      detail::map_and_diff_sorted_pairs(result.pairs, raw, moving_handle.data(), next, result.created,
+                                        result.removed, diff_scratch);
+      result.pairs.swap(next);
+    }
+  }
+
   const BroadPhaseUpdate& update() {
     const auto start = SteadyClock::now();
     arena.execute([&] {
@@ -576,6 +820,10 @@ struct BroadPhase::Impl {
       const bool incremental = !statics_dirty && !moving_membership_dirty;
       sync_statics();
       sync_moving();
+      if (static_handle.empty() && all_layers_collide() && !filter) {
+        all_moving_frame();
+        return;
+      }
       find_moving_pairs();
       find_static_pairs(incremental);
       if (static_pairs.empty()) {
@@ -589,7 +837,7 @@ struct BroadPhase::Impl {
       if (options.max_pairs && next.size() > options.max_pairs)
         throw CapacityExceeded("BroadPhase::update: " + std::to_string(next.size()) + " pairs, more than max_pairs " +
                                std::to_string(options.max_pairs));
-      detail::diff_sorted_pairs(result.pairs, next, result.created, result.removed);
+      detail::diff_sorted_pairs(result.pairs, next, result.created, result.removed, diff_scratch);
       result.pairs.swap(next);
     });
     fit(next);
@@ -711,7 +959,7 @@ std::vector<Handle> BroadPhase::query_ray(const float origin[3], const float dir
 std::size_t BroadPhase::size() const { return impl_->table.live(); }
 bool BroadPhase::contains(Handle h) const { return impl_->table.live(h); }
 Aabb BroadPhase::box(Handle h) const {
-  return impl_->slot_box[HandleTable::slot_of(impl_->checked("box", h))];
+  return impl_->box_of(HandleTable::slot_of(impl_->checked("box", h)));
 }
 bool BroadPhase::is_static(Handle h) const {
   return impl_->table.kind(HandleTable::slot_of(impl_->checked("is_static", h))) == HandleTable::kStatic;

@@ -23,40 +23,37 @@ const std::vector<Contact>& CollisionPipeline::update(const BoxArray& boxes, con
   std::atomic<std::uint64_t> narrow_us{0};
   std::mutex grow;
   const auto t0 = SteadyClock::now();
-  broad_.update(
-      boxes,
-      [&](std::uint32_t cell, const Pair*, std::size_t) {
-        // Another thread may be growing cell_contacts_ for a later cell: its
-        // map is read under the same lock (a deque keeps its elements in
-        // place when it grows, so the reference stays valid after).
-        const std::vector<Contact>* done;
-        {
-          std::lock_guard lock(grow);
-          done = &cell_contacts_[cell];
-        }
-        contacts_.insert(contacts_.end(), done->begin(), done->end());
-      },
-      [&](std::uint32_t cell, const Pair* pairs, std::size_t count) {
-        const double start = thread_cpu_ms();
-        std::vector<Contact>* out;
-        std::vector<NarrowCacheEntry>* learned;
-        {
-          // cell_contacts_ grows only when the partition has more cells than
-          // ever before; the vectors themselves are reused frame to frame.
-          std::lock_guard lock(grow);
-          if (cell_contacts_.size() <= cell) cell_contacts_.resize(cell + 1);
-          if (cell_learned_.size() <= cell) cell_learned_.resize(cell + 1);
-          out = &cell_contacts_[cell];
-          learned = &cell_learned_[cell];
-        }
-        out->clear();
-        learned->clear();
-        narrow_.process(shapes, pairs, count, *out, &cache_, learned);
-        narrow_us += static_cast<std::uint64_t>((thread_cpu_ms() - start) * 1e3);
-      });
+  // Only the parallel consumer: each cell's narrow phase runs on whichever
+  // worker finished its engine run, as many cells at once as there are
+  // threads. An in-order sink would put the cells through a pipeline with a
+  // few tokens, and one slow cell would then stall the others; the contacts
+  // are put in cell order after the frame instead (a copy).
+  broad_.update(boxes, {}, [&](std::uint32_t cell, const Pair* pairs, std::size_t count) {
+    const double start = thread_cpu_ms();
+    std::vector<Contact>* out;
+    std::vector<NarrowCacheEntry>* learned;
+    {
+      // cell_contacts_ grows only when the partition has more cells than
+      // ever before; the vectors themselves are reused frame to frame (a
+      // deque keeps its elements in place when it grows).
+      std::lock_guard lock(grow);
+      if (cell_contacts_.size() <= cell) cell_contacts_.resize(cell + 1);
+      if (cell_learned_.size() <= cell) cell_learned_.resize(cell + 1);
+      out = &cell_contacts_[cell];
+      learned = &cell_learned_[cell];
+    }
+    out->clear();
+    learned->clear();
+    narrow_.process(shapes, pairs, count, *out, &cache_, learned);
+    narrow_us += static_cast<std::uint64_t>((thread_cpu_ms() - start) * 1e3);
+  });
+  const std::size_t cells = broad_.stats().cells;
+  if (cell_contacts_.size() < cells) cell_contacts_.resize(cells);  // cells without pairs were never consumed
+  if (cell_learned_.size() < cells) cell_learned_.resize(cells);
+  for (std::size_t c = 0; c < cells; ++c)
+    contacts_.insert(contacts_.end(), cell_contacts_[c].begin(), cell_contacts_[c].end());
   // What the frame learned replaces the cache (cells beyond this frame's
   // count are emptied so they add nothing).
-  const std::size_t cells = broad_.stats().cells;
   for (std::size_t c = cells; c < cell_learned_.size(); ++c) cell_learned_[c].clear();
   if (cell_learned_.size() > cells) cell_learned_.resize(cells);
   learned_lists_.clear();

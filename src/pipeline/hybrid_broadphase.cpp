@@ -17,6 +17,7 @@
 #include "hbp/error.hpp"
 #include "hbp/kd_partition.hpp"
 #include "hbp/software_engine.hpp"
+#include "pipeline/hybrid_access.hpp"
 #include "pipeline/ordered_cell.hpp"
 #include "support/clock.hpp"
 
@@ -124,6 +125,7 @@ struct HybridBroadPhase::Impl {
   tbb::task_arena arena;
   KdPartition own_partition;
   bool partition_in_use = false;                  // own_partition holds a tree from an earlier frame
+  bool boxes_checked = false;  // this frame's boxes were validated by the caller (HybridAccess)
   const KdPartition* partition = &own_partition;  // this frame's cells
   tbb::enumerable_thread_specific<Worker> workers;
   std::vector<CellOutcome> outcomes;       // per cell
@@ -420,7 +422,7 @@ struct HybridBroadPhase::Impl {
       return;
     }
     partition = &own_partition;
-    validate_boxes(*boxes);
+    if (!boxes_checked) validate_boxes(*boxes);
     own_partition.update(*boxes);
     partition_in_use = true;
   }
@@ -429,7 +431,7 @@ struct HybridBroadPhase::Impl {
   bool is_one_cell_frame(const BoxArray* boxes) const { return boxes && boxes->size() <= cell_limit; }
 
   void run_one_cell(const BoxArray& boxes, const PairSink& sink, const PairSink& consumer) {
-    boxes.validate("frame");
+    if (!boxes_checked) boxes.validate("frame");
     if (partition_in_use) own_partition.reset();  // its tree is stale by the next large frame
     partition_in_use = false;
     cell_pairs.clear();  // buffers of earlier, larger frames
@@ -568,5 +570,22 @@ const std::vector<Pair>& HybridBroadPhase::pairs() const { return impl_->pairs; 
 const FrameStats& HybridBroadPhase::stats() const { return impl_->stats; }
 const BroadPhaseOptions& HybridBroadPhase::options() const { return impl_->options; }
 std::uint32_t HybridBroadPhase::cell_limit() const { return impl_->cell_limit; }
+
+const std::vector<Pair>& detail::HybridAccess::update_checked(HybridBroadPhase& hybrid, const BoxArray& boxes) {
+  HybridBroadPhase::Impl& impl = *hybrid.impl_;
+  impl.boxes_checked = true;
+  try {
+    hybrid.update(boxes);
+  } catch (...) {
+    impl.boxes_checked = false;
+    throw;
+  }
+  impl.boxes_checked = false;
+  return impl.pairs;
+}
+
+void detail::HybridAccess::swap_pairs(HybridBroadPhase& hybrid, std::vector<Pair>& other) {
+  hybrid.impl_->pairs.swap(other);
+}
 
 }  // namespace hbp

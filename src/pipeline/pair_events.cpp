@@ -3,62 +3,134 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <cstring>
 
 namespace hbp::detail {
 
 namespace {
 
-constexpr std::size_t kChunk = 1 << 16;  // current pairs per parallel range
+// Current pairs per parallel range: 128 KB of pairs, so a range's mapped
+// pairs are still in cache when its merge reads them.
+constexpr std::size_t kChunk = 1 << 14;
 
+// (a, b) as one integer with the same order: one compare instead of two.
+inline std::uint64_t key(Pair p) { return (static_cast<std::uint64_t>(p.a) << 32) | p.b; }
+
+// Merges previous [p, p_end) with current [c, c_end). Most pairs are in both
+// (frame coherence): runs of equal pairs are skipped four at a time (one
+// 32-byte compare), and the equal case comes first and is well predicted.
 void merge_range(const Pair* p, const Pair* p_end, const Pair* c, const Pair* c_end, std::vector<Pair>& created,
                  std::vector<Pair>& removed) {
-  while (p != p_end && c != c_end) {
-    if (*p < *c) {
-      removed.push_back(*p++);
-    } else if (*c < *p) {
-      created.push_back(*c++);
-    } else {
+  static_assert(sizeof(Pair) == 8, "four pairs are 32 bytes");
+  while (p_end - p >= 4 && c_end - c >= 4) {
+    if (std::memcmp(p, c, 4 * sizeof(Pair)) == 0) {
+      p += 4;
+      c += 4;
+      continue;
+    }
+    const std::uint64_t kp = key(*p), kc = key(*c);
+    if (kp == kc) {
       ++p;
       ++c;
+    } else if (kp < kc) {
+      removed.push_back(*p++);
+    } else {
+      created.push_back(*c++);
+    }
+  }
+  while (p != p_end && c != c_end) {
+    const std::uint64_t kp = key(*p), kc = key(*c);
+    if (kp == kc) {
+      ++p;
+      ++c;
+    } else if (kp < kc) {
+      removed.push_back(*p++);
+    } else {
+      created.push_back(*c++);
     }
   }
   removed.insert(removed.end(), p, p_end);
   created.insert(created.end(), c, c_end);
 }
 
+// Releases a buffer's memory when it holds far more than it needs now.
+void fit(std::vector<Pair>& v) {
+  if (v.capacity() > 4 * v.size() + 4096) v.shrink_to_fit();
+}
+
+// Range c covers current[c * kChunk, (c + 1) * kChunk) and the previous
+// pairs from the first >= its first pair to the first >= the next range's
+// first (the first range from the start, the last to the end): fixed
+// boundaries, so the output is the same for any thread count.
+// `source(i)` is current[i] as it will be written; `fill(begin, end)` writes
+// current[begin, end) before the range merges it (a range's boundaries are
+// taken from `source`, since the next range may still be writing).
+template <class Source, class Fill>
+void diff_ranges(const std::vector<Pair>& previous, const Pair* current, std::size_t n, std::vector<Pair>& created,
+                 std::vector<Pair>& removed, PairDiffScratch& scratch, Source&& source, Fill&& fill) {
+  created.clear();
+  removed.clear();
+  const std::size_t chunks = std::max<std::size_t>(1, (n + kChunk - 1) / kChunk);
+  if (chunks == 1) {
+    fill(std::size_t(0), n);
+    merge_range(previous.data(), previous.data() + previous.size(), current, current + n, created, removed);
+    return;
+  }
+  scratch.created.resize(chunks);
+  scratch.removed.resize(chunks);
+  const Pair* prev_begin = previous.data();
+  const Pair* prev_end = previous.data() + previous.size();
+  auto bound = [&](std::size_t c) {
+    if (c == 0) return prev_begin;
+    if (c == chunks) return prev_end;
+    const std::uint64_t k = key(source(c * kChunk));
+    return std::partition_point(prev_begin, prev_end, [k](const Pair& q) { return key(q) < k; });
+  };
+  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
+    const std::size_t begin = c * kChunk, end = std::min(n, begin + kChunk);
+    fill(begin, end);
+    std::vector<Pair>& made = scratch.created[c];
+    std::vector<Pair>& gone = scratch.removed[c];
+    made.clear();
+    gone.clear();
+    merge_range(bound(c), bound(c + 1), current + begin, current + end, made, gone);
+  });
+  std::size_t made_total = 0, gone_total = 0;
+  for (std::size_t c = 0; c < chunks; ++c) {
+    made_total += scratch.created[c].size();
+    gone_total += scratch.removed[c].size();
+  }
+  created.reserve(made_total);
+  removed.reserve(gone_total);
+  for (std::size_t c = 0; c < chunks; ++c) {
+    created.insert(created.end(), scratch.created[c].begin(), scratch.created[c].end());
+    removed.insert(removed.end(), scratch.removed[c].begin(), scratch.removed[c].end());
+    fit(scratch.created[c]);
+    fit(scratch.removed[c]);
+  }
+}
+
 }  // namespace
 
 void diff_sorted_pairs(const std::vector<Pair>& previous, const std::vector<Pair>& current,
-                       std::vector<Pair>& created, std::vector<Pair>& removed) {
-  created.clear();
-  removed.clear();
-  const std::size_t chunks = std::max<std::size_t>(1, (current.size() + kChunk - 1) / kChunk);
-  if (chunks == 1 || previous.size() < kChunk) {
-    merge_range(previous.data(), previous.data() + previous.size(), current.data(), current.data() + current.size(),
-                created, removed);
-    return;
-  }
-  // Range c covers current[c * kChunk, (c + 1) * kChunk) and the previous
-  // pairs from the first >= its first pair to the first >= the next range's
-  // first (the first range from the start, the last to the end): fixed
-  // boundaries, so the output is the same for any thread count.
-  std::vector<std::vector<Pair>> made(chunks), gone(chunks);
-  const Pair* prev_begin = previous.data();
-  const Pair* prev_end = previous.data() + previous.size();
-  auto prev_bound = [&](std::size_t c) {
-    if (c == 0) return prev_begin;
-    if (c == chunks) return prev_end;
-    return std::lower_bound(prev_begin, prev_end, current[c * kChunk]);
-  };
-  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
-    const Pair* cur_begin = current.data() + c * kChunk;
-    const Pair* cur_end = current.data() + std::min(current.size(), (c + 1) * kChunk);
-    merge_range(prev_bound(c), prev_bound(c + 1), cur_begin, cur_end, made[c], gone[c]);
-  });
-  for (std::size_t c = 0; c < chunks; ++c) {
-    created.insert(created.end(), made[c].begin(), made[c].end());
-    removed.insert(removed.end(), gone[c].begin(), gone[c].end());
-  }
+                       std::vector<Pair>& created, std::vector<Pair>& removed, PairDiffScratch& scratch) {
+  diff_ranges(
+      previous, current.data(), current.size(), created, removed, scratch,
+      [&](std::size_t i) { return current[i]; }, [](std::size_t, std::size_t) {});
+}
+
+void map_and_diff_sorted_pairs(const std::vector<Pair>& previous, std::span<const Pair> raw,
+                               const std::uint32_t* to, std::vector<Pair>& current, std::vector<Pair>& created,
+                               std::vector<Pair>& removed, PairDiffScratch& scratch) {
+  current.resize(raw.size());
+  Pair* out = current.data();
+  const Pair* in = raw.data();
+  diff_ranges(
+      previous, out, raw.size(), created, removed, scratch,
+      [&](std::size_t i) { return Pair{to[in[i].a], to[in[i].b]}; },
+      [&](std::size_t begin, std::size_t end) {
+        for (std::size_t i = begin; i < end; ++i) out[i] = Pair{to[in[i].a], to[in[i].b]};
+      });
 }
 
 }  // namespace hbp::detail

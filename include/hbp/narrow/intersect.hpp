@@ -44,12 +44,19 @@ inline constexpr double kContactDepthTolerance = 1e-4;
 
 // The same on prepared shapes (what NarrowPhase calls).
 bool intersect(const Convex& a, const Convex& b, Hit* hit, NarrowMethod method);
-// With frame-to-frame coherence: `warm` (may be null) is the direction the
-// last frame learned for this pair (unit, a -> b); *learned receives this
-// frame's (the separating axis or the contact normal), or zero if nothing
-// worth keeping was learned. The verdict never depends on `warm`: a cached
-// axis is used only where one support query proves separation.
-bool intersect(const Convex& a, const Convex& b, Hit* hit, NarrowMethod method, const V3* warm, V3* learned);
+// What a frame learns about a pair, for the next frame: a separating axis,
+// or (contact) the contact normal; unit, a -> b. Zero: nothing learned.
+struct Coherence {
+  V3 dir;
+  bool contact = false;
+};
+// With frame-to-frame coherence: `warm` (may be null) is what the last frame
+// learned for this pair; *learned receives this frame's. The verdict never
+// depends on `warm`: a cached axis is used only where one support query
+// proves separation; a pair that collided last frame skips the quick
+// rejects (they would rarely reject it) and starts GJK from its normal.
+bool intersect(const Convex& a, const Convex& b, Hit* hit, NarrowMethod method, const Coherence* warm,
+               Coherence* learned);
 }  // namespace narrow
 
 }  // namespace hbp

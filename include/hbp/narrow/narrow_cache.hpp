@@ -20,18 +20,32 @@ namespace hbp {
 
 struct NarrowCacheEntry {
   Pair pair;
-  float dir[3];  // unit, from a towards b
+  float dir[3];           // unit, from a towards b
+  std::uint32_t contact;  // 1: dir is a contact normal (the pair collided), 0: a separating axis
 };
-static_assert(sizeof(NarrowCacheEntry) == 20, "NarrowCacheEntry is packed: 2 ids + 3 floats");
+static_assert(sizeof(NarrowCacheEntry) == 24, "NarrowCacheEntry is packed: 2 ids + 3 floats + a flag");
 
 class NarrowCache {
  public:
-  // The previous frame's direction for the pair, or null.
-  const float* find(Pair p) const {
+  // The previous frame's entry for the pair, or null.
+  const NarrowCacheEntry* entry(Pair p) const {
     if (p.a + 1 >= row_.size()) return nullptr;
     for (std::uint32_t k = row_[p.a]; k < row_[p.a + 1]; ++k)
-      if (entries_[k].pair.b == p.b) return entries_[k].dir;
+      if (entries_[k].pair.b == p.b) return &entries_[k];
     return nullptr;
+  }
+  // Starts loading the row of first object `a` (the pairs of a cell come in
+  // no useful order: without this every lookup waits for memory).
+  void prefetch(std::uint32_t a) const {
+    if (a + 1 < row_.size()) {
+      const std::uint32_t k = row_[a];
+      if (k < entries_.size()) __builtin_prefetch(entries_.data() + k);
+    }
+  }
+  // The previous frame's direction for the pair, or null.
+  const float* find(Pair p) const {
+    const NarrowCacheEntry* e = entry(p);
+    return e ? e->dir : nullptr;
   }
   // Replaces the cache with what this frame learned: `lists[0..count)`, in
   // any order (pairs absent from them are forgotten). `objects` bounds the

@@ -1,0 +1,97 @@
+// detail::check_and_transpose (the one-pass check of BroadPhase::move() of
+// every moving object): the lanes against a plain copy, and the verdict
+// against box_defect and the id comparison, for every batch length and start
+// up to a few vectors (the SSE2 body and the scalar tail), with one bad
+// coordinate or id at each row.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+#include <vector>
+
+#include "hbp/aabb.hpp"
+#include "pipeline/box_transpose.hpp"
+
+namespace {
+
+using hbp::Aabb;
+
+std::vector<Aabb> random_boxes(std::size_t n, std::mt19937& rng) {
+  std::uniform_real_distribution<float> pos(-100, 100), side(0, 5);
+  std::vector<Aabb> boxes(n);
+  for (Aabb& b : boxes)
+    for (int k = 0; k < 3; ++k) {
+      b.min[k] = pos(rng);
+      b.max[k] = b.min[k] + (rng() % 7 == 0 ? 0.0f : side(rng));  // some flat boxes: min == max is fine
+    }
+  return boxes;
+}
+
+struct Lanes {
+  std::vector<float> data;
+  float* lane[6];
+  explicit Lanes(std::size_t n) : data(6 * (n + 1), -1.0f) {
+    for (int l = 0; l < 6; ++l) lane[l] = data.data() + l * (n + 1);
+  }
+};
+
+bool expected_verdict(const std::vector<Aabb>& boxes, const std::vector<std::uint32_t>& ids,
+                      const std::uint32_t* expected, std::size_t begin, std::size_t end) {
+  for (std::size_t i = begin; i < end; ++i) {
+    if (hbp::box_defect(boxes[i])) return false;
+    if (ids[i] != (expected ? expected[i] : static_cast<std::uint32_t>(i))) return false;
+  }
+  return true;
+}
+
+TEST(BoxTranspose, LanesAndVerdictMatchScalarRule) {
+  std::mt19937 rng(3);
+  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+  std::size_t verdicts_false = 0, verdicts_true = 0;
+  for (std::size_t n = 0; n <= 19; ++n) {
+    const std::vector<Aabb> good = random_boxes(n, rng);
+    std::vector<std::uint32_t> identity(n), shifted(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      identity[i] = static_cast<std::uint32_t>(i);
+      shifted[i] = static_cast<std::uint32_t>(3 * i + 1);
+    }
+    for (std::size_t begin = 0; begin <= std::min<std::size_t>(n, 5); ++begin) {
+      // bad: -1 none; else row * 8 + kind (kinds: NaN, +inf, -inf, min > max, wrong id).
+      for (int bad = -1; bad < static_cast<int>(n) * 8; ++bad) {
+        const int row = bad < 0 ? -1 : bad / 8, kind = bad < 0 ? -1 : bad % 8;
+        if (kind > 5) continue;
+        for (const bool use_expected : {false, true}) {
+          std::vector<Aabb> boxes = good;
+          std::vector<std::uint32_t> ids = use_expected ? shifted : identity;
+          const int axis = static_cast<int>(rng() % 3);
+          if (kind == 0) boxes[row].min[axis] = nan;
+          if (kind == 1) boxes[row].max[axis] = inf;
+          if (kind == 2) boxes[row].min[axis] = -inf;
+          if (kind == 3) boxes[row].min[axis] = boxes[row].max[axis] + 0.5f;
+          if (kind == 4) ids[row] += 1;
+          if (kind == 5) boxes[row].max[axis] = nan;
+          Lanes out(n);
+          const bool got = hbp::detail::check_and_transpose(boxes.data(), ids.data(),
+                                                            use_expected ? shifted.data() : nullptr, begin, n,
+                                                            out.lane);
+          const bool want =
+              expected_verdict(boxes, ids, use_expected ? shifted.data() : nullptr, begin, n);
+          ASSERT_EQ(got, want) << "n " << n << " begin " << begin << " row " << row << " kind " << kind;
+          (want ? verdicts_true : verdicts_false) += 1;
+          if (!want) continue;
+          for (std::size_t i = 0; i < n + 1; ++i)
+            for (int k = 0; k < 3; ++k) {
+              const bool inside = i >= begin && i < n;
+              ASSERT_EQ(out.lane[k][i], inside ? boxes[i].min[k] : -1.0f) << "row " << i;
+              ASSERT_EQ(out.lane[3 + k][i], inside ? boxes[i].max[k] : -1.0f) << "row " << i;
+            }
+        }
+      }
+    }
+  }
+  EXPECT_GT(verdicts_true, 100u);
+  EXPECT_GT(verdicts_false, 1000u);
+}
+
+}  // namespace
