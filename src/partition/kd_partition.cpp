@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
+#include <cstring>
 #include <array>
 #include <limits>
 #include <stdexcept>
@@ -46,10 +48,6 @@ constexpr std::uint32_t kMergeFraction = 4;
 struct Box6 {
   float b[6];  // min x y z, max x y z
 };
-
-Box6 load(const BoxArray& boxes, std::uint32_t i) {
-  return {{boxes.min(0)[i], boxes.min(1)[i], boxes.min(2)[i], boxes.max(0)[i], boxes.max(1)[i], boxes.max(2)[i]}};
-}
 
 // The box reaches the half-open region (the routing rule: min < hi, max >= lo).
 bool overlaps(const float* b, const CellRegion& r) {
@@ -95,6 +93,48 @@ void merge_tail(CellEntry* e, std::uint32_t k, std::uint32_t m, std::vector<Cell
   }
 }
 
+// The members of one cell (src[0..size)) that still reach its region, with
+// this frame's boxes from latest, copied to dst; returns how many. Everything
+// it reads is a local (a parameter or a copy): the entry stores could alias
+// anything reached through a pointer, which made the compiler reload the
+// bases of every array once per entry.
+std::uint32_t keep_members(const CellEntry* src, std::uint32_t size, const CellEntry* latest, std::uint32_t n,
+                           const CellRegion& region, CellEntry* dst) {
+  if (n == 0) return 0;  // every object removed
+  // The routing rule (min < hi and max >= lo on every axis) as two 4-lane
+  // compares on overlapping loads of the entry: {min x, min y, min z, max x}
+  // < {hi x, hi y, hi z, +inf} and {min z, max x, max y, max z} >=
+  // {-inf, lo x, lo y, lo z} (the padding lanes always pass: boxes are
+  // finite). Portable vector extensions: SSE on x86-64, a third fewer
+  // instructions per entry than six scalar compares.
+  using V4 = float __attribute__((vector_size(16)));
+  using I4 = std::int32_t __attribute__((vector_size(16)));
+  static_assert(offsetof(CellEntry, min) == 0 && offsetof(CellEntry, max) == 12 && sizeof(CellEntry) == 32);
+  const float inf = std::numeric_limits<float>::infinity();
+  const V4 upper = {region.hi[0], region.hi[1], region.hi[2], inf};
+  const V4 lower = {-inf, region.lo[0], region.lo[1], region.lo[2]};
+  // Prefetch distance: the gather is random in id and a miss (~100 ns on the
+  // measuring VM) outlasts eight entries' work (8: 30 % more refresh samples
+  // than 24 or 48).
+  constexpr std::uint32_t kAhead = 24;
+  std::uint32_t k = 0;
+  for (std::uint32_t e = 0; e < size; ++e) {
+    if (e + kAhead < size) __builtin_prefetch(latest + std::min(src[e + kAhead].id, n - 1));
+    const std::uint32_t id = src[e].id;
+    if (id >= n) continue;  // object removed
+    const CellEntry* x = latest + id;
+    V4 a, b;
+    std::memcpy(&a, &x->min[0], sizeof a);
+    std::memcpy(&b, &x->min[2], sizeof b);
+    const I4 in = (a < upper) & (b >= lower);
+    std::uint64_t halves[2];
+    std::memcpy(halves, &in, sizeof halves);
+    dst[k] = *x;  // branch-free: kept when k advances (k <= e: inside the cell's room)
+    k += (halves[0] & halves[1]) == ~std::uint64_t{0};
+  }
+  return k;
+}
+
 }  // namespace
 
 struct KdPartition::State {
@@ -111,6 +151,7 @@ struct KdPartition::State {
   std::vector<std::uint32_t> add_ids;
   std::vector<std::size_t> cell_offsets;
   tbb::enumerable_thread_specific<std::vector<CellEntry>> merge_scratch;
+  tbb::enumerable_thread_specific<std::vector<std::uint32_t>> movers;  // find_crossings: objects to descend
   std::vector<CellEntry> merged;
   std::vector<std::uint32_t> sizes;
   RawBuffer<CellEntry> latest;                 // object -> this frame's box and id, as a cell entry
@@ -188,7 +229,11 @@ void KdPartition::maintain(const BoxArray& boxes) {
     s.home.resize(n);
     s.prev.resize(n);
     s.margin.resize(n);
-    for (std::size_t i = s.objects; i < n; ++i) s.home[i] = kNoHome;
+    for (std::size_t i = s.objects; i < n; ++i) {
+      s.home[i] = kNoHome;
+      s.prev[i] = {};  // read (and masked out) by find_crossings' first pass
+      s.margin[i] = 0;
+    }
     s.objects = n;
   }
   merge_sparse();
@@ -311,32 +356,55 @@ void KdPartition::find_crossings(const BoxArray& boxes) {
   float* margin = s.margin.data();
   s.latest.resize(n);
   CellEntry* latest = s.latest.data();
-  auto chunk = [&](std::uint32_t c) {
+  const float* const lanes[6] = {boxes.min(0), boxes.min(1), boxes.min(2), boxes.max(0), boxes.max(1), boxes.max(2)};
+  auto chunk = [&, nodes, node_regions, home, prev, margin, latest](std::uint32_t c) {
+    // Pointers by value and the lanes copied: the entry stores below could
+    // alias anything reached through a reference (reloads on every object).
+    const float* const l0 = lanes[0], *const l1 = lanes[1], *const l2 = lanes[2];
+    const float* const l3 = lanes[3], *const l4 = lanes[4], *const l5 = lanes[5];
     std::vector<std::uint64_t>& adds = s.chunk_adds[c];
     adds.clear();
     std::array<std::uint32_t, kMaxDepth + 1> stack;
-    const std::uint32_t end = std::min(n, (c + 1) * kChunkObjects);
-    for (std::uint32_t i = c * kChunkObjects; i < end; ++i) {
-      const Box6 box = load(boxes, i);
+    const std::uint32_t begin = c * kChunkObjects, end = std::min(n, (c + 1) * kChunkObjects);
+    std::vector<std::uint32_t>& mover_list = s.movers.local();
+    mover_list.resize(kChunkObjects);
+    std::uint32_t* const movers = mover_list.data();
+    // Pass 1, branch-free over every object: this frame's entry, and whether
+    // the object is quiet (its cells cannot have changed): still inside its
+    // home leaf, or, homed at an inner node (in several cells), still inside
+    // the home's region with no face moved by half the margin of its last
+    // descent (then every plane test of that descent comes out the same,
+    // and so do its cells; half: float rounding). Both tests are computed
+    // for every object: a branch on the kind of object mispredicted for
+    // about one object in four, and the previous boxes, read for every
+    // object, stream in sequentially instead of missing one by one. (The
+    // previous box and margin of an object in one cell are stale or never
+    // written: read, but masked out by `leaf`.)
+    std::uint32_t moving = 0;
+    for (std::uint32_t i = begin; i < end; ++i) {
+      const Box6 box = {{l0[i], l1[i], l2[i], l3[i], l4[i], l5[i]}};
       const float* b = box.b;
       latest[i] = make_entry(box, i);  // one cache line per object for refresh_cells' gather
       const std::uint32_t h = home[i];
-      std::uint32_t node = 0;
-      if (h != kNoHome) {
-        const bool in = inside(b, node_regions[h]);
-        if (in && nodes[h].axis < 0) continue;  // the common case: still inside its one cell
-        if (in) {
-          // In several cells: if no face moved by as much as the margin of its
-          // last descent, every plane test of that descent comes out the same,
-          // and so do its cells (half the margin: float rounding).
-          const StoredBox& p = prev[i];
-          float moved = 0;
-          for (int a = 0; a < 3; ++a)
-            moved = std::max(moved, std::max(std::abs(b[a] - p.min[a]), std::abs(b[3 + a] - p.max[a])));
-          if (moved < 0.5f * margin[i]) continue;
-          node = h;
-        }
-      }
+      const std::uint32_t at = h == kNoHome ? 0 : h;
+      const bool in = inside(b, node_regions[at]);
+      const bool leaf = nodes[at].axis < 0;
+      const StoredBox& p = prev[i];
+      float moved = 0;
+      for (int a = 0; a < 3; ++a)
+        moved = std::max(moved, std::max(std::abs(b[a] - p.min[a]), std::abs(b[3 + a] - p.max[a])));
+      const bool quiet = (h != kNoHome) & in & (leaf | (moved < 0.5f * margin[i]));
+      movers[moving] = i;
+      moving += !quiet;
+    }
+    // Pass 2, the others: a descent, from the home when the box is still
+    // inside the home's region, else from the root.
+    for (std::uint32_t k = 0; k < moving; ++k) {
+      const std::uint32_t i = movers[k];
+      const CellEntry& e = latest[i];
+      const float b[6] = {e.min[0], e.min[1], e.min[2], e.max[0], e.max[1], e.max[2]};
+      const std::uint32_t h = home[i];
+      const std::uint32_t start = h != kNoHome && inside(b, node_regions[h]) ? h : 0;
       const bool was_leaf = h != kNoHome && nodes[h].axis < 0;
       float old[6] = {};
       if (h != kNoHome && !was_leaf) {
@@ -345,6 +413,7 @@ void KdPartition::find_crossings(const BoxArray& boxes) {
       }
       std::uint32_t top = 0, fork = kNoHome;
       float m = std::numeric_limits<float>::infinity();
+      std::uint32_t node = start;
       while (true) {
         while (nodes[node].axis >= 0) {
           const KdTreeNode& nd = nodes[node];
@@ -424,19 +493,8 @@ void KdPartition::refresh_cells(const BoxArray& boxes) {
     std::vector<CellEntry>& tmp = s.merge_scratch.local();
     for (std::uint32_t c = range.begin(); c != range.end(); ++c) {
       KdTreeNode& leaf = nodes_[leaf_nodes_[c]];
-      const CellRegion& region = regions_[c];
-      const CellEntry* src = from + leaf.first;
       CellEntry* dst = to + s.cell_offsets[c];
-      std::uint32_t k = 0;
-      constexpr std::uint32_t kAhead = 8;  // prefetch distance: the gather is random in id
-      for (std::uint32_t e = 0; e < leaf.size; ++e) {
-        if (e + kAhead < leaf.size && src[e + kAhead].id < n) __builtin_prefetch(latest + src[e + kAhead].id);
-        const std::uint32_t id = src[e].id;
-        if (id >= n) continue;  // object removed
-        const CellEntry& x = latest[id];
-        const float b[6] = {x.min[0], x.min[1], x.min[2], x.max[0], x.max[1], x.max[2]};
-        if (overlaps(b, region)) dst[k++] = x;
-      }
+      std::uint32_t k = keep_members(from + leaf.first, leaf.size, latest, n, regions_[c], dst);
       insertion_sort(dst, k);
       const std::uint32_t a0 = s.add_offsets[c], m = s.add_offsets[c + 1] - a0;
       for (std::uint32_t e = 0; e < m; ++e) {
