@@ -32,10 +32,12 @@ namespace {
 constexpr std::uint64_t kSerialEntries = 16384;
 // The kernel's output lands in a cache-resident stage before it moves on.
 constexpr std::size_t kStagePairs = 1 << 14;
-// Two-pass output: a cell with more than this many pairs per box is "dense":
-// the first pass only counts its pairs and the second writes them straight
-// into the frame's list (one write per pair instead of a store and a copy).
-constexpr std::size_t kStoredPairsPerBox = 4;
+// Output: every cell's pairs go to its worker's store, then are copied to
+// their place in the frame's list. (A former "dense" path ran the kernel
+// twice instead, counting first and writing straight into the list: on the
+// clustered scene, 61.6 M pairs a frame, the second kernel run cost about
+// 60 ms a frame and the copy it saved about 12: see docs/hybrid-system.md,
+// "Pair-dense frames".)
 // Pair buffers kept from frame to frame are released when their capacity
 // exceeds twice what the frame used plus this many pairs, so memory follows
 // the current frame, not every frame's peak (issue 17: a cluster visiting
@@ -84,7 +86,7 @@ struct Worker {
   std::vector<std::uint32_t> first, second;  // kernel hits before they move on (the stage)
   std::vector<Pair> local;                 // other engines: pairs in local indices
   BoxArray tile;                           // other engines: two blocks of an over-full cell
-  std::vector<Pair> stored;                // two-pass: this worker's sparse cells' pairs
+  std::vector<Pair> stored;                // this worker's cells' pairs, before the copy to the list
 };
 
 // What one cell produced this frame.
@@ -92,8 +94,7 @@ struct CellOutcome {
   std::uint64_t pairs = 0;
   std::uint64_t candidates = 0;  // owned pairs the engine calls returned (tiled cells: summed over calls)
   std::uint64_t cycles = 0;
-  // Two-pass output: where the cell's pairs wait for the second pass, or
-  // nullptr when the cell is dense and writes them in the second pass.
+  // Where the cell's pairs wait for the copy into the frame's list.
   const std::vector<Pair>* stored = nullptr;
   std::size_t offset = 0;
 };
@@ -109,9 +110,23 @@ void fit_stage(Worker& w, std::size_t hits) {
   }
 }
 
+// Grows v's capacity to at least `want`, keeping its pairs. A pair store
+// of a dense frame is hundreds of megabytes: it asks for huge pages (512
+// times fewer page faults) and grows at least twofold, so it reallocates
+// rarely even when a worker's share of the pairs changes from frame to frame.
+void grow_pairs(std::vector<Pair>& v, std::size_t want) {
+  if (want <= v.capacity()) return;
+  std::vector<Pair> grown;
+  grown.reserve(std::max(want, 2 * v.capacity()));
+  advise_huge_pages(grown.data(), grown.capacity() * sizeof(Pair));
+  grown.insert(grown.end(), v.begin(), v.end());
+  v.swap(grown);
+}
+
 // Appends the stage's first `count` hits to out as canonical pairs.
 void drain_stage(const Worker& w, std::size_t count, std::vector<Pair>& out) {
   const std::size_t base = out.size();
+  grow_pairs(out, base + count);
   out.resize(base + count);
   SoftwareEngine::write_pairs(w.first.data(), w.second.data(), count, out.data() + base);
 }
@@ -135,6 +150,7 @@ struct HybridBroadPhase::Impl {
   std::vector<Pair> sort_scratch;
   FrameStats stats;
   std::atomic<std::uint64_t> running_pairs{0};
+  std::size_t last_frame_pairs = 0;  // the pair count of the last frame through run_cells
 
   static std::uint32_t choose_limit(const BroadPhaseOptions& o, const CellEngine& e) {
     const std::uint32_t limit = o.cell_limit ? o.cell_limit : e.default_cell_limit();
@@ -323,69 +339,30 @@ struct HybridBroadPhase::Impl {
     });
   }
 
-  // Two-pass output, first pass: every cell through the engine. Sparse
-  // cells' pairs go to the worker's store; dense cells are only counted.
+  // Output, first pass: every cell through the engine, its pairs appended
+  // to the worker's store.
   void first_pass(std::uint32_t c) {
     Worker& w = workers.local();
     CellOutcome& r = outcomes[c];
     w.cell.load(partition->cell(c));
-    const CellRegion& region = partition->region(c);
     r.stored = &w.stored;
     r.offset = w.stored.size();
-    if (!w.direct) {
-      emit_cell(w, region, w.stored, r);
-      return;
-    }
-    const std::uint32_t n = w.cell.size();
-    const std::size_t room = kStoredPairsPerBox * n + n + SoftwareEngine::kOutputSlack;
-    fit_stage(w, std::max(room, stage_pairs(n)));
-    std::size_t count = 0;
-    std::uint32_t row =
-        w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), region, 0, w.first.data(), w.second.data(), room, count);
-    if (row < n && !options.max_pairs) {
-      // Dense: count now, write in the second pass. (With max_pairs set, a
-      // pair explosion must stop as soon as the limit is passed, not after
-      // counting every pair: such cells keep storing, charged per drain.)
-      count += w.direct->count_pairs(w.cell.boxes(), w.cell.ids(), region, row);
-      r.stored = nullptr;
-      r.pairs = r.candidates = count;
-      return;
-    }
-    while (true) {
-      charge(count);
-      drain_stage(w, count, w.stored);
-      r.pairs += count;
-      if (row >= n) break;
-      count = 0;
-      row = w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), region, row, w.first.data(), w.second.data(),
-                                w.first.size(), count);
-    }
-    r.candidates = r.pairs;
+    emit_cell(w, partition->region(c), w.stored, r);
   }
 
-  // Second pass: stored pairs are copied to their place in the frame's
-  // list; dense cells run their kernel again, draining the stage there.
+  // Second pass: each cell's stored pairs copied to their place in the
+  // frame's list (cell order: the same list for any thread count).
   void second_pass(std::uint32_t c) {
     const CellOutcome& r = outcomes[c];
-    Pair* dst = pairs.data() + offsets[c];
-    if (r.stored) {
-      if (r.pairs) std::memcpy(dst, r.stored->data() + r.offset, r.pairs * sizeof(Pair));
-      return;
-    }
-    Worker& w = workers.local();
-    w.cell.load(partition->cell(c));
-    const std::uint32_t n = w.cell.size();
-    fit_stage(w, stage_pairs(n));
-    std::size_t written = 0;
-    for (std::uint32_t row = 0; row < n;) {
-      std::size_t count = 0;
-      row = w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), partition->region(c), row, w.first.data(),
-                                w.second.data(), w.first.size(), count);
-      if (written + count > r.pairs) throw std::logic_error("hybrid broad phase: cell pair count changed");
-      SoftwareEngine::write_pairs(w.first.data(), w.second.data(), count, dst + written);
-      written += count;
-    }
-    if (written != r.pairs) throw std::logic_error("hybrid broad phase: cell pair count changed");
+    if (r.pairs) std::memcpy(pairs.data() + offsets[c], r.stored->data() + r.offset, r.pairs * sizeof(Pair));
+  }
+
+  // Room in every worker's store for its likely share of this frame's
+  // pairs (the last frame's count, split evenly, plus an eighth), so a
+  // steady frame does not grow stores as it goes.
+  std::size_t store_share() const {
+    const auto workers_n = static_cast<std::size_t>(serial_engine_phase() ? 1 : std::max(1, arena.max_concurrency()));
+    return last_frame_pairs / workers_n + last_frame_pairs / 8;
   }
 
   // Offsets of each cell's pairs in the frame's list, and the list sized.
@@ -453,6 +430,8 @@ struct HybridBroadPhase::Impl {
     // Each path's buffers are emptied when the other path runs, so the
     // release at the end of the frame frees what this frame did not use.
     for (Worker& w : workers) w.stored.clear();
+    if (!(sink || consumer))
+      for (Worker& w : workers) grow_pairs(w.stored, store_share());
     if (sink || consumer) {
       stream_cells(sink, consumer);
       engine_ms = ms_since(t_engine);
@@ -478,7 +457,7 @@ struct HybridBroadPhase::Impl {
   // Per-worker buffers follow this frame's needs.
   void release_worker_buffers() {
     for (Worker& w : workers) {
-      release_if_oversized(w.stored, w.stored.size(), kKeepPairs);
+      release_if_oversized(w.stored, std::max(w.stored.size(), store_share()), kKeepPairs);
       release_if_oversized(w.local, w.local.size(), kKeepPairs);
     }
   }
@@ -501,6 +480,7 @@ struct HybridBroadPhase::Impl {
     const auto t_sort = SteadyClock::now();
     sort_output();
     const double sort_ms = ms_since(t_sort);
+    last_frame_pairs = one_cell || sink || consumer ? 0 : pairs.size();
     release_worker_buffers();
     record_stats(one_cell, boxes ? boxes->size() : 0);
     stats.partition_ms = partition_ms;
