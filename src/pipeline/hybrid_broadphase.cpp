@@ -33,11 +33,16 @@ constexpr std::uint64_t kSerialEntries = 16384;
 // The kernel's output lands in a cache-resident stage before it moves on.
 constexpr std::size_t kStagePairs = 1 << 14;
 // Output: every cell's pairs go to its worker's store, then are copied to
-// their place in the frame's list. (A former "dense" path ran the kernel
-// twice instead, counting first and writing straight into the list: on the
-// clustered scene, 61.6 M pairs a frame, the second kernel run cost about
-// 60 ms a frame and the copy it saved about 12: see docs/hybrid-system.md,
-// "Pair-dense frames".)
+// their place in the frame's list; the stores are sized from the last
+// frame's pair count. A frame with no such count (the first, or the first
+// after a one-cell or streamed frame) would grow stores of hundreds of
+// megabytes from nothing: there a cell with more than kStoredPairsPerBox
+// pairs per box is "dense", its pairs are only counted in the first pass
+// and written straight into the list in a second kernel run. (Every frame
+// that way costs a second kernel run, about 60 ms a frame on the clustered
+// scene against 12 ms for the copy: docs/hybrid-system.md, "Pair-dense
+// frames".)
+constexpr std::size_t kStoredPairsPerBox = 4;
 // Pair buffers kept from frame to frame are released when their capacity
 // exceeds twice what the frame used plus this many pairs, so memory follows
 // the current frame, not every frame's peak (issue 17: a cluster visiting
@@ -151,6 +156,7 @@ struct HybridBroadPhase::Impl {
   FrameStats stats;
   std::atomic<std::uint64_t> running_pairs{0};
   std::size_t last_frame_pairs = 0;  // the pair count of the last frame through run_cells
+  bool count_dense_cells = false;    // this frame has no estimate: dense cells are counted, then written
 
   static std::uint32_t choose_limit(const BroadPhaseOptions& o, const CellEngine& e) {
     const std::uint32_t limit = o.cell_limit ? o.cell_limit : e.default_cell_limit();
@@ -339,22 +345,71 @@ struct HybridBroadPhase::Impl {
     });
   }
 
-  // Output, first pass: every cell through the engine, its pairs appended
-  // to the worker's store.
+  // First pass: every cell through the engine, its pairs appended to the
+  // worker's store; on a frame without an estimate, dense cells are only
+  // counted (see kStoredPairsPerBox).
   void first_pass(std::uint32_t c) {
     Worker& w = workers.local();
     CellOutcome& r = outcomes[c];
     w.cell.load(partition->cell(c));
+    const CellRegion& region = partition->region(c);
     r.stored = &w.stored;
     r.offset = w.stored.size();
-    emit_cell(w, partition->region(c), w.stored, r);
+    if (!w.direct || !count_dense_cells) {
+      emit_cell(w, region, w.stored, r);
+      return;
+    }
+    const std::uint32_t n = w.cell.size();
+    const std::size_t room = kStoredPairsPerBox * n + n + SoftwareEngine::kOutputSlack;
+    fit_stage(w, std::max(room, stage_pairs(n)));
+    std::size_t count = 0;
+    std::uint32_t row =
+        w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), region, 0, w.first.data(), w.second.data(), room, count);
+    if (row < n && !options.max_pairs) {
+      // Dense: count now, write in the second pass. (With max_pairs set, a
+      // pair explosion must stop as soon as the limit is passed, not after
+      // counting every pair: such cells keep storing, charged per drain.)
+      count += w.direct->count_pairs(w.cell.boxes(), w.cell.ids(), region, row);
+      r.stored = nullptr;
+      r.pairs = r.candidates = count;
+      return;
+    }
+    while (true) {
+      charge(count);
+      drain_stage(w, count, w.stored);
+      r.pairs += count;
+      if (row >= n) break;
+      count = 0;
+      row = w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), region, row, w.first.data(), w.second.data(),
+                                w.first.size(), count);
+    }
+    r.candidates = r.pairs;
   }
 
-  // Second pass: each cell's stored pairs copied to their place in the
-  // frame's list (cell order: the same list for any thread count).
+  // Second pass: stored pairs are copied to their place in the frame's list
+  // (cell order: the same list for any thread count); dense cells run their
+  // kernel again, draining the stage there.
   void second_pass(std::uint32_t c) {
     const CellOutcome& r = outcomes[c];
-    if (r.pairs) std::memcpy(pairs.data() + offsets[c], r.stored->data() + r.offset, r.pairs * sizeof(Pair));
+    Pair* dst = pairs.data() + offsets[c];
+    if (r.stored) {
+      if (r.pairs) std::memcpy(dst, r.stored->data() + r.offset, r.pairs * sizeof(Pair));
+      return;
+    }
+    Worker& w = workers.local();
+    w.cell.load(partition->cell(c));
+    const std::uint32_t n = w.cell.size();
+    fit_stage(w, stage_pairs(n));
+    std::size_t written = 0;
+    for (std::uint32_t row = 0; row < n;) {
+      std::size_t count = 0;
+      row = w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), partition->region(c), row, w.first.data(),
+                                w.second.data(), w.first.size(), count);
+      if (written + count > r.pairs) throw std::logic_error("hybrid broad phase: cell pair count changed");
+      SoftwareEngine::write_pairs(w.first.data(), w.second.data(), count, dst + written);
+      written += count;
+    }
+    if (written != r.pairs) throw std::logic_error("hybrid broad phase: cell pair count changed");
   }
 
   // Room in every worker's store for its likely share of this frame's
@@ -430,6 +485,7 @@ struct HybridBroadPhase::Impl {
     // Each path's buffers are emptied when the other path runs, so the
     // release at the end of the frame frees what this frame did not use.
     for (Worker& w : workers) w.stored.clear();
+    count_dense_cells = last_frame_pairs == 0;
     if (!(sink || consumer))
       for (Worker& w : workers) grow_pairs(w.stored, store_share());
     if (sink || consumer) {
