@@ -119,10 +119,10 @@ void fit_stage(Worker& w, std::size_t hits) {
 // of a dense frame is hundreds of megabytes: it asks for huge pages (512
 // times fewer page faults) and grows at least twofold, so it reallocates
 // rarely even when a worker's share of the pairs changes from frame to frame.
-void grow_pairs(std::vector<Pair>& v, std::size_t want) {
+void grow_pairs(std::vector<Pair>& v, std::size_t want, bool twofold = true) {
   if (want <= v.capacity()) return;
   std::vector<Pair> grown;
-  grown.reserve(std::max(want, 2 * v.capacity()));
+  grown.reserve(twofold ? std::max(want, 2 * v.capacity()) : want);
   advise_huge_pages(grown.data(), grown.capacity() * sizeof(Pair));
   grown.insert(grown.end(), v.begin(), v.end());
   v.swap(grown);
@@ -420,6 +420,16 @@ struct HybridBroadPhase::Impl {
     return last_frame_pairs / workers_n + last_frame_pairs / 8;
   }
 
+  // Before the first pass (stores empty): a store below the share less half
+  // its headroom is replaced by one of exactly the share, so a pair count
+  // creeping up frame after frame neither reallocates every frame nor
+  // doubles the stores (a fresh store is page faults on every page).
+  void size_stores() {
+    const std::size_t share = store_share();
+    for (Worker& w : workers)
+      if (w.stored.capacity() + last_frame_pairs / 16 < share) grow_pairs(w.stored, share, false);
+  }
+
   // Offsets of each cell's pairs in the frame's list, and the list sized.
   void size_output(std::uint32_t cells) {
     offsets.resize(std::size_t{cells} + 1);
@@ -486,8 +496,7 @@ struct HybridBroadPhase::Impl {
     // release at the end of the frame frees what this frame did not use.
     for (Worker& w : workers) w.stored.clear();
     count_dense_cells = last_frame_pairs == 0;
-    if (!(sink || consumer))
-      for (Worker& w : workers) grow_pairs(w.stored, store_share());
+    if (!(sink || consumer)) size_stores();
     if (sink || consumer) {
       stream_cells(sink, consumer);
       engine_ms = ms_since(t_engine);
