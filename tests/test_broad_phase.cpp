@@ -65,6 +65,47 @@ std::vector<Pair> minus(const std::vector<Pair>& a, const std::vector<Pair>& b) 
   return out;
 }
 
+// One broad phase on 1 thread and one on 2, driven alike beside the
+// reference; update_and_check() compares both with it every frame.
+struct ThreadTwins {
+  BroadPhase one{{.threads = 1}}, two{{.threads = 2}};
+  Reference ref;
+  std::size_t changed = 0, pairs = 0;  // created + removed, and pairs, over all frames
+
+  std::vector<Handle> add(const std::vector<Aabb>& boxes, bool is_static) {
+    std::vector<Handle> h = one.add(boxes, {.is_static = is_static});
+    EXPECT_EQ(two.add(boxes, {.is_static = is_static}), h);
+    for (std::size_t i = 0; i < boxes.size(); ++i) ref.objects[h[i]] = {boxes[i], is_static, 0};
+    return h;
+  }
+  void move(const std::vector<Handle>& h, const std::vector<Aabb>& boxes) {
+    for (BroadPhase* s : {&one, &two}) s->move(h, boxes);
+    for (std::size_t i = 0; i < h.size(); ++i) ref.objects[h[i]].box = boxes[i];
+  }
+  void remove(const std::vector<Handle>& h) {
+    for (BroadPhase* s : {&one, &two}) s->remove(h);
+    for (Handle x : h) ref.objects.erase(x);
+  }
+  void set_pair_filter(const BroadPhase::PairFilter& f) {
+    for (BroadPhase* s : {&one, &two}) s->set_pair_filter(f);
+    ref.filter = f;
+  }
+  void update_and_check(int frame) {
+    const std::vector<Pair> want = ref.pairs();
+    const std::vector<Pair> created = minus(want, ref.previous);
+    const std::vector<Pair> removed = minus(ref.previous, want);
+    changed += created.size() + removed.size();
+    pairs += want.size();
+    for (BroadPhase* s : {&one, &two}) {
+      const hbp::BroadPhaseUpdate& u = s->update();
+      ASSERT_EQ(u.pairs, want) << "frame " << frame;
+      ASSERT_EQ(u.created, created) << "frame " << frame;
+      ASSERT_EQ(u.removed, removed) << "frame " << frame;
+    }
+    ref.previous = want;
+  }
+};
+
 // Boxes on a half-metre grid in a small world: many overlaps and exactly
 // touching faces.
 Aabb random_box(std::mt19937& rng, float world) {
@@ -263,15 +304,10 @@ TEST(BroadPhase, StaticStaticNeverReportedAndStaticsMove) {
 // into last frame's list) meet every fallback. 1 and 2 threads, every frame
 // against the reference.
 TEST(BroadPhase, CandidatesFlipInsideFatBoxes) {
-  BroadPhase one({.threads = 1}), two({.threads = 2});
-  std::vector<BroadPhase*> systems{&one, &two};
-  Reference ref;
-  auto add = [&](const std::vector<Aabb>& boxes, bool is_static) {
-    std::vector<Handle> h;
-    for (BroadPhase* s : systems) h = s->add(boxes, {.is_static = is_static});
-    for (std::size_t i = 0; i < boxes.size(); ++i) ref.objects[h[i]] = {boxes[i], is_static, 0};
-    return h;
-  };
+  ThreadTwins twins;
+  Reference& ref = twins.ref;
+  const std::vector<BroadPhase*> systems{&twins.one, &twins.two};
+  auto add = [&](const std::vector<Aabb>& boxes, bool is_static) { return twins.add(boxes, is_static); };
   std::vector<Aabb> statics;
   for (int x = 0; x < 6; ++x)
     for (int y = 0; y < 6; ++y)
@@ -289,7 +325,6 @@ TEST(BroadPhase, CandidatesFlipInsideFatBoxes) {
     boxes.push_back({{x, y, z}, {x + side, y + side, z + side}});
   }
   std::vector<Handle> moving = add(boxes, false);
-  std::size_t changed = 0;
   for (int frame = 0; frame < 120; ++frame) {
     // Most objects step a quarter along one axis, a few teleport.
     std::vector<Aabb> moved(moving.size());
@@ -303,16 +338,9 @@ TEST(BroadPhase, CandidatesFlipInsideFatBoxes) {
       moved[i] = b;
       ref.objects[moving[i]].box = b;
     }
-    for (BroadPhase* s : systems) s->move(moving, moved);
-    if (frame == 40) {  // a filter for some frames
-      BroadPhase::PairFilter f = [](Handle a, Handle b) { return (a + b) % 3 != 0; };
-      for (BroadPhase* s : systems) s->set_pair_filter(f);
-      ref.filter = f;
-    }
-    if (frame == 50) {
-      for (BroadPhase* s : systems) s->set_pair_filter({});
-      ref.filter = {};
-    }
+    twins.move(moving, moved);
+    if (frame == 40) twins.set_pair_filter([](Handle a, Handle b) { return (a + b) % 3 != 0; });  // for some frames
+    if (frame == 50) twins.set_pair_filter({});
     if (frame == 60 || frame == 70) {  // layers that do not collide, then again
       const std::vector<Handle> some(moving.begin(), moving.begin() + 10);
       const std::uint8_t layer = frame == 60 ? 3 : 0;
@@ -324,29 +352,16 @@ TEST(BroadPhase, CandidatesFlipInsideFatBoxes) {
     }
     if (frame == 80) {  // remove and re-add moving objects
       const std::vector<Handle> gone(moving.end() - 5, moving.end());
-      for (BroadPhase* s : systems) s->remove(gone);
       std::vector<Aabb> back;
-      for (Handle h : gone) {
-        back.push_back(ref.objects[h].box);
-        ref.objects.erase(h);
-      }
+      for (Handle h : gone) back.push_back(ref.objects[h].box);
+      twins.remove(gone);
       moving.resize(moving.size() - 5);
       const auto again = add(back, false);
       moving.insert(moving.end(), again.begin(), again.end());
     }
-    const std::vector<Pair> want = ref.pairs();
-    const std::vector<Pair> created = minus(want, ref.previous);
-    const std::vector<Pair> removed = minus(ref.previous, want);
-    changed += created.size() + removed.size();
-    for (BroadPhase* s : systems) {
-      const hbp::BroadPhaseUpdate& u = s->update();
-      ASSERT_EQ(u.pairs, want) << "frame " << frame;
-      ASSERT_EQ(u.created, created) << "frame " << frame;
-      ASSERT_EQ(u.removed, removed) << "frame " << frame;
-    }
-    ref.previous = want;
+    ASSERT_NO_FATAL_FAILURE(twins.update_and_check(frame));
   }
-  EXPECT_GT(changed, 400u);  // the pairs really did start and stop
+  EXPECT_GT(twins.changed, 400u);  // the pairs really did start and stop
 }
 
 // Many moving objects among few statics (the mostly-static world's
@@ -359,23 +374,11 @@ TEST(BroadPhase, CandidatesFlipInsideFatBoxes) {
 // every object teleports for two frames (a rebuild, then the exact path).
 // 1 and 2 threads, every frame against the reference.
 TEST(BroadPhase, FewMovingObjectsEveryFallback) {
-  BroadPhase one({.threads = 1}), two({.threads = 2});
-  std::vector<BroadPhase*> systems{&one, &two};
-  Reference ref;
-  auto add = [&](const std::vector<Aabb>& boxes, bool is_static) {
-    std::vector<Handle> h;
-    for (BroadPhase* s : systems) h = s->add(boxes, {.is_static = is_static});
-    for (std::size_t i = 0; i < boxes.size(); ++i) ref.objects[h[i]] = {boxes[i], is_static, 0};
-    return h;
-  };
-  auto move = [&](const std::vector<Handle>& h, const std::vector<Aabb>& boxes) {
-    for (BroadPhase* s : systems) s->move(h, boxes);
-    for (std::size_t i = 0; i < h.size(); ++i) ref.objects[h[i]].box = boxes[i];
-  };
-  auto remove = [&](const std::vector<Handle>& h) {
-    for (BroadPhase* s : systems) s->remove(h);
-    for (Handle x : h) ref.objects.erase(x);
-  };
+  ThreadTwins twins;
+  Reference& ref = twins.ref;
+  auto add = [&](const std::vector<Aabb>& boxes, bool is_static) { return twins.add(boxes, is_static); };
+  auto move = [&](const std::vector<Handle>& h, const std::vector<Aabb>& boxes) { twins.move(h, boxes); };
+  auto remove = [&](const std::vector<Handle>& h) { twins.remove(h); };
   std::mt19937 rng(11);
   const float world = 60;
   auto place = [&](float side) {
@@ -392,7 +395,6 @@ TEST(BroadPhase, FewMovingObjectsEveryFallback) {
   std::vector<Aabb> boxes;
   for (int i = 0; i < 1100; ++i) boxes.push_back(place(i % 3 == 0 ? 0.5f : 2.0f));
   std::vector<Handle> moving = add(boxes, false);
-  std::size_t changed = 0, pairs = 0;
   for (int frame = 0; frame < 70; ++frame) {
     std::vector<Aabb> moved(moving.size());
     for (std::size_t i = 0; i < moving.size(); ++i) {
@@ -443,21 +445,10 @@ TEST(BroadPhase, FewMovingObjectsEveryFallback) {
       const auto again = add(back, false);
       moving.insert(moving.end(), again.begin(), again.end());
     }
-    const std::vector<Pair> want = ref.pairs();
-    const std::vector<Pair> created = minus(want, ref.previous);
-    const std::vector<Pair> removed = minus(ref.previous, want);
-    changed += created.size() + removed.size();
-    pairs += want.size();
-    for (BroadPhase* s : systems) {
-      const hbp::BroadPhaseUpdate& u = s->update();
-      ASSERT_EQ(u.pairs, want) << "frame " << frame;
-      ASSERT_EQ(u.created, created) << "frame " << frame;
-      ASSERT_EQ(u.removed, removed) << "frame " << frame;
-    }
-    ref.previous = want;
+    ASSERT_NO_FATAL_FAILURE(twins.update_and_check(frame));
   }
-  EXPECT_GT(pairs, 70u * 50);
-  EXPECT_GT(changed, 1000u);
+  EXPECT_GT(twins.pairs, 70u * 50);
+  EXPECT_GT(twins.changed, 1000u);
 }
 
 // max_pairs counts exact moving/moving pairs, not fat candidates.
