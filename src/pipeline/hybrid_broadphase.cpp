@@ -43,6 +43,12 @@ constexpr std::size_t kStagePairs = 1 << 14;
 // scene against 12 ms for the copy: docs/hybrid-system.md, "Pair-dense
 // frames".)
 constexpr std::size_t kStoredPairsPerBox = 4;
+// Pairs a worker's store may write past what it has written before, per
+// frame (64 MiB): a fresh store's pages cost a kernel zeroing on first
+// touch (well under 1 GB/s on the VM measured), so a store of hundreds of
+// megabytes warms up over several frames; cells past the budget are counted
+// and written in the second pass, as on the first frame.
+constexpr std::size_t kTouchPairsPerFrame = std::size_t{8} << 20;
 // Pair buffers kept from frame to frame are released when their capacity
 // exceeds twice what the frame used plus this many pairs, so memory follows
 // the current frame, not every frame's peak (issue 17: a cluster visiting
@@ -92,6 +98,8 @@ struct Worker {
   std::vector<Pair> local;                 // other engines: pairs in local indices
   BoxArray tile;                           // other engines: two blocks of an over-full cell
   std::vector<Pair> stored;                // this worker's cells' pairs, before the copy to the list
+  std::size_t touched = 0;                 // entries of `stored`'s allocation written in earlier frames
+  bool store_full = false;                 // this frame's touch budget is spent: dense cells are counted
 };
 
 // What one cell produced this frame.
@@ -355,18 +363,20 @@ struct HybridBroadPhase::Impl {
     const CellRegion& region = partition->region(c);
     r.stored = &w.stored;
     r.offset = w.stored.size();
-    if (!w.direct || !count_dense_cells) {
-      emit_cell(w, region, w.stored, r);
+    if (!w.direct || (!count_dense_cells && options.max_pairs)) {
+      emit_cell(w, region, w.stored, r);  // (max_pairs: stores grow, see below)
       return;
     }
+    if (!count_dense_cells && !w.store_full && store_within_budget(w, region, r)) return;
     const std::uint32_t n = w.cell.size();
     const std::size_t room = kStoredPairsPerBox * n + n + SoftwareEngine::kOutputSlack;
     fit_stage(w, std::max(room, stage_pairs(n)));
     std::size_t count = 0;
     std::uint32_t row =
         w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), region, 0, w.first.data(), w.second.data(), room, count);
-    if (row < n && !options.max_pairs) {
-      // Dense: count now, write in the second pass. (With max_pairs set, a
+    const bool over_budget = w.store_full && w.stored.size() + count > w.stored.capacity();
+    if ((row < n || over_budget) && !options.max_pairs) {
+      // Dense (or past a spent budget): count now, write in the second pass. (With max_pairs set, a
       // pair explosion must stop as soon as the limit is passed, not after
       // counting every pair: such cells keep storing, charged per drain.)
       count += w.direct->count_pairs(w.cell.boxes(), w.cell.ids(), region, row);
@@ -384,6 +394,30 @@ struct HybridBroadPhase::Impl {
                                 w.first.size(), count);
     }
     r.candidates = r.pairs;
+  }
+
+  // Stores the cell's pairs while the worker's touch budget lasts; past it
+  // the cell's pairs are dropped from the store, the budget marked spent and
+  // false returned (the caller counts the cell instead).
+  bool store_within_budget(Worker& w, const CellRegion& region, CellOutcome& r) {
+    const std::size_t budget = std::min(w.stored.capacity(), w.touched + kTouchPairsPerFrame);
+    const std::uint32_t n = w.cell.size();
+    fit_stage(w, stage_pairs(n));
+    for (std::uint32_t row = 0; row < n;) {
+      std::size_t count = 0;
+      row = w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), region, row, w.first.data(), w.second.data(),
+                                w.first.size(), count);
+      if (w.stored.size() + count > budget) {
+        w.stored.resize(r.offset);
+        w.store_full = true;
+        r.pairs = 0;
+        return false;
+      }
+      drain_stage(w, count, w.stored);
+      r.pairs += count;
+    }
+    r.candidates = r.pairs;
+    return true;
   }
 
   // Second pass: stored pairs are copied to their place in the frame's list
@@ -427,7 +461,10 @@ struct HybridBroadPhase::Impl {
   void size_stores() {
     const std::size_t share = store_share();
     for (Worker& w : workers)
-      if (w.stored.capacity() + last_frame_pairs / 16 < share) grow_pairs(w.stored, share, false);
+      if (w.stored.capacity() + last_frame_pairs / 16 < share) {
+        grow_pairs(w.stored, share, false);
+        w.touched = 0;
+      }
   }
 
   // Offsets of each cell's pairs in the frame's list, and the list sized.
@@ -494,7 +531,10 @@ struct HybridBroadPhase::Impl {
     const auto t_engine = SteadyClock::now();
     // Each path's buffers are emptied when the other path runs, so the
     // release at the end of the frame frees what this frame did not use.
-    for (Worker& w : workers) w.stored.clear();
+    for (Worker& w : workers) {
+      w.stored.clear();
+      w.store_full = false;
+    }
     count_dense_cells = last_frame_pairs == 0;
     if (!(sink || consumer)) size_stores();
     if (sink || consumer) {
@@ -522,7 +562,9 @@ struct HybridBroadPhase::Impl {
   // Per-worker buffers follow this frame's needs.
   void release_worker_buffers() {
     for (Worker& w : workers) {
+      w.touched = std::max(w.touched, w.stored.size());
       release_if_oversized(w.stored, std::max(w.stored.size(), store_share()), kKeepPairs);
+      if (w.stored.capacity() == 0) w.touched = 0;
       release_if_oversized(w.local, w.local.size(), kKeepPairs);
     }
   }
