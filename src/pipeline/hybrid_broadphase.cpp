@@ -44,11 +44,11 @@ constexpr std::size_t kStagePairs = 1 << 14;
 // frames".)
 constexpr std::size_t kStoredPairsPerBox = 4;
 // Pairs a worker's store may write past what it has written before, per
-// frame (64 MiB): a fresh store's pages cost a kernel zeroing on first
+// frame (128 MiB): a fresh store's pages cost a kernel zeroing on first
 // touch (well under 1 GB/s on the VM measured), so a store of hundreds of
 // megabytes warms up over several frames; cells past the budget are counted
 // and written in the second pass, as on the first frame.
-constexpr std::size_t kTouchPairsPerFrame = std::size_t{8} << 20;
+constexpr std::size_t kTouchPairsPerFrame = std::size_t{16} << 20;
 // Pair buffers kept from frame to frame are released when their capacity
 // exceeds twice what the frame used plus this many pairs, so memory follows
 // the current frame, not every frame's peak (issue 17: a cluster visiting
