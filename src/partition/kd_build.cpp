@@ -26,6 +26,10 @@ constexpr std::uint32_t kSplitSamples = 1u << 13;
 // many entries (about 1 MB: it fits the cache), then builds each such subtree
 // as one serial task.
 constexpr std::uint32_t kTaskEntries = 1u << 15;
+// A task's output slot holds its input plus 1/kTaskSlotHeadroom of it plus
+// kTaskSlack entries (the copies its own planes add; paper scene: 1.15x).
+constexpr std::uint32_t kTaskSlotHeadroom = 4;
+constexpr std::uint32_t kTaskSlack = 256;
 // The engine-cost rule splits a node under the limit only when the children
 // cost below this fraction of the parent.
 constexpr double kCostSplitGain = 0.95;
@@ -136,19 +140,36 @@ void partition_entries(const CellEntry* e, std::uint32_t n, const Split& s, std:
   }
 }
 
-void SubtreeBuilder::build(const CellEntry* items, std::uint32_t n, std::uint32_t depth, const SplitRule& rule,
-                           bool reset_tags, BuildScratch& scratch) {
+void SubtreeBuilder::start(const CellEntry* items, std::uint32_t n, const SplitRule& rule, bool reset_tags,
+                           BuildScratch& scratch) {
   rule_ = &rule;
   scratch_ = &scratch;
   nodes.assign(1, KdTreeNode{});
-  entries.resize(n + n / 4);  // about the final size (grows with duplicates); shrinks a past peak
-  entries.clear();
   RawBuffer<CellEntry>& arena = scratch.arena;
   arena.resize(4 * std::size_t{n});  // the deepest stack of segments, about; shrinks a past peak
   arena.truncate(n);
   if (n) std::memcpy(arena.data(), items, std::size_t{n} * sizeof(CellEntry));
   if (reset_tags)
     for (std::uint32_t i = 0; i < n; ++i) arena[i].build_tag = kNoFork;
+}
+
+void SubtreeBuilder::build(const CellEntry* items, std::uint32_t n, std::uint32_t depth, const SplitRule& rule,
+                           bool reset_tags, BuildScratch& scratch) {
+  out_ = nullptr;
+  out_capacity_ = out_size_ = 0;
+  entries.resize(n + n / 4);  // about the final size (grows with duplicates); shrinks a past peak
+  entries.clear();
+  start(items, n, rule, reset_tags, scratch);
+  node(0, 0, n, depth);
+}
+
+void SubtreeBuilder::build_into(const CellEntry* items, std::uint32_t n, std::uint32_t depth, const SplitRule& rule,
+                                BuildScratch& scratch, CellEntry* out, std::size_t out_capacity) {
+  out_ = out;
+  out_capacity_ = out_capacity;
+  out_size_ = 0;
+  entries.resize(0);  // spills are rare: no room kept for them
+  start(items, n, rule, false, scratch);
   node(0, 0, n, depth);
 }
 
@@ -158,9 +179,15 @@ void SubtreeBuilder::node(std::uint32_t at, std::size_t begin, std::uint32_t n, 
   if (!choose_split(arena_.data() + begin, n, depth, *rule_, scratch_->centres, s)) {
     KdTreeNode& leaf = nodes[at];
     leaf.axis = -1;
-    leaf.first = static_cast<std::uint32_t>(entries.size());
     leaf.size = n;
-    entries.append(arena_.data() + begin, n);
+    if (out_ && out_size_ + n <= out_capacity_) {
+      leaf.first = static_cast<std::uint32_t>(out_size_);
+      if (n) std::memcpy(out_ + out_size_, arena_.data() + begin, std::size_t{n} * sizeof(CellEntry));
+      out_size_ += n;
+    } else {
+      leaf.first = static_cast<std::uint32_t>(entries.size()) | (out_ ? kSpilled : 0u);
+      entries.append(arena_.data() + begin, n);
+    }
     return;
   }
   const auto child = static_cast<std::uint32_t>(nodes.size());
@@ -195,6 +222,14 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
   if (radix_sort_keyed_indices(keys.data(), keys_scratch.data(), n) != keys.data()) keys.swap(keys_scratch);
   RawBuffer<CellEntry>& a = *buffers.a;
   RawBuffer<CellEntry>& b = *buffers.b;
+  // Room for the top levels' duplicates and the tasks' output slots, so the
+  // ping-pong buffers neither move nor copy while they grow (untouched room
+  // costs nothing); their old contents are not needed.
+  const std::size_t room = std::size_t{n} + n / 2 + kTaskSlack;
+  a.clear();
+  b.clear();
+  a.reserve(room);
+  b.reserve(room);
   a.resize(n);
   tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, n, 1u << 14), [&](const auto& r) {
     for (std::uint32_t k = r.begin(); k != r.end(); ++k) {
@@ -248,6 +283,7 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
     }
     if (offset > std::numeric_limits<std::uint32_t>::max() / 2)
       throw CapacityExceeded("k-d partition: more than 2^31 cell entries (" + std::to_string(offset) + ")");
+    b.clear();  // nothing in it is kept: never copied if it must grow
     b.resize(offset);
     // Where each frontier item's output starts in b (next is in frontier order).
     std::vector<std::size_t> out_at(frontier.size());
@@ -267,13 +303,24 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
     a.swap(b);
     frontier.swap(next);
   }
-  // 3. One serial subtree per task, in parallel; then stitched in task order.
+  // 3. One serial subtree per task, in parallel, each writing its leaves
+  // into its own slot of buffer b (touched by the top levels already: a
+  // buffer of its own per task would be fresh pages, the first frame's
+  // largest cost); a task that outgrows its slot spills the rest to its own
+  // buffer. Then stitched in task order into `entries`.
   std::vector<SubtreeBuilder>& tasks = buffers.tasks;
   tasks.resize(frontier.size());
+  std::vector<std::size_t> slot(frontier.size() + 1, 0);
+  for (std::size_t t = 0; t < frontier.size(); ++t)
+    slot[t + 1] = slot[t] + frontier[t].n + frontier[t].n / kTaskSlotHeadroom + kTaskSlack;
+  b.clear();
+  b.resize(slot.back());
   tbb::parallel_for(std::size_t{0}, frontier.size(), [&](std::size_t t) {
     const Item& it = frontier[t];
-    tasks[t].build(a.data() + it.begin, it.n, it.depth, rule, false, buffers.scratch.local());
+    tasks[t].build_into(a.data() + it.begin, it.n, it.depth, rule, buffers.scratch.local(), b.data() + slot[t],
+                        slot[t + 1] - slot[t]);
   });
+  // Leaves are laid out task after task, each task's in local node order.
   std::vector<std::uint32_t> node_base(tasks.size());
   std::vector<std::size_t> entry_base(tasks.size() + 1, 0);
   for (std::size_t t = 0; t < tasks.size(); ++t) {
@@ -281,25 +328,34 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
     const std::uint32_t root = frontier[t].node;
     const std::vector<KdTreeNode>& local = tasks[t].nodes;
     if (nodes.size() + local.size() > kMaxNodes) throw CapacityExceeded("k-d partition: too many tree nodes");
+    std::size_t at = entry_base[t];
     auto remap = [&](KdTreeNode nd) {
-      if (nd.axis >= 0) nd.child = node_base[t] + nd.child - 1;
-      else nd.first += static_cast<std::uint32_t>(entry_base[t]);
+      if (nd.axis >= 0) {
+        nd.child = node_base[t] + nd.child - 1;
+      } else {
+        nd.first = static_cast<std::uint32_t>(at);
+        at += nd.size;
+      }
       return nd;
     };
     nodes[root] = remap(local[0]);
     for (std::size_t k = 1; k < local.size(); ++k) nodes.push_back(remap(local[k]));
-    entry_base[t + 1] = entry_base[t] + tasks[t].entries.size();
+    entry_base[t + 1] = entry_base[t] + tasks[t].output_size();
   }
   entries.resize(entry_base.back());
   tbb::parallel_for(std::size_t{0}, tasks.size(), [&](std::size_t t) {
     const std::uint32_t root = frontier[t].node;
     const std::vector<KdTreeNode>& local = tasks[t].nodes;
-    const CellEntry* from = tasks[t].entries.data();
+    const CellEntry* in_slot = b.data() + slot[t];
+    const CellEntry* spilled = tasks[t].entries.data();
     CellEntry* to = entries.data() + entry_base[t];
     for (std::size_t k = 0; k < local.size(); ++k) {
       if (local[k].axis >= 0) continue;
       const std::uint32_t leaf = k == 0 ? root : node_base[t] + static_cast<std::uint32_t>(k) - 1;
-      for (std::uint32_t i = local[k].first, end = local[k].first + local[k].size; i < end; ++i) {
+      const std::uint32_t first = local[k].first;
+      const CellEntry* from = first & SubtreeBuilder::kSpilled ? spilled + (first & ~SubtreeBuilder::kSpilled)
+                                                               : in_slot + first;
+      for (std::uint32_t i = 0; i < local[k].size; ++i) {
         CellEntry e = from[i];
         if (!(e.build_tag & kNotOwner)) {  // the object's one owner copy sets its home
           const std::uint32_t fork = (e.build_tag & kForkMask) == kNoFork ? kNoFork : fork_node(e.build_tag, root, node_base[t]);
@@ -307,7 +363,7 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
           if (fork != kNoFork) prev[e.id] = {{e.min[0], e.min[1], e.min[2]}, {e.max[0], e.max[1], e.max[2]}};
         }
         e.build_tag = 0;
-        to[i] = e;
+        *to++ = e;
       }
     }
   });
