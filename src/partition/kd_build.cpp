@@ -18,10 +18,14 @@ namespace hbp::kd {
 namespace {
 
 // Nodes with more entries than this choose their split from a fixed strided
-// sample of kSplitSamples entries (the median of the sample, a fraction of a
-// percent from the true median); smaller ones use every entry.
-constexpr std::uint32_t kExactSplitMax = 1u << 16;
-constexpr std::uint32_t kSplitSamples = 1u << 13;
+// sample of kSplitSamples entries (the median of the sample, about a percent
+// from the true median: cells of ~600 differ by a few entries); smaller ones
+// use every entry. Was 2^16 / 2^13: the exact medians of the subtree tasks
+// were a fifth of the build's instructions (callgrind, paper 100,000:
+// build_tree 102.3 M -> 83.2 M Ir; cells 2048 either way, duplication 1.2848
+// -> 1.2853 at 1,024,000).
+constexpr std::uint32_t kExactSplitMax = 1u << 12;
+constexpr std::uint32_t kSplitSamples = 1u << 12;
 // The parallel build splits level by level until every node has at most this
 // many entries (about 1 MB: it fits the cache), then builds each such subtree
 // as one serial task.
@@ -211,21 +215,25 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
   const auto n = static_cast<std::uint32_t>(boxes.size());
   const float* src[6] = {boxes.min(0), boxes.min(1), boxes.min(2), boxes.max(0), boxes.max(1), boxes.max(2)};
 
-  // 1. The objects as entries, sorted by min x (ties by id).
-  RawBuffer<std::uint64_t>& keys = buffers.keys;
-  RawBuffer<std::uint64_t>& keys_scratch = buffers.keys_scratch;
-  keys.resize(n);
+  // 1. The objects as entries, sorted by min x (ties by id). The sort keys
+  // and their scratch live in the output buffer, which the stitch overwrites
+  // at the end: pages touched here are not fresh there (16 bytes a key pair
+  // within a 32-byte entry), and no key buffer is kept between builds.
+  static_assert(sizeof(CellEntry) >= 2 * sizeof(std::uint64_t));  // (RawBuffer memory is 64-byte aligned)
+  const std::size_t room = std::size_t{n} + n / 2 + kTaskSlack;
+  entries.clear();
+  entries.reserve(room);
+  entries.resize(n);
+  auto* keys = reinterpret_cast<std::uint64_t*>(entries.data());
   tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, n, 1u << 16), [&](const auto& r) {
     for (std::uint32_t i = r.begin(); i != r.end(); ++i) keys[i] = (std::uint64_t{float_order_key(src[0][i])} << 32) | i;
   });
-  keys_scratch.resize(n);
-  if (radix_sort_keyed_indices(keys.data(), keys_scratch.data(), n) != keys.data()) keys.swap(keys_scratch);
+  keys = radix_sort_keyed_indices(keys, keys + n, n);
   RawBuffer<CellEntry>& a = *buffers.a;
   RawBuffer<CellEntry>& b = *buffers.b;
   // Room for the top levels' duplicates and the tasks' output slots, so the
   // ping-pong buffers neither move nor copy while they grow (untouched room
   // costs nothing); their old contents are not needed.
-  const std::size_t room = std::size_t{n} + n / 2 + kTaskSlack;
   a.clear();
   b.clear();
   a.reserve(room);
@@ -342,6 +350,7 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
     for (std::size_t k = 1; k < local.size(); ++k) nodes.push_back(remap(local[k]));
     entry_base[t + 1] = entry_base[t] + tasks[t].output_size();
   }
+  entries.clear();  // the keys: not kept if it must grow
   entries.resize(entry_base.back());
   tbb::parallel_for(std::size_t{0}, tasks.size(), [&](std::size_t t) {
     const std::uint32_t root = frontier[t].node;

@@ -115,7 +115,6 @@ class SubtreeBuilder {
 
 // Buffers of the from-scratch build, kept across frames for the same reason.
 struct BuildBuffers {
-  RawBuffer<std::uint64_t> keys, keys_scratch;
   // The top levels' ping-pong: two buffers the caller uses for other things
   // between builds (fresh pages are the build's largest cost).
   RawBuffer<CellEntry>* a = nullptr;
