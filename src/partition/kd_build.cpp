@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <stdexcept>
 #include <string>
 
 #include "hbp/error.hpp"
@@ -34,6 +35,10 @@ constexpr std::uint32_t kTaskEntries = 1u << 15;
 // kTaskSlack entries (the copies its own planes add; paper scene: 1.15x).
 constexpr std::uint32_t kTaskSlotHeadroom = 4;
 constexpr std::uint32_t kTaskSlack = 256;
+// The top levels of fewer than kChunkedLevelNodes nodes partition them in
+// chunks of kPartitionChunk entries.
+constexpr std::uint32_t kPartitionChunk = 1u << 16;
+constexpr std::size_t kChunkedLevelNodes = 4;
 // The engine-cost rule splits a node under the limit only when the children
 // cost below this fraction of the parent.
 constexpr double kCostSplitGain = 0.95;
@@ -119,11 +124,15 @@ bool choose_split(const CellEntry* e, std::uint32_t n, std::uint32_t depth, cons
   return false;  // no axis shrinks both halves: an over-full leaf, processed in tiles
 }
 
-void partition_entries(const CellEntry* e, std::uint32_t n, const Split& s, std::uint32_t fork_tag, CellEntry* left,
-                       CellEntry* right) {
-  // Branch-free: every entry is written to both cursors and each advances
-  // only when the entry belongs there (hence the one scratch slot after each
-  // output), except for the rarer copies that go both ways.
+namespace {
+
+// partition_entries over e[0..n), branch-free for the entries before `safe`
+// and branching from there on. A branch-free step also writes the slot after
+// the output it does not advance; before `safe` (at most one past the last
+// entry going left and the last going right) a later entry overwrites that
+// slot, so nothing is written past either output.
+void partition_range(const CellEntry* e, std::uint32_t n, const Split& s, std::uint32_t fork_tag, CellEntry* left,
+                     CellEntry* right, std::uint32_t safe) {
   const int a = s.axis;
   const float split = s.split;
   for (std::uint32_t i = 0; i < n; ++i) {
@@ -137,11 +146,27 @@ void partition_entries(const CellEntry* e, std::uint32_t n, const Split& s, std:
       *right++ = c;
       continue;
     }
-    *left = c;
-    left += l;
-    *right = c;
-    right += r;
+    if (i < safe) {
+      *left = c;
+      left += l;
+      *right = c;
+      right += r;
+    } else if (l) {
+      *left++ = c;
+    } else {
+      *right++ = c;  // min <= max: an entry not going left goes right
+    }
   }
+}
+
+}  // namespace
+
+void partition_entries(const CellEntry* e, std::uint32_t n, const Split& s, std::uint32_t fork_tag, CellEntry* left,
+                       CellEntry* right) {
+  // Branch-free: every entry is written to both cursors and each advances
+  // only when the entry belongs there (hence the one scratch slot after each
+  // output), except for the rarer copies that go both ways.
+  partition_range(e, n, s, fork_tag, left, right, n);
 }
 
 void SubtreeBuilder::start(const CellEntry* items, std::uint32_t n, const SplitRule& rule, bool reset_tags,
@@ -258,6 +283,12 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
   std::vector<Item> frontier{{0, 0, 0, n, n <= kTaskEntries}}, next;
   std::vector<Split> splits;
   std::vector<unsigned char> split_ok;
+  struct Chunk {
+    std::uint32_t item, begin, n;
+    std::uint32_t left = 0, right = 0, safe = 0;
+    std::size_t left_at = 0, right_at = 0;
+  };
+  std::vector<Chunk> chunks;
   while (true) {
     bool large = false;
     for (const Item& it : frontier) large |= !it.task;
@@ -299,14 +330,69 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
       out_at[i] = next[j].begin;
       j += split_ok[i] ? 2 : 1;
     }
-    tbb::parallel_for(std::size_t{0}, frontier.size(), [&](std::size_t i) {
-      const Item& it = frontier[i];
-      CellEntry* dst = b.data() + out_at[i];
-      if (!split_ok[i]) {
-        if (it.n) std::memcpy(dst, a.data() + it.begin, std::size_t{it.n} * sizeof(CellEntry));
+    // The root and its children in chunks (they would otherwise run on one
+    // thread or two): each chunk counts its entries going each way, then
+    // partitions them to their place; the same output as one stable pass per
+    // node. A chunk's free writes past its outputs would land in the next
+    // chunk's, so it branches after its last entry going one of the ways.
+    // Levels with enough nodes for the threads keep one chunk per node: the
+    // count is the split's, and the node's scratch slots take the free writes.
+    chunks.clear();
+    const std::uint32_t chunk = frontier.size() < kChunkedLevelNodes ? kPartitionChunk : ~0u;
+    for (std::size_t i = 0; i < frontier.size(); ++i)
+      for (std::uint32_t c = 0; c < frontier[i].n || c == 0; c += std::min(chunk, frontier[i].n - c)) {
+        chunks.push_back({static_cast<std::uint32_t>(i), c, std::min(chunk, frontier[i].n - c)});
+        if (frontier[i].n == 0) break;
+      }
+    tbb::parallel_for(std::size_t{0}, chunks.size(), [&](std::size_t k) {
+      Chunk& ch = chunks[k];
+      if (!split_ok[ch.item]) return;
+      const Split& s = splits[ch.item];
+      if (ch.n == frontier[ch.item].n) {  // the whole node
+        ch.left = s.left;
+        ch.right = s.right;
+        ch.safe = ch.n;
         return;
       }
-      partition_entries(a.data() + it.begin, it.n, splits[i], it.node, dst, dst + splits[i].left + 1);
+      const CellEntry* e = a.data() + frontier[ch.item].begin + ch.begin;
+      std::uint32_t left = 0, right = 0, last_left = 0, last_right = 0;  // one past
+      for (std::uint32_t j = 0; j < ch.n; ++j) {
+        const bool l = e[j].min[s.axis] < s.split;
+        const bool r = e[j].max[s.axis] >= s.split;
+        left += l;
+        right += r;
+        last_left = l ? j + 1 : last_left;
+        last_right = r ? j + 1 : last_right;
+      }
+      ch.left = left;
+      ch.right = right;
+      ch.safe = std::min(last_left, last_right);
+    });
+    for (std::size_t k = 0, left = 0, right = 0; k < chunks.size(); ++k) {
+      Chunk& ch = chunks[k];
+      if (ch.begin == 0) left = right = 0;
+      const std::size_t at = out_at[ch.item];
+      if (!split_ok[ch.item]) {
+        ch.left_at = at + ch.begin;
+        continue;
+      }
+      ch.left_at = at + left;
+      ch.right_at = at + splits[ch.item].left + 1 + right;
+      left += ch.left;
+      right += ch.right;
+      if ((k + 1 == chunks.size() || chunks[k + 1].begin == 0) &&
+          (left != splits[ch.item].left || right != splits[ch.item].right))
+        throw std::logic_error("k-d build: chunk counts differ from the split's");
+    }
+    tbb::parallel_for(std::size_t{0}, chunks.size(), [&](std::size_t k) {
+      const Chunk& ch = chunks[k];
+      const Item& it = frontier[ch.item];
+      const CellEntry* e = a.data() + it.begin + ch.begin;
+      if (!split_ok[ch.item]) {
+        if (ch.n) std::memcpy(b.data() + ch.left_at, e, std::size_t{ch.n} * sizeof(CellEntry));
+        return;
+      }
+      partition_range(e, ch.n, splits[ch.item], it.node, b.data() + ch.left_at, b.data() + ch.right_at, ch.safe);
     });
     a.swap(b);
     frontier.swap(next);
