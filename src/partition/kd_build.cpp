@@ -2,6 +2,7 @@
 
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <bit>
@@ -10,6 +11,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "hbp/error.hpp"
 #include "support/radix_sort.hpp"
@@ -35,6 +37,8 @@ constexpr std::uint32_t kTaskEntries = 1u << 15;
 // kTaskSlack entries (the copies its own planes add; paper scene: 1.15x).
 constexpr std::uint32_t kTaskSlotHeadroom = 4;
 constexpr std::uint32_t kTaskSlack = 256;
+// Nodes of at least this many entries count their split's sides in parallel.
+constexpr std::uint32_t kParallelCountMin = 1u << 18;
 // The top levels of fewer than kChunkedLevelNodes nodes partition them in
 // chunks of kPartitionChunk entries.
 constexpr std::uint32_t kPartitionChunk = 1u << 16;
@@ -91,9 +95,27 @@ bool choose_split(const CellEntry* e, std::uint32_t n, std::uint32_t depth, cons
     float split = *mid;
     if (!(split > lo[a])) split = std::nextafter(lo[a], hi[a]);  // keep the left side non-empty
     std::uint32_t left = 0, right = 0;
-    for (std::uint32_t i = 0; i < n; ++i) {
-      left += e[i].min[a] < split;
-      right += e[i].max[a] >= split;
+    if (n >= kParallelCountMin) {
+      // The root and the first levels: counted across threads (integer sums,
+      // the same for any thread count).
+      using Counts = std::pair<std::uint32_t, std::uint32_t>;
+      const Counts c = tbb::parallel_reduce(
+          tbb::blocked_range<std::uint32_t>(0, n, kParallelCountMin / 4), Counts{0, 0},
+          [&](const tbb::blocked_range<std::uint32_t>& r, Counts acc) {
+            for (std::uint32_t i = r.begin(); i != r.end(); ++i) {
+              acc.first += e[i].min[a] < split;
+              acc.second += e[i].max[a] >= split;
+            }
+            return acc;
+          },
+          [](Counts x, Counts y) { return Counts{x.first + y.first, x.second + y.second}; });
+      left = c.first;
+      right = c.second;
+    } else {
+      for (std::uint32_t i = 0; i < n; ++i) {
+        left += e[i].min[a] < split;
+        right += e[i].max[a] >= split;
+      }
     }
     bool accept = left < n && right < n;
     if (accept && !over_limit) {
