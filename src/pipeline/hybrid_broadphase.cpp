@@ -45,7 +45,7 @@ constexpr std::size_t kKeepCellPairs = 1 << 10;  // per cell: there are thousand
 
 void advise_huge_pages(void* data, std::size_t bytes) {
   constexpr std::uintptr_t kHuge = std::uintptr_t{2} << 20;
-  if (bytes < 4 * kHuge) return;
+  if (bytes < 2 * kHuge) return;
   const auto begin = (reinterpret_cast<std::uintptr_t>(data) + kHuge - 1) & ~(kHuge - 1);
   const auto end = (reinterpret_cast<std::uintptr_t>(data) + bytes) & ~(kHuge - 1);
   // Advice only: where the kernel declines, pages stay 4 KiB.
@@ -109,9 +109,22 @@ void fit_stage(Worker& w, std::size_t hits) {
   }
 }
 
+// Room for `needed` pairs in a growing list: doubles, and a large list asks
+// for transparent huge pages (on the first frame every page of the workers'
+// stores is fresh, and a 4 KiB page costs ~14 us to fault on our machines).
+void grow_pairs(std::vector<Pair>& v, std::size_t needed) {
+  if (needed <= v.capacity()) return;
+  std::vector<Pair> next;
+  next.reserve(std::max(needed, 2 * v.capacity()));
+  advise_huge_pages(next.data(), next.capacity() * sizeof(Pair));  // before the copy touches it
+  next.insert(next.end(), v.begin(), v.end());
+  v.swap(next);
+}
+
 // Appends the stage's first `count` hits to out as canonical pairs.
 void drain_stage(const Worker& w, std::size_t count, std::vector<Pair>& out) {
   const std::size_t base = out.size();
+  grow_pairs(out, base + count);
   out.resize(base + count);
   SoftwareEngine::write_pairs(w.first.data(), w.second.data(), count, out.data() + base);
 }
