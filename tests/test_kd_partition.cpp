@@ -4,6 +4,7 @@
 // scenes that stress the incremental maintenance (crossing planes every
 // frame, teleporting, piling into one cell, objects appended and removed).
 #include <gtest/gtest.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <array>
@@ -311,6 +312,30 @@ TEST(KdPartition, OneAndTwoThreadsGiveTheSameCellsAndPairOrder) {
     }
   }
   for (int f = 0; f < 3; ++f) EXPECT_TRUE(runs[0][f] == runs[1][f]) << "paper frame " << f;
+}
+
+// A from-scratch build large enough for every path of the parallel build:
+// the root counted by a parallel reduction (2^18 entries and more), the root
+// and its children partitioned in chunks, subtree tasks writing into slots.
+// The cells are exact, and the same on one thread or two.
+TEST(KdPartition, LargeBuildGivesExactCellsOnOneOrTwoThreads) {
+  hbp::ScenarioParams sp;
+  sp.n = 270000;
+  hbp::Scenario scene(sp);
+  BoxArray boxes;
+  scene.compute_boxes(boxes);
+  KdPartition one(1024), two(1024);
+  tbb::task_arena(1).execute([&] { one.update(boxes); });
+  tbb::task_arena(2).execute([&] { two.update(boxes); });
+  ASSERT_TRUE(one.stats().rebuilt);
+  ASSERT_GT(one.cell_count(), 64u);
+  ASSERT_EQ(one.cell_count(), two.cell_count());
+  for (std::uint32_t c = 0; c < one.cell_count(); ++c) {
+    const auto a = one.cell(c), b = two.cell(c);
+    ASSERT_EQ(a.size(), b.size()) << "cell " << c;
+    for (std::size_t k = 0; k < a.size(); ++k) ASSERT_EQ(a[k].id, b[k].id) << "cell " << c << " at " << k;
+  }
+  expect_valid_cells(two, boxes, "270,000 objects");
 }
 
 }  // namespace

@@ -2,13 +2,16 @@
 
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <bit>
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "hbp/error.hpp"
 #include "support/radix_sort.hpp"
@@ -18,14 +21,28 @@ namespace hbp::kd {
 namespace {
 
 // Nodes with more entries than this choose their split from a fixed strided
-// sample of kSplitSamples entries (the median of the sample, a fraction of a
-// percent from the true median); smaller ones use every entry.
-constexpr std::uint32_t kExactSplitMax = 1u << 16;
-constexpr std::uint32_t kSplitSamples = 1u << 13;
+// sample of kSplitSamples entries (the median of the sample, about a percent
+// from the true median: cells of ~600 differ by a few entries); smaller ones
+// use every entry. Was 2^16 / 2^13: the exact medians of the subtree tasks
+// were a fifth of the build's instructions (callgrind, paper 100,000:
+// build_tree 102.3 M -> 83.2 M Ir; cells 2048 either way, duplication 1.2848
+// -> 1.2853 at 1,024,000).
+constexpr std::uint32_t kExactSplitMax = 1u << 12;
+constexpr std::uint32_t kSplitSamples = 1u << 12;
 // The parallel build splits level by level until every node has at most this
 // many entries (about 1 MB: it fits the cache), then builds each such subtree
 // as one serial task.
 constexpr std::uint32_t kTaskEntries = 1u << 15;
+// A task's output slot holds its input plus 1/kTaskSlotHeadroom of it plus
+// kTaskSlack entries (the copies its own planes add; paper scene: 1.15x).
+constexpr std::uint32_t kTaskSlotHeadroom = 4;
+constexpr std::uint32_t kTaskSlack = 256;
+// Nodes of at least this many entries count their split's sides in parallel.
+constexpr std::uint32_t kParallelCountMin = 1u << 18;
+// The top levels of fewer than kChunkedLevelNodes nodes partition them in
+// chunks of kPartitionChunk entries.
+constexpr std::uint32_t kPartitionChunk = 1u << 16;
+constexpr std::size_t kChunkedLevelNodes = 4;
 // The engine-cost rule splits a node under the limit only when the children
 // cost below this fraction of the parent.
 constexpr double kCostSplitGain = 0.95;
@@ -78,9 +95,27 @@ bool choose_split(const CellEntry* e, std::uint32_t n, std::uint32_t depth, cons
     float split = *mid;
     if (!(split > lo[a])) split = std::nextafter(lo[a], hi[a]);  // keep the left side non-empty
     std::uint32_t left = 0, right = 0;
-    for (std::uint32_t i = 0; i < n; ++i) {
-      left += e[i].min[a] < split;
-      right += e[i].max[a] >= split;
+    if (n >= kParallelCountMin) {
+      // The root and the first levels: counted across threads (integer sums,
+      // the same for any thread count).
+      using Counts = std::pair<std::uint32_t, std::uint32_t>;
+      const Counts c = tbb::parallel_reduce(
+          tbb::blocked_range<std::uint32_t>(0, n, kParallelCountMin / 4), Counts{0, 0},
+          [&](const tbb::blocked_range<std::uint32_t>& r, Counts acc) {
+            for (std::uint32_t i = r.begin(); i != r.end(); ++i) {
+              acc.first += e[i].min[a] < split;
+              acc.second += e[i].max[a] >= split;
+            }
+            return acc;
+          },
+          [](Counts x, Counts y) { return Counts{x.first + y.first, x.second + y.second}; });
+      left = c.first;
+      right = c.second;
+    } else {
+      for (std::uint32_t i = 0; i < n; ++i) {
+        left += e[i].min[a] < split;
+        right += e[i].max[a] >= split;
+      }
     }
     bool accept = left < n && right < n;
     if (accept && !over_limit) {
@@ -111,11 +146,15 @@ bool choose_split(const CellEntry* e, std::uint32_t n, std::uint32_t depth, cons
   return false;  // no axis shrinks both halves: an over-full leaf, processed in tiles
 }
 
-void partition_entries(const CellEntry* e, std::uint32_t n, const Split& s, std::uint32_t fork_tag, CellEntry* left,
-                       CellEntry* right) {
-  // Branch-free: every entry is written to both cursors and each advances
-  // only when the entry belongs there (hence the one scratch slot after each
-  // output), except for the rarer copies that go both ways.
+namespace {
+
+// partition_entries over e[0..n), branch-free for the entries before `safe`
+// and branching from there on. A branch-free step also writes the slot after
+// the output it does not advance; before `safe` (at most one past the last
+// entry going left and the last going right) a later entry overwrites that
+// slot, so nothing is written past either output.
+void partition_range(const CellEntry* e, std::uint32_t n, const Split& s, std::uint32_t fork_tag, CellEntry* left,
+                     CellEntry* right, std::uint32_t safe) {
   const int a = s.axis;
   const float split = s.split;
   for (std::uint32_t i = 0; i < n; ++i) {
@@ -129,26 +168,59 @@ void partition_entries(const CellEntry* e, std::uint32_t n, const Split& s, std:
       *right++ = c;
       continue;
     }
-    *left = c;
-    left += l;
-    *right = c;
-    right += r;
+    if (i < safe) {
+      *left = c;
+      left += l;
+      *right = c;
+      right += r;
+    } else if (l) {
+      *left++ = c;
+    } else {
+      *right++ = c;  // min <= max: an entry not going left goes right
+    }
   }
 }
 
-void SubtreeBuilder::build(const CellEntry* items, std::uint32_t n, std::uint32_t depth, const SplitRule& rule,
-                           bool reset_tags, BuildScratch& scratch) {
+}  // namespace
+
+void partition_entries(const CellEntry* e, std::uint32_t n, const Split& s, std::uint32_t fork_tag, CellEntry* left,
+                       CellEntry* right) {
+  // Branch-free: every entry is written to both cursors and each advances
+  // only when the entry belongs there (hence the one scratch slot after each
+  // output), except for the rarer copies that go both ways.
+  partition_range(e, n, s, fork_tag, left, right, n);
+}
+
+void SubtreeBuilder::start(const CellEntry* items, std::uint32_t n, const SplitRule& rule, bool reset_tags,
+                           BuildScratch& scratch) {
   rule_ = &rule;
   scratch_ = &scratch;
   nodes.assign(1, KdTreeNode{});
-  entries.resize(n + n / 4);  // about the final size (grows with duplicates); shrinks a past peak
-  entries.clear();
   RawBuffer<CellEntry>& arena = scratch.arena;
   arena.resize(4 * std::size_t{n});  // the deepest stack of segments, about; shrinks a past peak
   arena.truncate(n);
   if (n) std::memcpy(arena.data(), items, std::size_t{n} * sizeof(CellEntry));
   if (reset_tags)
     for (std::uint32_t i = 0; i < n; ++i) arena[i].build_tag = kNoFork;
+}
+
+void SubtreeBuilder::build(const CellEntry* items, std::uint32_t n, std::uint32_t depth, const SplitRule& rule,
+                           bool reset_tags, BuildScratch& scratch) {
+  out_ = nullptr;
+  out_capacity_ = out_size_ = 0;
+  entries.resize(n + n / 4);  // about the final size (grows with duplicates); shrinks a past peak
+  entries.clear();
+  start(items, n, rule, reset_tags, scratch);
+  node(0, 0, n, depth);
+}
+
+void SubtreeBuilder::build_into(const CellEntry* items, std::uint32_t n, std::uint32_t depth, const SplitRule& rule,
+                                BuildScratch& scratch, CellEntry* out, std::size_t out_capacity) {
+  out_ = out;
+  out_capacity_ = out_capacity;
+  out_size_ = 0;
+  entries.resize(0);  // spills are rare: no room kept for them
+  start(items, n, rule, false, scratch);
   node(0, 0, n, depth);
 }
 
@@ -158,9 +230,15 @@ void SubtreeBuilder::node(std::uint32_t at, std::size_t begin, std::uint32_t n, 
   if (!choose_split(arena_.data() + begin, n, depth, *rule_, scratch_->centres, s)) {
     KdTreeNode& leaf = nodes[at];
     leaf.axis = -1;
-    leaf.first = static_cast<std::uint32_t>(entries.size());
     leaf.size = n;
-    entries.append(arena_.data() + begin, n);
+    if (out_ && out_size_ + n <= out_capacity_) {
+      leaf.first = static_cast<std::uint32_t>(out_size_);
+      if (n) std::memcpy(out_ + out_size_, arena_.data() + begin, std::size_t{n} * sizeof(CellEntry));
+      out_size_ += n;
+    } else {
+      leaf.first = static_cast<std::uint32_t>(entries.size()) | (out_ ? kSpilled : 0u);
+      entries.append(arena_.data() + begin, n);
+    }
     return;
   }
   const auto child = static_cast<std::uint32_t>(nodes.size());
@@ -184,17 +262,29 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
   const auto n = static_cast<std::uint32_t>(boxes.size());
   const float* src[6] = {boxes.min(0), boxes.min(1), boxes.min(2), boxes.max(0), boxes.max(1), boxes.max(2)};
 
-  // 1. The objects as entries, sorted by min x (ties by id).
-  RawBuffer<std::uint64_t>& keys = buffers.keys;
-  RawBuffer<std::uint64_t>& keys_scratch = buffers.keys_scratch;
-  keys.resize(n);
+  // 1. The objects as entries, sorted by min x (ties by id). The sort keys
+  // and their scratch live in the output buffer, which the stitch overwrites
+  // at the end: pages touched here are not fresh there (16 bytes a key pair
+  // within a 32-byte entry), and no key buffer is kept between builds.
+  static_assert(sizeof(CellEntry) >= 2 * sizeof(std::uint64_t));  // (RawBuffer memory is 64-byte aligned)
+  const std::size_t room = std::size_t{n} + n / 2 + kTaskSlack;
+  entries.clear();
+  entries.reserve(room);
+  entries.resize(n);
+  auto* keys = reinterpret_cast<std::uint64_t*>(entries.data());
   tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, n, 1u << 16), [&](const auto& r) {
     for (std::uint32_t i = r.begin(); i != r.end(); ++i) keys[i] = (std::uint64_t{float_order_key(src[0][i])} << 32) | i;
   });
-  keys_scratch.resize(n);
-  if (radix_sort_keyed_indices(keys.data(), keys_scratch.data(), n) != keys.data()) keys.swap(keys_scratch);
+  keys = radix_sort_keyed_indices(keys, keys + n, n);
   RawBuffer<CellEntry>& a = *buffers.a;
   RawBuffer<CellEntry>& b = *buffers.b;
+  // Room for the top levels' duplicates and the tasks' output slots, so the
+  // ping-pong buffers neither move nor copy while they grow (untouched room
+  // costs nothing); their old contents are not needed.
+  a.clear();
+  b.clear();
+  a.reserve(room);
+  b.reserve(room);
   a.resize(n);
   tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, n, 1u << 14), [&](const auto& r) {
     for (std::uint32_t k = r.begin(); k != r.end(); ++k) {
@@ -215,6 +305,12 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
   std::vector<Item> frontier{{0, 0, 0, n, n <= kTaskEntries}}, next;
   std::vector<Split> splits;
   std::vector<unsigned char> split_ok;
+  struct Chunk {
+    std::uint32_t item, begin, n;
+    std::uint32_t left = 0, right = 0, safe = 0;
+    std::size_t left_at = 0, right_at = 0;
+  };
+  std::vector<Chunk> chunks;
   while (true) {
     bool large = false;
     for (const Item& it : frontier) large |= !it.task;
@@ -248,6 +344,7 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
     }
     if (offset > std::numeric_limits<std::uint32_t>::max() / 2)
       throw CapacityExceeded("k-d partition: more than 2^31 cell entries (" + std::to_string(offset) + ")");
+    b.clear();  // nothing in it is kept: never copied if it must grow
     b.resize(offset);
     // Where each frontier item's output starts in b (next is in frontier order).
     std::vector<std::size_t> out_at(frontier.size());
@@ -255,25 +352,91 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
       out_at[i] = next[j].begin;
       j += split_ok[i] ? 2 : 1;
     }
-    tbb::parallel_for(std::size_t{0}, frontier.size(), [&](std::size_t i) {
-      const Item& it = frontier[i];
-      CellEntry* dst = b.data() + out_at[i];
-      if (!split_ok[i]) {
-        if (it.n) std::memcpy(dst, a.data() + it.begin, std::size_t{it.n} * sizeof(CellEntry));
+    // The root and its children in chunks (they would otherwise run on one
+    // thread or two): each chunk counts its entries going each way, then
+    // partitions them to their place; the same output as one stable pass per
+    // node. A chunk's free writes past its outputs would land in the next
+    // chunk's, so it branches after its last entry going one of the ways.
+    // Levels with enough nodes for the threads keep one chunk per node: the
+    // count is the split's, and the node's scratch slots take the free writes.
+    chunks.clear();
+    const std::uint32_t chunk = frontier.size() < kChunkedLevelNodes ? kPartitionChunk : ~0u;
+    for (std::size_t i = 0; i < frontier.size(); ++i)
+      for (std::uint32_t c = 0; c < frontier[i].n || c == 0; c += std::min(chunk, frontier[i].n - c)) {
+        chunks.push_back({static_cast<std::uint32_t>(i), c, std::min(chunk, frontier[i].n - c)});
+        if (frontier[i].n == 0) break;
+      }
+    tbb::parallel_for(std::size_t{0}, chunks.size(), [&](std::size_t k) {
+      Chunk& ch = chunks[k];
+      if (!split_ok[ch.item]) return;
+      const Split& s = splits[ch.item];
+      if (ch.n == frontier[ch.item].n) {  // the whole node
+        ch.left = s.left;
+        ch.right = s.right;
+        ch.safe = ch.n;
         return;
       }
-      partition_entries(a.data() + it.begin, it.n, splits[i], it.node, dst, dst + splits[i].left + 1);
+      const CellEntry* e = a.data() + frontier[ch.item].begin + ch.begin;
+      std::uint32_t left = 0, right = 0, last_left = 0, last_right = 0;  // one past
+      for (std::uint32_t j = 0; j < ch.n; ++j) {
+        const bool l = e[j].min[s.axis] < s.split;
+        const bool r = e[j].max[s.axis] >= s.split;
+        left += l;
+        right += r;
+        last_left = l ? j + 1 : last_left;
+        last_right = r ? j + 1 : last_right;
+      }
+      ch.left = left;
+      ch.right = right;
+      ch.safe = std::min(last_left, last_right);
+    });
+    for (std::size_t k = 0, left = 0, right = 0; k < chunks.size(); ++k) {
+      Chunk& ch = chunks[k];
+      if (ch.begin == 0) left = right = 0;
+      const std::size_t at = out_at[ch.item];
+      if (!split_ok[ch.item]) {
+        ch.left_at = at + ch.begin;
+        continue;
+      }
+      ch.left_at = at + left;
+      ch.right_at = at + splits[ch.item].left + 1 + right;
+      left += ch.left;
+      right += ch.right;
+      if ((k + 1 == chunks.size() || chunks[k + 1].begin == 0) &&
+          (left != splits[ch.item].left || right != splits[ch.item].right))
+        throw std::logic_error("k-d build: chunk counts differ from the split's");
+    }
+    tbb::parallel_for(std::size_t{0}, chunks.size(), [&](std::size_t k) {
+      const Chunk& ch = chunks[k];
+      const Item& it = frontier[ch.item];
+      const CellEntry* e = a.data() + it.begin + ch.begin;
+      if (!split_ok[ch.item]) {
+        if (ch.n) std::memcpy(b.data() + ch.left_at, e, std::size_t{ch.n} * sizeof(CellEntry));
+        return;
+      }
+      partition_range(e, ch.n, splits[ch.item], it.node, b.data() + ch.left_at, b.data() + ch.right_at, ch.safe);
     });
     a.swap(b);
     frontier.swap(next);
   }
-  // 3. One serial subtree per task, in parallel; then stitched in task order.
+  // 3. One serial subtree per task, in parallel, each writing its leaves
+  // into its own slot of buffer b (touched by the top levels already: a
+  // buffer of its own per task would be fresh pages, the first frame's
+  // largest cost); a task that outgrows its slot spills the rest to its own
+  // buffer. Then stitched in task order into `entries`.
   std::vector<SubtreeBuilder>& tasks = buffers.tasks;
   tasks.resize(frontier.size());
+  std::vector<std::size_t> slot(frontier.size() + 1, 0);
+  for (std::size_t t = 0; t < frontier.size(); ++t)
+    slot[t + 1] = slot[t] + frontier[t].n + frontier[t].n / kTaskSlotHeadroom + kTaskSlack;
+  b.clear();
+  b.resize(slot.back());
   tbb::parallel_for(std::size_t{0}, frontier.size(), [&](std::size_t t) {
     const Item& it = frontier[t];
-    tasks[t].build(a.data() + it.begin, it.n, it.depth, rule, false, buffers.scratch.local());
+    tasks[t].build_into(a.data() + it.begin, it.n, it.depth, rule, buffers.scratch.local(), b.data() + slot[t],
+                        slot[t + 1] - slot[t]);
   });
+  // Leaves are laid out task after task, each task's in local node order.
   std::vector<std::uint32_t> node_base(tasks.size());
   std::vector<std::size_t> entry_base(tasks.size() + 1, 0);
   for (std::size_t t = 0; t < tasks.size(); ++t) {
@@ -281,25 +444,35 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
     const std::uint32_t root = frontier[t].node;
     const std::vector<KdTreeNode>& local = tasks[t].nodes;
     if (nodes.size() + local.size() > kMaxNodes) throw CapacityExceeded("k-d partition: too many tree nodes");
+    std::size_t at = entry_base[t];
     auto remap = [&](KdTreeNode nd) {
-      if (nd.axis >= 0) nd.child = node_base[t] + nd.child - 1;
-      else nd.first += static_cast<std::uint32_t>(entry_base[t]);
+      if (nd.axis >= 0) {
+        nd.child = node_base[t] + nd.child - 1;
+      } else {
+        nd.first = static_cast<std::uint32_t>(at);
+        at += nd.size;
+      }
       return nd;
     };
     nodes[root] = remap(local[0]);
     for (std::size_t k = 1; k < local.size(); ++k) nodes.push_back(remap(local[k]));
-    entry_base[t + 1] = entry_base[t] + tasks[t].entries.size();
+    entry_base[t + 1] = entry_base[t] + tasks[t].output_size();
   }
+  entries.clear();  // the keys: not kept if it must grow
   entries.resize(entry_base.back());
   tbb::parallel_for(std::size_t{0}, tasks.size(), [&](std::size_t t) {
     const std::uint32_t root = frontier[t].node;
     const std::vector<KdTreeNode>& local = tasks[t].nodes;
-    const CellEntry* from = tasks[t].entries.data();
+    const CellEntry* in_slot = b.data() + slot[t];
+    const CellEntry* spilled = tasks[t].entries.data();
     CellEntry* to = entries.data() + entry_base[t];
     for (std::size_t k = 0; k < local.size(); ++k) {
       if (local[k].axis >= 0) continue;
       const std::uint32_t leaf = k == 0 ? root : node_base[t] + static_cast<std::uint32_t>(k) - 1;
-      for (std::uint32_t i = local[k].first, end = local[k].first + local[k].size; i < end; ++i) {
+      const std::uint32_t first = local[k].first;
+      const CellEntry* from = first & SubtreeBuilder::kSpilled ? spilled + (first & ~SubtreeBuilder::kSpilled)
+                                                               : in_slot + first;
+      for (std::uint32_t i = 0; i < local[k].size; ++i) {
         CellEntry e = from[i];
         if (!(e.build_tag & kNotOwner)) {  // the object's one owner copy sets its home
           const std::uint32_t fork = (e.build_tag & kForkMask) == kNoFork ? kNoFork : fork_node(e.build_tag, root, node_base[t]);
@@ -307,7 +480,7 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
           if (fork != kNoFork) prev[e.id] = {{e.min[0], e.min[1], e.min[2]}, {e.max[0], e.max[1], e.max[2]}};
         }
         e.build_tag = 0;
-        to[i] = e;
+        *to++ = e;
       }
     }
   });

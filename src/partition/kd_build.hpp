@@ -83,24 +83,38 @@ struct BuildScratch {
 
 class SubtreeBuilder {
  public:
+  // A leaf's KdTreeNode::first with this bit set lies in `entries` (it did
+  // not fit the caller's output); without it, in the caller's output.
+  static constexpr std::uint32_t kSpilled = 0x80000000u;
+
   // items: sorted by min x, ties by id; tags as they come (reset_tags: start
-  // fresh, for entries taken from a cell).
+  // fresh, for entries taken from a cell). Leaves go to `entries`.
   void build(const CellEntry* items, std::uint32_t n, std::uint32_t depth, const SplitRule& rule, bool reset_tags,
              BuildScratch& scratch);
+  // The same, leaves written to out[0..out_capacity) while they fit (memory
+  // the caller has touched already: fresh pages cost more than the build),
+  // the rest to `entries` with kSpilled set in their leaf's first.
+  void build_into(const CellEntry* items, std::uint32_t n, std::uint32_t depth, const SplitRule& rule,
+                  BuildScratch& scratch, CellEntry* out, std::size_t out_capacity);
+  // Entries in all leaves.
+  std::size_t output_size() const { return out_size_ + entries.size(); }
   // Local nodes: 0 is the subtree's root, children indices local.
   std::vector<KdTreeNode> nodes;
   // Leaf after leaf (KdTreeNode::first relative to this buffer).
   RawBuffer<CellEntry> entries;
 
  private:
+  void start(const CellEntry* items, std::uint32_t n, const SplitRule& rule, bool reset_tags, BuildScratch& scratch);
   void node(std::uint32_t at, std::size_t begin, std::uint32_t n, std::uint32_t depth);
   const SplitRule* rule_ = nullptr;
   BuildScratch* scratch_ = nullptr;
+  CellEntry* out_ = nullptr;
+  std::size_t out_capacity_ = 0;
+  std::size_t out_size_ = 0;
 };
 
 // Buffers of the from-scratch build, kept across frames for the same reason.
 struct BuildBuffers {
-  RawBuffer<std::uint64_t> keys, keys_scratch;
   // The top levels' ping-pong: two buffers the caller uses for other things
   // between builds (fresh pages are the build's largest cost).
   RawBuffer<CellEntry>* a = nullptr;

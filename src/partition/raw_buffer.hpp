@@ -48,6 +48,11 @@ class RawBuffer {
     if (n > capacity_) reallocate(std::max(n, 2 * capacity_), size_);
     size_ = n;
   }
+  // Capacity for n elements without touching them: untouched pages cost
+  // nothing, and later resizes up to n neither move nor copy the contents.
+  void reserve(std::size_t n) {
+    if (n > capacity_) reallocate(n, size_);
+  }
   void truncate(std::size_t n) { size_ = std::min(size_, n); }
   // Appends count elements (copied from src, which must not point into this buffer).
   void append(const T* src, std::size_t count) {
