@@ -107,7 +107,9 @@ struct CellOutcome {
   std::uint64_t pairs = 0;
   std::uint64_t candidates = 0;  // owned pairs the engine calls returned (tiled cells: summed over calls)
   std::uint64_t cycles = 0;
-  // Where the cell's pairs wait for the copy into the frame's list.
+  // Where the cell's pairs wait for the copy into the frame's list, or
+  // nullptr when the cell was only counted (first frame, spent touch budget)
+  // and writes them in the second pass.
   const std::vector<Pair>* stored = nullptr;
   std::size_t offset = 0;
 };
