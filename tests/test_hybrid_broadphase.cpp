@@ -333,10 +333,12 @@ TEST(HybridBroadPhase, OneCellPathWithSinkAndOtherEngines) {
   }
 }
 
-// Pair-dense cells are counted in the first pass and written straight into
-// the frame's list in the second: same pairs, same order as when the cells
-// are streamed to a sink, for 1 or 2 threads.
-TEST(HybridBroadPhase, DenseCellsTwoPassOutputEqualsStreamedOutput) {
+// Pair-dense cells, both output paths: on the first frame (no estimate of
+// the pair count) they are counted and then written straight into the
+// frame's list; later frames store them per worker and copy them in cell
+// order. Same pairs, same order as when the cells are streamed to a sink,
+// for 1 or 2 threads.
+TEST(HybridBroadPhase, DenseCellsStoredOutputEqualsStreamedOutput) {
   std::mt19937 rng(21);
   std::uniform_real_distribution<float> pos(0, 40), ext(2, 9);
   BoxArray boxes;
@@ -348,15 +350,50 @@ TEST(HybridBroadPhase, DenseCellsTwoPassOutputEqualsStreamedOutput) {
   ASSERT_GT(want.size(), 20u * boxes.size()) << "scene not dense enough to exercise the dense path";
   for (unsigned threads : {1u, 2u}) {
     HybridBroadPhase bp({.engine = "sw", .cell_limit = 256, .threads = threads, .sorted = false});
-    const std::vector<Pair> two_pass = bp.update(boxes);
+    const std::vector<Pair> counted = bp.update(boxes);  // first frame: counted, then written
+    const std::vector<Pair> stored = bp.update(boxes);   // stores sized from the first frame
+    EXPECT_EQ(counted, stored) << threads << " threads";
     std::vector<Pair> streamed;
     bp.update(boxes, [&](std::uint32_t, const Pair* q, std::size_t count) { streamed.insert(streamed.end(), q, q + count); });
     EXPECT_GT(bp.stats().cells, 4u);
-    EXPECT_EQ(two_pass, streamed) << threads << " threads";
-    EXPECT_EQ(two_pass, bp.pairs()) << threads << " threads";
-    std::vector<Pair> got = two_pass;
+    EXPECT_EQ(stored, streamed) << threads << " threads";
+    const std::vector<Pair> again = bp.update(boxes);  // after a streamed frame: no estimate again
+    EXPECT_EQ(stored, again) << threads << " threads";
+    std::vector<Pair> got = stored;
     EXPECT_EQ(hbp::canonicalize(got), 0u);
     EXPECT_EQ(got, want) << threads << " threads";
+  }
+}
+
+// The workers' pair stores are sized from the last frame's pair count: a
+// frame with 40 times the last one's pairs outgrows them mid-frame (they
+// grow, keeping the pairs stored so far), a sparse frame after a dense one
+// releases them. Every frame exactly the oracle's pairs, in the same order
+// for 1 and 2 threads.
+TEST(HybridBroadPhase, PairCountSwingsBetweenFramesStayExact) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> pos(0, 40), ext(2, 9);
+  BoxArray dense, sparse;
+  for (int i = 0; i < 4000; ++i) {
+    const float x = pos(rng), y = pos(rng), z = pos(rng);
+    dense.push_back({{x, y, z}, {x + ext(rng), y + ext(rng), z + ext(rng)}});
+    sparse.push_back({{x, y, z}, {x + 0.5f, y + 0.5f, z + 0.5f}});
+  }
+  const auto want_dense = hbp::brute_force_pairs(dense);
+  const auto want_sparse = hbp::brute_force_pairs(sparse);
+  ASSERT_GT(want_dense.size(), 40 * want_sparse.size() + 40000) << "frames do not swing enough";
+  HybridBroadPhase one({.engine = "sw", .cell_limit = 256, .threads = 1, .sorted = false});
+  HybridBroadPhase two({.engine = "sw", .cell_limit = 256, .threads = 2, .sorted = false});
+  int f = 0;
+  for (const bool is_dense : {false, true, true, false, true, false}) {
+    const BoxArray& boxes = is_dense ? dense : sparse;
+    const std::vector<Pair> a = one.update(boxes);
+    const std::vector<Pair>& b = two.update(boxes);
+    ASSERT_EQ(a, b) << "frame " << f << ": 1 and 2 threads differ";
+    std::vector<Pair> got = a;
+    ASSERT_EQ(hbp::canonicalize(got), 0u) << "frame " << f;
+    ASSERT_EQ(got, is_dense ? want_dense : want_sparse) << "frame " << f;
+    ++f;
   }
 }
 

@@ -32,10 +32,23 @@ namespace {
 constexpr std::uint64_t kSerialEntries = 16384;
 // The kernel's output lands in a cache-resident stage before it moves on.
 constexpr std::size_t kStagePairs = 1 << 14;
-// Two-pass output: a cell with more than this many pairs per box is "dense":
-// the first pass only counts its pairs and the second writes them straight
-// into the frame's list (one write per pair instead of a store and a copy).
+// Output: every cell's pairs go to its worker's store, then are copied to
+// their place in the frame's list; the stores are sized from the last
+// frame's pair count. A frame with no such count (the first, or the first
+// after a one-cell or streamed frame) would grow stores of hundreds of
+// megabytes from nothing: there a cell with more than kStoredPairsPerBox
+// pairs per box is "dense", its pairs are only counted in the first pass
+// and written straight into the list in a second kernel run. (Every frame
+// that way costs a second kernel run, about 60 ms a frame on the clustered
+// scene against 12 ms for the copy: docs/hybrid-system.md, "Pair-dense
+// frames".)
 constexpr std::size_t kStoredPairsPerBox = 4;
+// Pairs a worker's store may write past what it has written before, per
+// frame (128 MiB): a fresh store's pages cost a kernel zeroing on first
+// touch (well under 1 GB/s on the VM measured), so a store of hundreds of
+// megabytes warms up over several frames; cells past the budget are counted
+// and written in the second pass, as on the first frame.
+constexpr std::size_t kTouchPairsPerFrame = std::size_t{16} << 20;
 // Pair buffers kept from frame to frame are released when their capacity
 // exceeds twice what the frame used plus this many pairs, so memory follows
 // the current frame, not every frame's peak (issue 17: a cluster visiting
@@ -84,7 +97,9 @@ struct Worker {
   std::vector<std::uint32_t> first, second;  // kernel hits before they move on (the stage)
   std::vector<Pair> local;                 // other engines: pairs in local indices
   BoxArray tile;                           // other engines: two blocks of an over-full cell
-  std::vector<Pair> stored;                // two-pass: this worker's sparse cells' pairs
+  std::vector<Pair> stored;                // this worker's cells' pairs, before the copy to the list
+  std::size_t touched = 0;                 // entries of `stored`'s allocation written in earlier frames
+  bool store_full = false;                 // this frame's touch budget is spent: dense cells are counted
 };
 
 // What one cell produced this frame.
@@ -92,8 +107,9 @@ struct CellOutcome {
   std::uint64_t pairs = 0;
   std::uint64_t candidates = 0;  // owned pairs the engine calls returned (tiled cells: summed over calls)
   std::uint64_t cycles = 0;
-  // Two-pass output: where the cell's pairs wait for the second pass, or
-  // nullptr when the cell is dense and writes them in the second pass.
+  // Where the cell's pairs wait for the copy into the frame's list, or
+  // nullptr when the cell was only counted (first frame, spent touch budget)
+  // and writes them in the second pass.
   const std::vector<Pair>* stored = nullptr;
   std::size_t offset = 0;
 };
@@ -109,16 +125,18 @@ void fit_stage(Worker& w, std::size_t hits) {
   }
 }
 
-// Room for `needed` pairs in a growing list: doubles, and a large list asks
-// for transparent huge pages (on the first frame every page of the workers'
-// stores is fresh, and a 4 KiB page costs ~14 us to fault on our machines).
-void grow_pairs(std::vector<Pair>& v, std::size_t needed) {
-  if (needed <= v.capacity()) return;
-  std::vector<Pair> next;
-  next.reserve(std::max(needed, 2 * v.capacity()));
-  advise_huge_pages(next.data(), next.capacity() * sizeof(Pair));  // before the copy touches it
-  next.insert(next.end(), v.begin(), v.end());
-  v.swap(next);
+// Grows v's capacity to at least `want`, keeping its pairs: at least
+// twofold (unless told the exact size), and a large store asks for
+// transparent huge pages before the copy touches it (a worker's store of a
+// dense frame is hundreds of megabytes of fresh pages, and a 4 KiB page costs
+// ~14 us to fault on our machines).
+void grow_pairs(std::vector<Pair>& v, std::size_t want, bool twofold = true) {
+  if (want <= v.capacity()) return;
+  std::vector<Pair> grown;
+  grown.reserve(twofold ? std::max(want, 2 * v.capacity()) : want);
+  advise_huge_pages(grown.data(), grown.capacity() * sizeof(Pair));
+  grown.insert(grown.end(), v.begin(), v.end());
+  v.swap(grown);
 }
 
 // Appends the stage's first `count` hits to out as canonical pairs.
@@ -148,6 +166,8 @@ struct HybridBroadPhase::Impl {
   std::vector<Pair> sort_scratch;
   FrameStats stats;
   std::atomic<std::uint64_t> running_pairs{0};
+  std::size_t last_frame_pairs = 0;  // the pair count of the last frame through run_cells
+  bool count_dense_cells = false;    // this frame has no estimate: dense cells are counted, then written
 
   static std::uint32_t choose_limit(const BroadPhaseOptions& o, const CellEngine& e) {
     const std::uint32_t limit = o.cell_limit ? o.cell_limit : e.default_cell_limit();
@@ -336,8 +356,9 @@ struct HybridBroadPhase::Impl {
     });
   }
 
-  // Two-pass output, first pass: every cell through the engine. Sparse
-  // cells' pairs go to the worker's store; dense cells are only counted.
+  // First pass: every cell through the engine, its pairs appended to the
+  // worker's store; on a frame without an estimate, dense cells are only
+  // counted (see kStoredPairsPerBox).
   void first_pass(std::uint32_t c) {
     Worker& w = workers.local();
     CellOutcome& r = outcomes[c];
@@ -345,18 +366,20 @@ struct HybridBroadPhase::Impl {
     const CellRegion& region = partition->region(c);
     r.stored = &w.stored;
     r.offset = w.stored.size();
-    if (!w.direct) {
-      emit_cell(w, region, w.stored, r);
+    if (!w.direct || (!count_dense_cells && options.max_pairs)) {
+      emit_cell(w, region, w.stored, r);  // (max_pairs: stores grow, see below)
       return;
     }
+    if (!count_dense_cells && !w.store_full && store_within_budget(w, region, r)) return;
     const std::uint32_t n = w.cell.size();
     const std::size_t room = kStoredPairsPerBox * n + n + SoftwareEngine::kOutputSlack;
     fit_stage(w, std::max(room, stage_pairs(n)));
     std::size_t count = 0;
     std::uint32_t row =
         w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), region, 0, w.first.data(), w.second.data(), room, count);
-    if (row < n && !options.max_pairs) {
-      // Dense: count now, write in the second pass. (With max_pairs set, a
+    const bool over_budget = w.store_full && w.stored.size() + count > w.stored.capacity();
+    if ((row < n || over_budget) && !options.max_pairs) {
+      // Dense (or past a spent budget): count now, write in the second pass. (With max_pairs set, a
       // pair explosion must stop as soon as the limit is passed, not after
       // counting every pair: such cells keep storing, charged per drain.)
       count += w.direct->count_pairs(w.cell.boxes(), w.cell.ids(), region, row);
@@ -376,8 +399,33 @@ struct HybridBroadPhase::Impl {
     r.candidates = r.pairs;
   }
 
-  // Second pass: stored pairs are copied to their place in the frame's
-  // list; dense cells run their kernel again, draining the stage there.
+  // Stores the cell's pairs while the worker's touch budget lasts; past it
+  // the cell's pairs are dropped from the store, the budget marked spent and
+  // false returned (the caller counts the cell instead).
+  bool store_within_budget(Worker& w, const CellRegion& region, CellOutcome& r) {
+    const std::size_t budget = std::min(w.stored.capacity(), w.touched + kTouchPairsPerFrame);
+    const std::uint32_t n = w.cell.size();
+    fit_stage(w, stage_pairs(n));
+    for (std::uint32_t row = 0; row < n;) {
+      std::size_t count = 0;
+      row = w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), region, row, w.first.data(), w.second.data(),
+                                w.first.size(), count);
+      if (w.stored.size() + count > budget) {
+        w.stored.resize(r.offset);
+        w.store_full = true;
+        r.pairs = 0;
+        return false;
+      }
+      drain_stage(w, count, w.stored);
+      r.pairs += count;
+    }
+    r.candidates = r.pairs;
+    return true;
+  }
+
+  // Second pass: stored pairs are copied to their place in the frame's list
+  // (cell order: the same list for any thread count); dense cells run their
+  // kernel again, draining the stage there.
   void second_pass(std::uint32_t c) {
     const CellOutcome& r = outcomes[c];
     Pair* dst = pairs.data() + offsets[c];
@@ -399,6 +447,27 @@ struct HybridBroadPhase::Impl {
       written += count;
     }
     if (written != r.pairs) throw std::logic_error("hybrid broad phase: cell pair count changed");
+  }
+
+  // Room in every worker's store for its likely share of this frame's
+  // pairs (the last frame's count, split evenly, plus an eighth), so a
+  // steady frame does not grow stores as it goes.
+  std::size_t store_share() const {
+    const auto workers_n = static_cast<std::size_t>(serial_engine_phase() ? 1 : std::max(1, arena.max_concurrency()));
+    return last_frame_pairs / workers_n + last_frame_pairs / 8;
+  }
+
+  // Before the first pass (stores empty): a store below the share less half
+  // its headroom is replaced by one of exactly the share, so a pair count
+  // creeping up frame after frame neither reallocates every frame nor
+  // doubles the stores (a fresh store is page faults on every page).
+  void size_stores() {
+    const std::size_t share = store_share();
+    for (Worker& w : workers)
+      if (w.stored.capacity() + last_frame_pairs / 16 < share) {
+        grow_pairs(w.stored, share, false);
+        w.touched = 0;
+      }
   }
 
   // Offsets of each cell's pairs in the frame's list, and the list sized.
@@ -465,7 +534,12 @@ struct HybridBroadPhase::Impl {
     const auto t_engine = SteadyClock::now();
     // Each path's buffers are emptied when the other path runs, so the
     // release at the end of the frame frees what this frame did not use.
-    for (Worker& w : workers) w.stored.clear();
+    for (Worker& w : workers) {
+      w.stored.clear();
+      w.store_full = false;
+    }
+    count_dense_cells = last_frame_pairs == 0;
+    if (!(sink || consumer)) size_stores();
     if (sink || consumer) {
       stream_cells(sink, consumer);
       engine_ms = ms_since(t_engine);
@@ -491,7 +565,9 @@ struct HybridBroadPhase::Impl {
   // Per-worker buffers follow this frame's needs.
   void release_worker_buffers() {
     for (Worker& w : workers) {
-      release_if_oversized(w.stored, w.stored.size(), kKeepPairs);
+      w.touched = std::max(w.touched, w.stored.size());
+      release_if_oversized(w.stored, std::max(w.stored.size(), store_share()), kKeepPairs);
+      if (w.stored.capacity() == 0) w.touched = 0;
       release_if_oversized(w.local, w.local.size(), kKeepPairs);
     }
   }
@@ -514,6 +590,7 @@ struct HybridBroadPhase::Impl {
     const auto t_sort = SteadyClock::now();
     sort_output();
     const double sort_ms = ms_since(t_sort);
+    last_frame_pairs = one_cell || sink || consumer ? 0 : pairs.size();
     release_worker_buffers();
     record_stats(one_cell, boxes ? boxes->size() : 0);
     stats.partition_ms = partition_ms;
