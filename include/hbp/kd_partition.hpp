@@ -44,11 +44,9 @@ struct CellEntry {
   float min[3];
   float max[3];
   std::uint32_t id;
-  // A builder's word per copy: the k-d build's fork/owner tag
-  // (kd_build.hpp), the cell BVH build's entry index (cell_bvh.cpp); in the
-  // cells the partition publishes, the object's record slot (the partition's
-  // own bookkeeping, kd_partition.cpp; engines ignore it). It fills the entry
-  // to 32 bytes.
+  // A builder's word per copy, 0 in the cells the partition publishes: the
+  // k-d build's fork/owner tag (kd_build.hpp), the cell BVH build's entry
+  // index (cell_bvh.cpp). It fills the entry to 32 bytes.
   std::uint32_t build_tag;
 };
 static_assert(sizeof(CellEntry) == 32 && alignof(CellEntry) == 4, "CellEntry is 32 bytes, eight 4-byte words");
@@ -125,8 +123,6 @@ class KdPartition {
 
   void rebuild(const BoxArray& boxes);
   void maintain(const BoxArray& boxes);
-  void assign_slots(std::size_t n);
-  void compact_slots(std::size_t n);
   void merge_sparse();
   void number_leaves();
   void find_crossings(const BoxArray& boxes);

@@ -44,13 +44,6 @@ constexpr std::size_t kDeadNodeSlack = 64;
 // Sibling leaves merge (without a cell cost) when together they hold at most
 // the cell limit divided by this.
 constexpr std::uint32_t kMergeFraction = 4;
-// Record slots (State::latest): renumbered when more than 2 n + kSlotSlack
-// have been handed out since the last build.
-constexpr std::uint32_t kSlotSlack = 4096;
-constexpr std::uint32_t kNoSlot = ~std::uint32_t{0};
-// find_crossings fetches the line of the record it will write this many
-// objects ahead (the slots are random in id).
-constexpr std::uint32_t kWriteAhead = 24;
 
 struct Box6 {
   float b[6];  // min x y z, max x y z
@@ -101,14 +94,13 @@ void merge_tail(CellEntry* e, std::uint32_t k, std::uint32_t m, std::vector<Cell
 }
 
 // The members of one cell (src[0..size)) that still reach its region, with
-// this frame's boxes from latest (each entry's build_tag is its object's
-// record slot, below slots), copied to dst; returns how many. Everything
+// this frame's boxes from latest, copied to dst; returns how many. Everything
 // it reads is a local (a parameter or a copy): the entry stores could alias
 // anything reached through a pointer, which made the compiler reload the
 // bases of every array once per entry.
 std::uint32_t keep_members(const CellEntry* src, std::uint32_t size, const CellEntry* latest, std::uint32_t n,
-                           std::uint32_t slots, const CellRegion& region, CellEntry* dst) {
-  if (n == 0 || slots == 0) return 0;  // every object removed
+                           const CellRegion& region, CellEntry* dst) {
+  if (n == 0) return 0;  // every object removed
   // The routing rule (min < hi and max >= lo on every axis) as two 4-lane
   // compares on overlapping loads of the entry: {min x, min y, min z, max x}
   // < {hi x, hi y, hi z, +inf} and {min z, max x, max y, max z} >=
@@ -121,16 +113,16 @@ std::uint32_t keep_members(const CellEntry* src, std::uint32_t size, const CellE
   const float inf = std::numeric_limits<float>::infinity();
   const V4 upper = {region.hi[0], region.hi[1], region.hi[2], inf};
   const V4 lower = {-inf, region.lo[0], region.lo[1], region.lo[2]};
-  // Prefetch distance: the gather is random for the copies of objects in
-  // several cells, and a miss (~100 ns on the measuring VM) outlasts eight
-  // entries' work (8: 30 % more refresh samples than 24 or 48).
+  // Prefetch distance: the gather is random in id and a miss (~100 ns on the
+  // measuring VM) outlasts eight entries' work (8: 30 % more refresh samples
+  // than 24 or 48).
   constexpr std::uint32_t kAhead = 24;
   std::uint32_t k = 0;
   for (std::uint32_t e = 0; e < size; ++e) {
-    if (e + kAhead < size) __builtin_prefetch(latest + std::min(src[e + kAhead].build_tag, slots - 1));
+    if (e + kAhead < size) __builtin_prefetch(latest + std::min(src[e + kAhead].id, n - 1));
     const std::uint32_t id = src[e].id;
     if (id >= n) continue;  // object removed
-    const CellEntry* x = latest + src[e].build_tag;
+    const CellEntry* x = latest + id;
     V4 a, b;
     std::memcpy(&a, &x->min[0], sizeof a);
     std::memcpy(&b, &x->min[2], sizeof b);
@@ -162,16 +154,7 @@ struct KdPartition::State {
   tbb::enumerable_thread_specific<std::vector<std::uint32_t>> movers;  // find_crossings: objects to descend
   std::vector<CellEntry> merged;
   std::vector<std::uint32_t> sizes;
-  // Per-object records in the cells' order of the last build: object i's
-  // record is latest[slot[i]], and every cell entry carries its object's
-  // slot in build_tag. The cell refresh then reads the records almost in
-  // order (the owner copies of one cell are neighbours) instead of at random
-  // ids; find_crossings scatters its writes instead (stores do not stall the
-  // way loads do). Slots of removed objects are holes until the next
-  // rebuild, or until holes outnumber the objects (compact_slots).
-  RawBuffer<CellEntry> latest;                 // slot -> this frame's box, id and slot, as a cell entry
-  RawBuffer<std::uint32_t> slot;               // object -> its record slot
-  std::uint32_t slots = 0;                     // slots handed out (latest's size)
+  RawBuffer<CellEntry> latest;                 // object -> this frame's box and id, as a cell entry
   kd::SubtreeBuilder splitter;
   kd::BuildScratch split_scratch;
   kd::BuildBuffers build;
@@ -233,7 +216,6 @@ void KdPartition::rebuild(const BoxArray& boxes) {
   s.build.a = &s.next_entries;
   s.build.b = &s.latest;
   kd::build_tree(boxes, rule, s.build, nodes_, s.entries, s.home.data(), s.prev.data());
-  assign_slots(n);
   if (nodes_.capacity() > 2 * nodes_.size() + 4096) nodes_.shrink_to_fit();  // a past peak of splits
   entries_ = s.entries.data();
   number_leaves();
@@ -247,15 +229,12 @@ void KdPartition::maintain(const BoxArray& boxes) {
     s.home.resize(n);
     s.prev.resize(n);
     s.margin.resize(n);
-    s.slot.resize(n);
     for (std::size_t i = s.objects; i < n; ++i) {
-      s.slot[i] = s.slots++;  // a newcomer's record goes at the end
       s.home[i] = kNoHome;
       s.prev[i] = {};  // read (and masked out) by find_crossings' first pass
       s.margin[i] = 0;
     }
     s.objects = n;
-    if (s.slots > 2 * n + kSlotSlack) compact_slots(n);
   }
   merge_sparse();
   number_leaves();
@@ -263,42 +242,6 @@ void KdPartition::maintain(const BoxArray& boxes) {
   bucket_additions();
   refresh_cells(boxes);
   if (split_oversized()) number_leaves();
-}
-
-void KdPartition::assign_slots(std::size_t n) {
-  // Slots in the order of the objects' first copies in the cells (the build's
-  // entries are the cells, in order): one pass, deterministic.
-  State& s = *state_;
-  s.slot.resize(n);
-  std::fill(s.slot.data(), s.slot.data() + n, kNoSlot);
-  std::uint32_t next = 0;
-  CellEntry* e = s.entries.data();
-  std::uint32_t* slot = s.slot.data();
-  for (std::size_t k = 0, total = s.entries.size(); k < total; ++k) {
-    std::uint32_t& sl = slot[e[k].id];
-    if (sl == kNoSlot) sl = next++;
-    e[k].build_tag = sl;
-  }
-  if (next != n) throw std::logic_error("k-d build: an object in no cell");
-  s.slots = next;
-}
-
-void KdPartition::compact_slots(std::size_t n) {
-  // Objects removed and appended between frames leave holes in the records;
-  // when they outnumber the objects the live slots are renumbered, in their
-  // order (so the cells' locality is kept), and every entry's slot with them.
-  State& s = *state_;
-  std::vector<std::uint32_t> remap(s.slots, kNoSlot);
-  std::uint32_t* slot = s.slot.data();
-  for (std::size_t i = 0; i < n; ++i) remap[slot[i]] = 0;
-  std::uint32_t next = 0;
-  for (std::uint32_t& r : remap)
-    if (r != kNoSlot) r = next++;
-  for (std::size_t i = 0; i < n; ++i) slot[i] = remap[slot[i]];
-  CellEntry* e = s.entries.data();
-  for (std::size_t k = 0, total = s.entries.size(); k < total; ++k)
-    e[k].build_tag = e[k].id < n ? remap[e[k].build_tag] : 0;  // removed objects' entries are dropped by id
-  s.slots = next;
 }
 
 void KdPartition::merge_sparse() {
@@ -411,11 +354,10 @@ void KdPartition::find_crossings(const BoxArray& boxes) {
   std::uint32_t* home = s.home.data();
   StoredBox* prev = s.prev.data();
   float* margin = s.margin.data();
-  s.latest.resize(s.slots);
+  s.latest.resize(n);
   CellEntry* latest = s.latest.data();
-  const std::uint32_t* slot = s.slot.data();
   const float* const lanes[6] = {boxes.min(0), boxes.min(1), boxes.min(2), boxes.max(0), boxes.max(1), boxes.max(2)};
-  auto chunk = [&, nodes, node_regions, home, prev, margin, latest, slot](std::uint32_t c) {
+  auto chunk = [&, nodes, node_regions, home, prev, margin, latest](std::uint32_t c) {
     // Pointers by value and the lanes copied: the entry stores below could
     // alias anything reached through a reference (reloads on every object).
     const float* const l0 = lanes[0], *const l1 = lanes[1], *const l2 = lanes[2];
@@ -442,12 +384,7 @@ void KdPartition::find_crossings(const BoxArray& boxes) {
     for (std::uint32_t i = begin; i < end; ++i) {
       const Box6 box = {{l0[i], l1[i], l2[i], l3[i], l4[i], l5[i]}};
       const float* b = box.b;
-      // The scattered write of the record (one cache line per object for
-      // refresh_cells' gather), its line fetched ahead.
-      __builtin_prefetch(latest + slot[std::min(i + kWriteAhead, end - 1)], 1);
-      CellEntry rec = make_entry(box, i);
-      rec.build_tag = slot[i];
-      latest[rec.build_tag] = rec;
+      latest[i] = make_entry(box, i);  // one cache line per object for refresh_cells' gather
       const std::uint32_t h = home[i];
       const std::uint32_t at = h == kNoHome ? 0 : h;
       const bool in = inside(b, node_regions[at]);
@@ -464,7 +401,7 @@ void KdPartition::find_crossings(const BoxArray& boxes) {
     // inside the home's region, else from the root.
     for (std::uint32_t k = 0; k < moving; ++k) {
       const std::uint32_t i = movers[k];
-      const CellEntry& e = latest[slot[i]];
+      const CellEntry& e = latest[i];
       const float b[6] = {e.min[0], e.min[1], e.min[2], e.max[0], e.max[1], e.max[2]};
       const std::uint32_t h = home[i];
       const std::uint32_t start = h != kNoHome && inside(b, node_regions[h]) ? h : 0;
@@ -552,19 +489,17 @@ void KdPartition::refresh_cells(const BoxArray& boxes) {
   const CellEntry* from = s.entries.data();
   CellEntry* to = s.next_entries.data();
   const CellEntry* latest = s.latest.data();
-  const std::uint32_t* slot = s.slot.data();
-  const std::uint32_t slots = s.slots;
   tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, cells, 4), [&](const auto& range) {
     std::vector<CellEntry>& tmp = s.merge_scratch.local();
     for (std::uint32_t c = range.begin(); c != range.end(); ++c) {
       KdTreeNode& leaf = nodes_[leaf_nodes_[c]];
       CellEntry* dst = to + s.cell_offsets[c];
-      std::uint32_t k = keep_members(from + leaf.first, leaf.size, latest, n, slots, regions_[c], dst);
+      std::uint32_t k = keep_members(from + leaf.first, leaf.size, latest, n, regions_[c], dst);
       insertion_sort(dst, k);
       const std::uint32_t a0 = s.add_offsets[c], m = s.add_offsets[c + 1] - a0;
       for (std::uint32_t e = 0; e < m; ++e) {
         const std::uint32_t id = s.add_ids[a0 + e];
-        dst[k + e] = latest[slot[id]];
+        dst[k + e] = latest[id];
       }
       insertion_sort(dst + k, m);
       merge_tail(dst, k, m, tmp);
@@ -613,7 +548,7 @@ bool KdPartition::split_oversized() {
             s.home[e.id] = forked ? kd::fork_node(e.build_tag, leaf, base) : global;
             if (forked) s.prev[e.id] = {{e.min[0], e.min[1], e.min[2]}, {e.max[0], e.max[1], e.max[2]}};
           }
-          e.build_tag = s.slot[e.id];  // the builder's tag gives way to the record slot
+          e.build_tag = 0;
         }
         nd.first += entry_base;
       }
