@@ -31,6 +31,12 @@
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
+// The eight-lane node test of rays is an AVX2 function chosen at run time
+// (the library is built for plain x86-64).
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#define HBP_BOX_TREE_AVX2 1
+#endif
 
 #include "hbp/aabb.hpp"
 #include "hbp/box_array.hpp"
@@ -111,6 +117,9 @@ class BoxTree {
   void for_each_ray_hit(const RaySegment& ray, Hit&& hit) const {
     if (empty()) return;
     const RayLanes lanes(ray);
+#if HBP_BOX_TREE_AVX2
+    if (cpu_has_avx2()) return ray_walk_avx2(ray, lanes, hit);
+#endif
     const auto node_mask = [&](const Node& n) { return node_ray_mask(n, ray, lanes); };
     const auto visit_leaf = [&](std::uint32_t link) {
       const Leaf& l = leaves_[link & ~kLeaf];
@@ -359,8 +368,12 @@ class BoxTree {
   // asked for, and waits). Children that find the ring full go on a stack,
   // served when the ring is empty or the stack holds more than kDeepStack
   // (then the walk is depth-first, which bounds the stack by the depth).
+  //
+  // Always inlined, so that inside the AVX2 ray walk (ray_walk_avx2) the
+  // walk and its tests are one AVX2 function.
   template <class NodeMask, class VisitLeaf>
-  void traverse(std::uint32_t link, const NodeMask& node_mask, const VisitLeaf& visit_leaf) const {
+  __attribute__((always_inline)) inline void traverse(std::uint32_t link, const NodeMask& node_mask,
+                                                      const VisitLeaf& visit_leaf) const {
     std::uint32_t stack[kStack];
     std::uint32_t top = 0;
     std::uint32_t ring[kRing];
@@ -376,7 +389,7 @@ class BoxTree {
           if (tail - head < kRing)
             ring[tail++ % kRing] = child;
           else if (top == kStack)  // deeper than any SAH tree of 2^31 boxes: a fresh walk
-            traverse(child, node_mask, visit_leaf);
+            traverse_apart(child, node_mask, visit_leaf);
           else
             stack[top++] = child;
         }
@@ -389,6 +402,64 @@ class BoxTree {
         return;
     }
   }
+
+  template <class NodeMask, class VisitLeaf>
+  __attribute__((noinline)) void traverse_apart(std::uint32_t link, const NodeMask& node_mask,
+                                                const VisitLeaf& visit_leaf) const {
+    traverse(link, node_mask, visit_leaf);
+  }
+
+#if HBP_BOX_TREE_AVX2
+  // Whether this CPU runs AVX2 (asked once).
+  static bool cpu_has_avx2();
+
+  // Node test of a ray in eight lanes at once: the SSE test's operations
+  // (decode lo + q * step, then the near / far slab) on a 256-bit vector, no
+  // FMA (not enabled here), so the very same floats.
+  struct Avx2NodeRayMask {
+    const RaySegment& ray;
+    const RayLanes& lanes;
+    __attribute__((target("avx2"))) std::uint32_t operator()(const Node& n) const {
+      __m256 t0 = _mm256_setzero_ps();
+      __m256 t1 = _mm256_set1_ps(ray.max_t);
+      __m256 inside = _mm256_castsi256_ps(_mm256_set1_epi32(-1));
+      for (int k = 0; k < 3; ++k) {
+        const __m256 lo = _mm256_set1_ps(n.lo[k]), step = _mm256_set1_ps(n.step[k]);
+        const std::uint8_t* qn = lanes.near_is_max[k] ? n.qmax[k] : n.qmin[k];
+        const std::uint8_t* qf = lanes.near_is_max[k] ? n.qmin[k] : n.qmax[k];
+        const __m256i cn = _mm256_cvtepu8_epi32(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(qn)));
+        const __m256i cf = _mm256_cvtepu8_epi32(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(qf)));
+        const __m256 nr = _mm256_add_ps(lo, _mm256_mul_ps(_mm256_cvtepi32_ps(cn), step));
+        const __m256 fr = _mm256_add_ps(lo, _mm256_mul_ps(_mm256_cvtepi32_ps(cf), step));
+        const __m256 o = _mm256_set1_ps(ray.origin[k]);
+        if (lanes.any_parallel && ray.parallel[k]) {
+          inside = _mm256_and_ps(inside, _mm256_and_ps(_mm256_cmp_ps(nr, o, _CMP_LE_OQ), _mm256_cmp_ps(fr, o, _CMP_GE_OQ)));
+          continue;
+        }
+        const __m256 inv = _mm256_set1_ps(ray.inverse[k]);
+        t0 = _mm256_max_ps(t0, _mm256_mul_ps(_mm256_sub_ps(nr, o), inv));
+        t1 = _mm256_min_ps(t1, _mm256_mul_ps(_mm256_sub_ps(fr, o), inv));
+      }
+      const __m256 pass = _mm256_and_ps(inside, _mm256_cmp_ps(t0, t1, _CMP_LE_OQ));
+      const __m256i unused =
+          _mm256_cmpeq_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(n.link)), _mm256_set1_epi32(-1));
+      return static_cast<std::uint32_t>(_mm256_movemask_ps(_mm256_andnot_ps(_mm256_castsi256_ps(unused), pass)));
+    }
+  };
+
+  // for_each_ray_hit's walk as one AVX2 function (traverse and the tests
+  // inline into it; the leaf test is the SSE one, VEX-encoded).
+  template <class Hit>
+  __attribute__((target("avx2"))) void ray_walk_avx2(const RaySegment& ray, const RayLanes& lanes, Hit& hit) const {
+    const Avx2NodeRayMask node_mask{ray, lanes};
+    const auto visit_leaf = [&](std::uint32_t link) {
+      const Leaf& l = leaves_[link & ~kLeaf];
+      float entry[kWidth];
+      for (std::uint32_t m = leaf_ray_mask(l, ray, lanes, entry); m; m &= m - 1) hit(item(l, lane(m)), entry[lane(m)]);
+    };
+    traverse(root_, node_mask, visit_leaf);
+  }
+#endif
 
   // On huge pages when large (RawBuffer): a query's random walk over tens of
   // megabytes would otherwise miss the TLB at almost every block.
