@@ -120,13 +120,14 @@ class BoxTree {
 #if HBP_BOX_TREE_AVX2
     if (cpu_has_avx2()) return ray_walk_avx2(ray, lanes, hit);
 #endif
-    const auto node_mask = [&](const Node& n) { return node_ray_mask(n, ray, lanes); };
-    const auto visit_leaf = [&](std::uint32_t link) {
-      const Leaf& l = leaves_[link & ~kLeaf];
-      float entry[kWidth];
-      for (std::uint32_t m = leaf_ray_mask(l, ray, lanes, entry); m; m &= m - 1) hit(item(l, lane(m)), entry[lane(m)]);
-    };
-    traverse(root_, node_mask, visit_leaf);
+    ray_walk_portable(ray, lanes, hit);
+  }
+  // The same walk with the four-lane (SSE2) node test whatever the CPU: what
+  // CPUs without AVX2 run (the tests check both walks).
+  template <class Hit>
+  void for_each_ray_hit_portable(const RaySegment& ray, Hit&& hit) const {
+    if (empty()) return;
+    ray_walk_portable(ray, RayLanes(ray), hit);
   }
 
   // The decoded (conservative) box of node n's lane c; also what build and
@@ -407,6 +408,18 @@ class BoxTree {
   __attribute__((noinline)) void traverse_apart(std::uint32_t link, const NodeMask& node_mask,
                                                 const VisitLeaf& visit_leaf) const {
     traverse(link, node_mask, visit_leaf);
+  }
+
+  // for_each_ray_hit's walk with the four-lane node test.
+  template <class Hit>
+  void ray_walk_portable(const RaySegment& ray, const RayLanes& lanes, Hit& hit) const {
+    const auto node_mask = [&](const Node& n) { return node_ray_mask(n, ray, lanes); };
+    const auto visit_leaf = [&](std::uint32_t link) {
+      const Leaf& l = leaves_[link & ~kLeaf];
+      float entry[kWidth];
+      for (std::uint32_t m = leaf_ray_mask(l, ray, lanes, entry); m; m &= m - 1) hit(item(l, lane(m)), entry[lane(m)]);
+    };
+    traverse(root_, node_mask, visit_leaf);
   }
 
 #if HBP_BOX_TREE_AVX2
