@@ -67,6 +67,11 @@ void check_ray(const BoxTree& tree, const BoxArray& boxes, const float o[3], con
     if (ray.hits(b.min, b.max, t)) want.emplace_back(i, t);
   }
   std::sort(got.begin(), got.end());
+  // The walk without AVX2 (four-lane node test) gives the same answer.
+  std::vector<std::pair<std::uint32_t, float>> portable;
+  tree.for_each_ray_hit_portable(ray, [&](const BoxTree::Item& it, float t) { portable.emplace_back(it.index, t); });
+  std::sort(portable.begin(), portable.end());
+  ASSERT_EQ(portable, want) << "portable walk";
   ASSERT_EQ(got, want) << "ray o (" << o[0] << " " << o[1] << " " << o[2] << ") d (" << d[0] << " " << d[1] << " "
                        << d[2] << ") max_t " << max_t;
 }

@@ -268,6 +268,16 @@ std::uint32_t BoxTree::depth() const {
   return deepest;
 }
 
+#if HBP_BOX_TREE_AVX2
+bool BoxTree::cpu_has_avx2() {
+  static const bool avx2 = [] {
+    __builtin_cpu_init();
+    return __builtin_cpu_supports("avx2") != 0;
+  }();
+  return avx2;
+}
+#endif
+
 void BoxTree::clear() {
   RawBuffer<Node>().swap(nodes_);
   RawBuffer<Leaf>().swap(leaves_);

@@ -31,6 +31,12 @@
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
+// The eight-lane node test of rays is an AVX2 function chosen at run time
+// (the library is built for plain x86-64).
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#define HBP_BOX_TREE_AVX2 1
+#endif
 
 #include "hbp/aabb.hpp"
 #include "hbp/box_array.hpp"
@@ -111,13 +117,17 @@ class BoxTree {
   void for_each_ray_hit(const RaySegment& ray, Hit&& hit) const {
     if (empty()) return;
     const RayLanes lanes(ray);
-    const auto node_mask = [&](const Node& n) { return node_ray_mask(n, ray, lanes); };
-    const auto visit_leaf = [&](std::uint32_t link) {
-      const Leaf& l = leaves_[link & ~kLeaf];
-      float entry[kWidth];
-      for (std::uint32_t m = leaf_ray_mask(l, ray, lanes, entry); m; m &= m - 1) hit(item(l, lane(m)), entry[lane(m)]);
-    };
-    traverse(root_, node_mask, visit_leaf);
+#if HBP_BOX_TREE_AVX2
+    if (cpu_has_avx2()) return ray_walk_avx2(ray, lanes, hit);
+#endif
+    ray_walk_portable(ray, lanes, hit);
+  }
+  // The same walk with the four-lane (SSE2) node test whatever the CPU: what
+  // CPUs without AVX2 run (the tests check both walks).
+  template <class Hit>
+  void for_each_ray_hit_portable(const RaySegment& ray, Hit&& hit) const {
+    if (empty()) return;
+    ray_walk_portable(ray, RayLanes(ray), hit);
   }
 
   // The decoded (conservative) box of node n's lane c; also what build and
@@ -221,43 +231,77 @@ class BoxTree {
 #endif
   }
 
-  // The ray's per-query constants for the four-lane slab test.
+  // The ray's per-query constants for the four-lane slab test, computed once
+  // a ray: the broadcast origin and inverse, and per axis which bound the
+  // ray meets first (near: the min when the inverse is >= 0, else the max),
+  // so a lane's slab is t_near = (near - o) / d, t_far = (far - o) / d with
+  // no min / max to order them: for a box with min <= max that is exactly
+  // min(a, b) and max(a, b) of RaySegment::hits (a product by a positive /
+  // negative inverse is monotone increasing / decreasing), the same floats.
   struct RayLanes {
 #if defined(__SSE2__)
     __m128 origin[3], inverse[3];
 #endif
+    bool near_is_max[3];  // the inverse is negative
+    bool any_parallel;
     explicit RayLanes([[maybe_unused]] const RaySegment& ray) {
-#if defined(__SSE2__)
+      any_parallel = false;
       for (int k = 0; k < 3; ++k) {
+#if defined(__SSE2__)
         origin[k] = _mm_set1_ps(ray.origin[k]);
         inverse[k] = _mm_set1_ps(ray.inverse[k]);
-      }
 #endif
+        near_is_max[k] = !ray.parallel[k] && ray.inverse[k] < 0;
+        any_parallel |= ray.parallel[k];
+      }
     }
   };
 
 #if defined(__SSE2__)
-  // Four-lane slab test: the arithmetic is RaySegment::hits' operation for
-  // operation (min(a, b) is the swapped a, max the same order from t = 0), so
-  // a leaf lane gives the very answer and t of the scalar rule, and a node's
-  // decoded lane passes whenever one of the boxes inside it would (rounding
-  // is monotone).
-  static __m128 sse_ray_lanes(const __m128* mn, const __m128* mx, const RaySegment& ray, const RayLanes& lanes,
+  // Four-lane slab test from the near and far bounds of each axis (RayLanes):
+  // the arithmetic is RaySegment::hits' operation for operation (t_near is
+  // its min(a, b), t_far its max(a, b), folded in the same order from
+  // t0 = 0, t1 = max_t), so a leaf lane gives the very answer and t of the
+  // scalar rule, and a node's decoded lane passes whenever one of the boxes
+  // inside it would (rounding is monotone). A parallel axis tests the origin
+  // against [min, max] (near / far are min / max there).
+  static __m128 sse_ray_lanes(const __m128* nr, const __m128* fr, const RaySegment& ray, const RayLanes& lanes,
                               __m128& t0) {
     t0 = _mm_setzero_ps();
     __m128 t1 = _mm_set1_ps(ray.max_t);
+    if (!lanes.any_parallel) {
+      for (int k = 0; k < 3; ++k) {
+        t0 = _mm_max_ps(t0, _mm_mul_ps(_mm_sub_ps(nr[k], lanes.origin[k]), lanes.inverse[k]));
+        t1 = _mm_min_ps(t1, _mm_mul_ps(_mm_sub_ps(fr[k], lanes.origin[k]), lanes.inverse[k]));
+      }
+      return _mm_cmple_ps(t0, t1);
+    }
     __m128 inside = _mm_castsi128_ps(_mm_set1_epi32(-1));
     for (int k = 0; k < 3; ++k) {
       if (ray.parallel[k]) {
-        inside = _mm_and_ps(inside, _mm_and_ps(_mm_cmple_ps(mn[k], lanes.origin[k]), _mm_cmpge_ps(mx[k], lanes.origin[k])));
+        inside = _mm_and_ps(inside, _mm_and_ps(_mm_cmple_ps(nr[k], lanes.origin[k]), _mm_cmpge_ps(fr[k], lanes.origin[k])));
         continue;
       }
-      const __m128 a = _mm_mul_ps(_mm_sub_ps(mn[k], lanes.origin[k]), lanes.inverse[k]);
-      const __m128 b = _mm_mul_ps(_mm_sub_ps(mx[k], lanes.origin[k]), lanes.inverse[k]);
-      t0 = _mm_max_ps(t0, _mm_min_ps(a, b));
-      t1 = _mm_min_ps(t1, _mm_max_ps(a, b));
+      t0 = _mm_max_ps(t0, _mm_mul_ps(_mm_sub_ps(nr[k], lanes.origin[k]), lanes.inverse[k]));
+      t1 = _mm_min_ps(t1, _mm_mul_ps(_mm_sub_ps(fr[k], lanes.origin[k]), lanes.inverse[k]));
     }
     return _mm_and_ps(inside, _mm_cmple_ps(t0, t1));
+  }
+  // Lanes h..h+3's decoded near and far bounds on every axis.
+  static void decode_ray_lanes(const Node& n, std::uint32_t h, const RayLanes& lanes, __m128* nr, __m128* fr) {
+    const __m128i zero = _mm_setzero_si128();
+    for (int k = 0; k < 3; ++k) {
+      const __m128 lo = _mm_set1_ps(n.lo[k]), step = _mm_set1_ps(n.step[k]);
+      const std::uint8_t* qn = lanes.near_is_max[k] ? n.qmax[k] : n.qmin[k];
+      const std::uint8_t* qf = lanes.near_is_max[k] ? n.qmin[k] : n.qmax[k];
+      std::int32_t a, b;
+      std::memcpy(&a, qn + h, 4);
+      std::memcpy(&b, qf + h, 4);
+      const __m128i ca = _mm_unpacklo_epi16(_mm_unpacklo_epi8(_mm_cvtsi32_si128(a), zero), zero);
+      const __m128i cb = _mm_unpacklo_epi16(_mm_unpacklo_epi8(_mm_cvtsi32_si128(b), zero), zero);
+      nr[k] = _mm_add_ps(lo, _mm_mul_ps(_mm_cvtepi32_ps(ca), step));
+      fr[k] = _mm_add_ps(lo, _mm_mul_ps(_mm_cvtepi32_ps(cb), step));
+    }
   }
 #endif
 
@@ -265,10 +309,13 @@ class BoxTree {
   static std::uint32_t leaf_ray_mask(const Leaf& l, const RaySegment& ray, [[maybe_unused]] const RayLanes& lanes,
                                      float* entry) {
 #if defined(__SSE2__)
-    const __m128 mn[3] = {_mm_load_ps(l.min[0]), _mm_load_ps(l.min[1]), _mm_load_ps(l.min[2])};
-    const __m128 mx[3] = {_mm_load_ps(l.max[0]), _mm_load_ps(l.max[1]), _mm_load_ps(l.max[2])};
+    __m128 nr[3], fr[3];
+    for (int k = 0; k < 3; ++k) {
+      nr[k] = _mm_load_ps(lanes.near_is_max[k] ? l.max[k] : l.min[k]);
+      fr[k] = _mm_load_ps(lanes.near_is_max[k] ? l.min[k] : l.max[k]);
+    }
     __m128 t0;
-    const __m128 m = sse_ray_lanes(mn, mx, ray, lanes, t0);
+    const __m128 m = sse_ray_lanes(nr, fr, ray, lanes, t0);
     _mm_storeu_ps(entry, t0);
     return static_cast<std::uint32_t>(_mm_movemask_ps(m)) & used_mask(l.index);
 #else
@@ -285,10 +332,10 @@ class BoxTree {
 #if defined(__SSE2__)
     std::uint32_t mask = 0;
     for (std::uint32_t h = 0; h < kNodeWidth; h += 4) {
-      __m128 mn[3], mx[3];
-      decode_lanes(n, h, mn, mx);
+      __m128 nr[3], fr[3];
+      decode_ray_lanes(n, h, lanes, nr, fr);
       __m128 t0;
-      mask |= static_cast<std::uint32_t>(_mm_movemask_ps(sse_ray_lanes(mn, mx, ray, lanes, t0))) << h;
+      mask |= static_cast<std::uint32_t>(_mm_movemask_ps(sse_ray_lanes(nr, fr, ray, lanes, t0))) << h;
     }
     return mask & (used_mask(n.link) | used_mask(n.link + 4) << 4);
 #else
@@ -322,8 +369,12 @@ class BoxTree {
   // asked for, and waits). Children that find the ring full go on a stack,
   // served when the ring is empty or the stack holds more than kDeepStack
   // (then the walk is depth-first, which bounds the stack by the depth).
+  //
+  // Always inlined, so that inside the AVX2 ray walk (ray_walk_avx2) the
+  // walk and its tests are one AVX2 function.
   template <class NodeMask, class VisitLeaf>
-  void traverse(std::uint32_t link, const NodeMask& node_mask, const VisitLeaf& visit_leaf) const {
+  __attribute__((always_inline)) inline void traverse(std::uint32_t link, const NodeMask& node_mask,
+                                                      const VisitLeaf& visit_leaf) const {
     std::uint32_t stack[kStack];
     std::uint32_t top = 0;
     std::uint32_t ring[kRing];
@@ -339,7 +390,7 @@ class BoxTree {
           if (tail - head < kRing)
             ring[tail++ % kRing] = child;
           else if (top == kStack)  // deeper than any SAH tree of 2^31 boxes: a fresh walk
-            traverse(child, node_mask, visit_leaf);
+            traverse_apart(child, node_mask, visit_leaf);
           else
             stack[top++] = child;
         }
@@ -352,6 +403,76 @@ class BoxTree {
         return;
     }
   }
+
+  template <class NodeMask, class VisitLeaf>
+  __attribute__((noinline)) void traverse_apart(std::uint32_t link, const NodeMask& node_mask,
+                                                const VisitLeaf& visit_leaf) const {
+    traverse(link, node_mask, visit_leaf);
+  }
+
+  // for_each_ray_hit's walk with the four-lane node test.
+  template <class Hit>
+  void ray_walk_portable(const RaySegment& ray, const RayLanes& lanes, Hit& hit) const {
+    const auto node_mask = [&](const Node& n) { return node_ray_mask(n, ray, lanes); };
+    const auto visit_leaf = [&](std::uint32_t link) {
+      const Leaf& l = leaves_[link & ~kLeaf];
+      float entry[kWidth];
+      for (std::uint32_t m = leaf_ray_mask(l, ray, lanes, entry); m; m &= m - 1) hit(item(l, lane(m)), entry[lane(m)]);
+    };
+    traverse(root_, node_mask, visit_leaf);
+  }
+
+#if HBP_BOX_TREE_AVX2
+  // Whether this CPU runs AVX2 (asked once).
+  static bool cpu_has_avx2();
+
+  // Node test of a ray in eight lanes at once: the SSE test's operations
+  // (decode lo + q * step, then the near / far slab) on a 256-bit vector, no
+  // FMA (not enabled here), so the very same floats.
+  struct Avx2NodeRayMask {
+    const RaySegment& ray;
+    const RayLanes& lanes;
+    __attribute__((target("avx2"))) std::uint32_t operator()(const Node& n) const {
+      __m256 t0 = _mm256_setzero_ps();
+      __m256 t1 = _mm256_set1_ps(ray.max_t);
+      __m256 inside = _mm256_castsi256_ps(_mm256_set1_epi32(-1));
+      for (int k = 0; k < 3; ++k) {
+        const __m256 lo = _mm256_set1_ps(n.lo[k]), step = _mm256_set1_ps(n.step[k]);
+        const std::uint8_t* qn = lanes.near_is_max[k] ? n.qmax[k] : n.qmin[k];
+        const std::uint8_t* qf = lanes.near_is_max[k] ? n.qmin[k] : n.qmax[k];
+        const __m256i cn = _mm256_cvtepu8_epi32(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(qn)));
+        const __m256i cf = _mm256_cvtepu8_epi32(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(qf)));
+        const __m256 nr = _mm256_add_ps(lo, _mm256_mul_ps(_mm256_cvtepi32_ps(cn), step));
+        const __m256 fr = _mm256_add_ps(lo, _mm256_mul_ps(_mm256_cvtepi32_ps(cf), step));
+        const __m256 o = _mm256_set1_ps(ray.origin[k]);
+        if (lanes.any_parallel && ray.parallel[k]) {
+          inside = _mm256_and_ps(inside, _mm256_and_ps(_mm256_cmp_ps(nr, o, _CMP_LE_OQ), _mm256_cmp_ps(fr, o, _CMP_GE_OQ)));
+          continue;
+        }
+        const __m256 inv = _mm256_set1_ps(ray.inverse[k]);
+        t0 = _mm256_max_ps(t0, _mm256_mul_ps(_mm256_sub_ps(nr, o), inv));
+        t1 = _mm256_min_ps(t1, _mm256_mul_ps(_mm256_sub_ps(fr, o), inv));
+      }
+      const __m256 pass = _mm256_and_ps(inside, _mm256_cmp_ps(t0, t1, _CMP_LE_OQ));
+      const __m256i unused =
+          _mm256_cmpeq_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(n.link)), _mm256_set1_epi32(-1));
+      return static_cast<std::uint32_t>(_mm256_movemask_ps(_mm256_andnot_ps(_mm256_castsi256_ps(unused), pass)));
+    }
+  };
+
+  // for_each_ray_hit's walk as one AVX2 function (traverse and the tests
+  // inline into it; the leaf test is the SSE one, VEX-encoded).
+  template <class Hit>
+  __attribute__((target("avx2"))) void ray_walk_avx2(const RaySegment& ray, const RayLanes& lanes, Hit& hit) const {
+    const Avx2NodeRayMask node_mask{ray, lanes};
+    const auto visit_leaf = [&](std::uint32_t link) {
+      const Leaf& l = leaves_[link & ~kLeaf];
+      float entry[kWidth];
+      for (std::uint32_t m = leaf_ray_mask(l, ray, lanes, entry); m; m &= m - 1) hit(item(l, lane(m)), entry[lane(m)]);
+    };
+    traverse(root_, node_mask, visit_leaf);
+  }
+#endif
 
   // On huge pages when large (RawBuffer): a query's random walk over tens of
   // megabytes would otherwise miss the TLB at almost every block.
