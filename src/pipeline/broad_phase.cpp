@@ -532,6 +532,13 @@ struct BroadPhase::Impl {
     return (collide_mask[la] >> lb) & 1u;
   }
 
+  // A frame's pair count against options.max_pairs (0: unlimited).
+  void check_max_pairs(std::size_t pairs) const {
+    if (options.max_pairs && pairs > options.max_pairs)
+      throw CapacityExceeded("BroadPhase::update: " + std::to_string(pairs) + " pairs, more than max_pairs " +
+                             std::to_string(options.max_pairs));
+  }
+
   bool all_layers_collide() const {
     for (const std::uint32_t m : collide_mask)
       if (m != 0xFFFFFFFFu) return false;
@@ -793,9 +800,7 @@ struct BroadPhase::Impl {
     static const std::vector<Pair> none;
     const std::vector<Pair>& raw =
         moving_handle.size() >= 2 ? detail::HybridAccess::update_checked(hybrid, moving_boxes) : none;
-    if (options.max_pairs && raw.size() > options.max_pairs)
-      throw CapacityExceeded("BroadPhase::update: " + std::to_string(raw.size()) + " pairs, more than max_pairs " +
-                             std::to_string(options.max_pairs));
+    check_max_pairs(raw.size());
     moving_pairs.clear();
     static_pairs.clear();
     static_pairs_valid = false;
@@ -834,9 +839,7 @@ struct BroadPhase::Impl {
         next.resize(moving_pairs.size() + static_pairs.size());
         std::merge(moving_pairs.begin(), moving_pairs.end(), static_pairs.begin(), static_pairs.end(), next.begin());
       }
-      if (options.max_pairs && next.size() > options.max_pairs)
-        throw CapacityExceeded("BroadPhase::update: " + std::to_string(next.size()) + " pairs, more than max_pairs " +
-                               std::to_string(options.max_pairs));
+      check_max_pairs(next.size());
       detail::diff_sorted_pairs(result.pairs, next, result.created, result.removed, diff_scratch);
       result.pairs.swap(next);
     });

@@ -12,6 +12,7 @@
 #include <chrono>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <stdexcept>
 
 #include "hbp/error.hpp"
@@ -217,19 +218,30 @@ struct HybridBroadPhase::Impl {
   }
 
   // The software engine writes global ids into the stage; the stage drains
-  // into out whenever it fills.
-  void emit_direct(Worker& w, const CellRegion& region, std::vector<Pair>& out, CellOutcome& r) {
+  // into out whenever it fills. Should out grow past `limit` pairs (a
+  // store's touch budget), what the cell appended is taken back and false
+  // returned.
+  bool emit_direct(Worker& w, const CellRegion& region, std::vector<Pair>& out, CellOutcome& r,
+                   std::size_t limit = std::numeric_limits<std::size_t>::max()) {
+    const std::size_t start = out.size();
+    const std::uint64_t pairs_before = r.pairs;
     const std::uint32_t n = w.cell.size();
     fit_stage(w, stage_pairs(n));
     for (std::uint32_t row = 0; row < n;) {
       std::size_t count = 0;
       row = w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), region, row, w.first.data(), w.second.data(),
                                 w.first.size(), count);
+      if (out.size() + count > limit) {
+        out.resize(start);
+        r.pairs = pairs_before;
+        return false;
+      }
       charge(count);
       drain_stage(w, count, out);
       r.pairs += count;
     }
     r.candidates = r.pairs;
+    return true;
   }
 
   // Any other engine: local indices, mapped to ids.
@@ -404,23 +416,9 @@ struct HybridBroadPhase::Impl {
   // false returned (the caller counts the cell instead).
   bool store_within_budget(Worker& w, const CellRegion& region, CellOutcome& r) {
     const std::size_t budget = std::min(w.stored.capacity(), w.touched + kTouchPairsPerFrame);
-    const std::uint32_t n = w.cell.size();
-    fit_stage(w, stage_pairs(n));
-    for (std::uint32_t row = 0; row < n;) {
-      std::size_t count = 0;
-      row = w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), region, row, w.first.data(), w.second.data(),
-                                w.first.size(), count);
-      if (w.stored.size() + count > budget) {
-        w.stored.resize(r.offset);
-        w.store_full = true;
-        r.pairs = 0;
-        return false;
-      }
-      drain_stage(w, count, w.stored);
-      r.pairs += count;
-    }
-    r.candidates = r.pairs;
-    return true;
+    if (emit_direct(w, region, w.stored, r, budget)) return true;
+    w.store_full = true;
+    return false;
   }
 
   // Second pass: stored pairs are copied to their place in the frame's list
