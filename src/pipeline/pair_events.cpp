@@ -22,33 +22,26 @@ inline std::uint64_t key(Pair p) { return (static_cast<std::uint64_t>(p.a) << 32
 void merge_range(const Pair* p, const Pair* p_end, const Pair* c, const Pair* c_end, std::vector<Pair>& created,
                  std::vector<Pair>& removed) {
   static_assert(sizeof(Pair) == 8, "four pairs are 32 bytes");
+  auto step = [&] {  // one pair of the merge
+    const std::uint64_t kp = key(*p), kc = key(*c);
+    if (kp == kc) {
+      ++p;
+      ++c;
+    } else if (kp < kc) {
+      removed.push_back(*p++);
+    } else {
+      created.push_back(*c++);
+    }
+  };
   while (p_end - p >= 4 && c_end - c >= 4) {
     if (std::memcmp(p, c, 4 * sizeof(Pair)) == 0) {
       p += 4;
       c += 4;
-      continue;
-    }
-    const std::uint64_t kp = key(*p), kc = key(*c);
-    if (kp == kc) {
-      ++p;
-      ++c;
-    } else if (kp < kc) {
-      removed.push_back(*p++);
     } else {
-      created.push_back(*c++);
+      step();
     }
   }
-  while (p != p_end && c != c_end) {
-    const std::uint64_t kp = key(*p), kc = key(*c);
-    if (kp == kc) {
-      ++p;
-      ++c;
-    } else if (kp < kc) {
-      removed.push_back(*p++);
-    } else {
-      created.push_back(*c++);
-    }
-  }
+  while (p != p_end && c != c_end) step();
   removed.insert(removed.end(), p, p_end);
   created.insert(created.end(), c, c_end);
 }
