@@ -7,6 +7,8 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <chrono>
+#include <cstdio>
 #include <array>
 #include <cmath>
 #include <random>
@@ -403,6 +405,124 @@ TEST(KdPartition, ObjectsAlternatingBetweenOneCellAndSeveralKeepExactCells) {
     ASSERT_EQ(sorted, hbp::brute_force_pairs(boxes)) << "frame " << f;
   }
   EXPECT_FALSE(p.stats().rebuilt);
+}
+
+}  // namespace
+
+namespace {
+
+// The from-scratch build of a large frame takes its planes from a sample
+// (one object in 32 at the default limit; frames of 32,768 objects and more,
+// limits of 64 and more: kd_sampled_build.cpp) and routes every object once.
+// Its cells must be as exact as the exact build's whatever the sample saw:
+// objects all in one spot, huge objects on the sampled ids' stride,
+// duplicates, tight clusters; the same cells on one thread or two.
+BoxArray sampled_build_scene(int kind, std::uint32_t n) {
+  std::mt19937 rng(31 + kind);
+  std::uniform_real_distribution<float> u(0, 1);
+  BoxArray b;
+  b.reserve(n);
+  for (std::uint32_t i = 0; i < n; ++i) {
+    float x = 1000 * u(rng), y = 1000 * u(rng), z = 1000 * u(rng), s = 1 + 9 * u(rng);
+    switch (kind) {
+      case 0:  // uniform
+        break;
+      case 1:  // everything in one spot: no plane splits it
+        x = y = z = 500, s = 3;
+        break;
+      case 2:  // every 32nd object spans the world (the sample's block size)
+        if (i % 32 == 7) x = y = z = -10, s = 1020;
+        break;
+      case 3: {  // each box twice, and a tenth of them ten times
+        const std::uint32_t twin = (i / 10) % 10 == 0 ? i - i % 10 : i - i % 2;
+        if (twin != i) {
+          const Aabb a = b.get(twin);
+          x = a.min[0], y = a.min[1], z = a.min[2], s = a.max[0] - a.min[0];
+        }
+        break;
+      }
+      case 4: {  // five tight clusters, one of them huge
+        const float c = 100.0f + 200.0f * static_cast<float>(i % 5);
+        const float spread = i % 5 == 0 ? 50.0f : 4.0f;
+        x = c + spread * u(rng), y = c + spread * u(rng), z = 300 + spread * u(rng), s = 0.02f + 0.05f * u(rng);
+        break;
+      }
+      default:
+        break;
+    }
+    b.push_back({{x, y, z}, {x + s, y + s, z + s}});
+  }
+  return b;
+}
+
+TEST(KdPartitionSampledBuild, AdversarialScenesGiveExactCellsOnOneOrTwoThreads) {
+  const std::uint32_t n = 40000;
+  for (int kind = 0; kind < 5; ++kind) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const BoxArray boxes = sampled_build_scene(kind, n);
+    for (std::uint32_t limit : {1024u, 128u}) {
+      const std::string where = "kind " + std::to_string(kind) + " limit " + std::to_string(limit);
+      KdPartition one(limit, 0.5f), two(limit, 0.5f);
+      tbb::task_arena(1).execute([&] { one.update(boxes); });
+      tbb::task_arena(2).execute([&] { two.update(boxes); });
+      ASSERT_TRUE(one.stats().rebuilt) << where;
+      ASSERT_EQ(one.cell_count(), two.cell_count()) << where;
+      for (std::uint32_t c = 0; c < one.cell_count(); ++c) {
+        const auto a = one.cell(c), b = two.cell(c);
+        ASSERT_EQ(a.size(), b.size()) << where << " cell " << c;
+        for (std::size_t k = 0; k < a.size(); ++k) ASSERT_EQ(a[k].id, b[k].id) << where << " cell " << c;
+      }
+      expect_valid_cells(two, boxes, where);
+      if (kind == 1) {
+        EXPECT_EQ(two.cell_count(), 1u) << where;  // identical boxes: one over-full cell, not a crash
+      } else if (kind != 2) {  // (kind 2: the 1,250 huge boxes fill every cell past 1,024 or 128)
+        // Cells the sample underestimated were split: none over the limit.
+        EXPECT_EQ(two.stats().oversized_cells, 0u) << where;
+        EXPECT_GT(two.cell_count(), n / limit) << where;
+      }
+    }
+    std::printf("kind %d %.0f ms\n", kind, std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+  }
+}
+
+// A rebuild mid-run (the boxes grow at frame 3: the duplication passes the
+// rebuild rule, the next frame rebuilds from a sample) and slow motion after
+// it (objects in several cells keep them while they move less than the margin
+// the build gave them): every frame the oracle's pairs, the same order on
+// one thread or two, and exact cells.
+TEST(KdPartitionSampledBuild, RebuildMidRunMatchesTheOracleEveryFrame) {
+  const std::uint32_t n = 36000;
+  const BoxArray base = sampled_build_scene(0, n);
+  auto frame = [&](int f) {
+    BoxArray b;
+    b.reserve(n);
+    const float grow = f >= 3 ? 40.0f : 0.0f;
+    for (std::uint32_t i = 0; i < n; ++i) {
+      Aabb a = base.get(i);
+      const float d = 0.2f * static_cast<float>(f) * (i % 3 == 0 ? 1.0f : -0.5f);
+      for (int k = 0; k < 3; ++k) a.min[k] += d, a.max[k] += d + grow;
+      b.push_back(a);
+    }
+    return b;
+  };
+  HybridBroadPhase one({.engine = "sw", .threads = 1, .sorted = false});
+  HybridBroadPhase two({.engine = "sw", .threads = 2, .sorted = false});
+  KdPartition p(1024, 0.5f);
+  int rebuilds = 0;
+  for (int f = 0; f < 7; ++f) {
+    const BoxArray boxes = frame(f);
+    const std::string where = "frame " + std::to_string(f);
+    p.update(boxes);
+    expect_valid_cells(p, boxes, where);
+    const std::vector<Pair> a = one.update(boxes);
+    const std::vector<Pair>& b = two.update(boxes);
+    ASSERT_TRUE(a == b) << where;
+    if (f > 0) rebuilds += two.stats().rebuilt;
+    std::vector<Pair> sorted = a;
+    hbp::canonicalize(sorted);
+    ASSERT_EQ(sorted, sweep_oracle(boxes)) << where;
+  }
+  EXPECT_EQ(rebuilds, 1);  // the frame after the growth, and only it
 }
 
 }  // namespace

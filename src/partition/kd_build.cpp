@@ -14,6 +14,7 @@
 #include <utility>
 
 #include "hbp/error.hpp"
+#include "partition/kd_sampled_build.hpp"
 #include "support/radix_sort.hpp"
 
 namespace hbp::kd {
@@ -29,9 +30,9 @@ namespace {
 // -> 1.2853 at 1,024,000).
 constexpr std::uint32_t kExactSplitMax = 1u << 12;
 constexpr std::uint32_t kSplitSamples = 1u << 12;
-// The parallel build splits level by level until every node has at most this
-// many entries (about 1 MB: it fits the cache), then builds each such subtree
-// as one serial task.
+// The parallel build's top levels (from a sample, kd_sampled_build.cpp) end
+// at nodes of about this many entries (about 1 MB: it fits the cache); each
+// such subtree is then built exactly as one serial task.
 constexpr std::uint32_t kTaskEntries = 1u << 15;
 // A task's output slot holds its input plus 1/kTaskSlotHeadroom of it plus
 // kTaskSlack entries (the copies its own planes add; paper scene: 1.15x).
@@ -39,10 +40,6 @@ constexpr std::uint32_t kTaskSlotHeadroom = 4;
 constexpr std::uint32_t kTaskSlack = 256;
 // Nodes of at least this many entries count their split's sides in parallel.
 constexpr std::uint32_t kParallelCountMin = 1u << 18;
-// The top levels of fewer than kChunkedLevelNodes nodes partition them in
-// chunks of kPartitionChunk entries.
-constexpr std::uint32_t kPartitionChunk = 1u << 16;
-constexpr std::size_t kChunkedLevelNodes = 4;
 // The engine-cost rule splits a node under the limit only when the children
 // cost below this fraction of the parent.
 constexpr double kCostSplitGain = 0.95;
@@ -261,163 +258,41 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
                 RawBuffer<CellEntry>& entries, std::uint32_t* home, StoredBox* prev) {
   const auto n = static_cast<std::uint32_t>(boxes.size());
   const float* src[6] = {boxes.min(0), boxes.min(1), boxes.min(2), boxes.max(0), boxes.max(1), boxes.max(2)};
-
-  // 1. The objects as entries, sorted by min x (ties by id). The sort keys
-  // and their scratch live in the output buffer, which the stitch overwrites
-  // at the end: pages touched here are not fresh there (16 bytes a key pair
-  // within a 32-byte entry), and no key buffer is kept between builds.
-  static_assert(sizeof(CellEntry) >= 2 * sizeof(std::uint64_t));  // (RawBuffer memory is 64-byte aligned)
-  const std::size_t room = std::size_t{n} + n / 2 + kTaskSlack;
-  entries.clear();
-  entries.reserve(room);
-  entries.resize(n);
-  auto* keys = reinterpret_cast<std::uint64_t*>(entries.data());
-  tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, n, 1u << 16), [&](const auto& r) {
-    for (std::uint32_t i = r.begin(); i != r.end(); ++i) keys[i] = (std::uint64_t{float_order_key(src[0][i])} << 32) | i;
-  });
-  keys = radix_sort_keyed_indices(keys, keys + n, n);
   RawBuffer<CellEntry>& a = *buffers.a;
   RawBuffer<CellEntry>& b = *buffers.b;
   // Room for the top levels' duplicates and the tasks' output slots, so the
-  // ping-pong buffers neither move nor copy while they grow (untouched room
-  // costs nothing); their old contents are not needed.
+  // buffers neither move nor copy while they grow (untouched room costs
+  // nothing); their old contents are not needed.
+  const std::size_t room = std::size_t{n} + n / 2 + kTaskSlack;
+  entries.clear();
+  entries.reserve(room);
   a.clear();
   b.clear();
   a.reserve(room);
   b.reserve(room);
-  a.resize(n);
-  tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, n, 1u << 14), [&](const auto& r) {
-    for (std::uint32_t k = r.begin(); k != r.end(); ++k) {
+  nodes.assign(1, KdTreeNode{});
+  std::vector<BuildTask> frontier;
+  if (samples_top_levels(n, kTaskEntries)) {
+    // 1-2. The top levels from a sample, every object routed through them
+    // once into its tasks' entries in a (kd_sampled_build.cpp).
+    build_top_levels(boxes, rule, kTaskEntries, buffers.top, buffers.sample_tree, buffers.scratch.local(), nodes, a, b,
+                     frontier);
+  } else {
+    // 1-2. One task: the objects as entries, sorted by min x (ties by id).
+    // The sort keys and their scratch live in the output buffer, which the
+    // stitch overwrites at the end: pages touched here are not fresh there
+    // (16 bytes a key pair within a 32-byte entry).
+    static_assert(sizeof(CellEntry) >= 2 * sizeof(std::uint64_t));  // (RawBuffer memory is 64-byte aligned)
+    entries.resize(n);
+    auto* keys = reinterpret_cast<std::uint64_t*>(entries.data());
+    for (std::uint32_t i = 0; i < n; ++i) keys[i] = (std::uint64_t{float_order_key(src[0][i])} << 32) | i;
+    keys = radix_sort_keyed_indices(keys, keys + n, n);
+    a.resize(n);
+    for (std::uint32_t k = 0; k < n; ++k) {
       const auto id = static_cast<std::uint32_t>(keys[k]);
       a[k] = {{src[0][id], src[1][id], src[2][id]}, {src[3][id], src[4][id], src[5][id]}, id, kNoFork};
     }
-  });
-
-  // 2. Top levels, breadth first: every node larger than a task is split
-  // (in parallel across the level's nodes) from buffer a into buffer b.
-  struct Item {
-    std::uint32_t node, depth;
-    std::size_t begin;
-    std::uint32_t n;
-    bool task;  // split no further here: built as one serial subtree
-  };
-  nodes.assign(1, KdTreeNode{});
-  std::vector<Item> frontier{{0, 0, 0, n, n <= kTaskEntries}}, next;
-  std::vector<Split> splits;
-  std::vector<unsigned char> split_ok;
-  struct Chunk {
-    std::uint32_t item, begin, n;
-    std::uint32_t left = 0, right = 0, safe = 0;
-    std::size_t left_at = 0, right_at = 0;
-  };
-  std::vector<Chunk> chunks;
-  while (true) {
-    bool large = false;
-    for (const Item& it : frontier) large |= !it.task;
-    if (!large) break;
-    splits.assign(frontier.size(), Split{});
-    split_ok.assign(frontier.size(), 0);
-    tbb::parallel_for(std::size_t{0}, frontier.size(), [&](std::size_t i) {
-      const Item& it = frontier[i];
-      if (!it.task)
-        split_ok[i] = choose_split(a.data() + it.begin, it.n, it.depth, rule, buffers.scratch.local().centres, splits[i]);
-    });
-    next.clear();
-    std::size_t offset = 0;
-    for (std::size_t i = 0; i < frontier.size(); ++i) {
-      const Item& it = frontier[i];
-      if (!split_ok[i]) {  // a task already (small or unsplittable): carried over
-        next.push_back({it.node, it.depth, offset, it.n, true});
-        offset += it.n;
-        continue;
-      }
-      const Split& s = splits[i];
-      const auto child = static_cast<std::uint32_t>(nodes.size());
-      nodes[it.node].axis = s.axis;
-      nodes[it.node].split = s.split;
-      nodes[it.node].child = child;
-      nodes.emplace_back();
-      nodes.emplace_back();
-      next.push_back({child, it.depth + 1, offset, s.left, s.left <= kTaskEntries});
-      next.push_back({child + 1, it.depth + 1, offset + s.left + 1, s.right, s.right <= kTaskEntries});
-      offset += std::size_t{s.left} + s.right + 2;  // + partition_entries' scratch slots
-    }
-    if (offset > std::numeric_limits<std::uint32_t>::max() / 2)
-      throw CapacityExceeded("k-d partition: more than 2^31 cell entries (" + std::to_string(offset) + ")");
-    b.clear();  // nothing in it is kept: never copied if it must grow
-    b.resize(offset);
-    // Where each frontier item's output starts in b (next is in frontier order).
-    std::vector<std::size_t> out_at(frontier.size());
-    for (std::size_t i = 0, j = 0; i < frontier.size(); ++i) {
-      out_at[i] = next[j].begin;
-      j += split_ok[i] ? 2 : 1;
-    }
-    // The root and its children in chunks (they would otherwise run on one
-    // thread or two): each chunk counts its entries going each way, then
-    // partitions them to their place; the same output as one stable pass per
-    // node. A chunk's free writes past its outputs would land in the next
-    // chunk's, so it branches after its last entry going one of the ways.
-    // Levels with enough nodes for the threads keep one chunk per node: the
-    // count is the split's, and the node's scratch slots take the free writes.
-    chunks.clear();
-    const std::uint32_t chunk = frontier.size() < kChunkedLevelNodes ? kPartitionChunk : ~0u;
-    for (std::size_t i = 0; i < frontier.size(); ++i)
-      for (std::uint32_t c = 0; c < frontier[i].n || c == 0; c += std::min(chunk, frontier[i].n - c)) {
-        chunks.push_back({static_cast<std::uint32_t>(i), c, std::min(chunk, frontier[i].n - c)});
-        if (frontier[i].n == 0) break;
-      }
-    tbb::parallel_for(std::size_t{0}, chunks.size(), [&](std::size_t k) {
-      Chunk& ch = chunks[k];
-      if (!split_ok[ch.item]) return;
-      const Split& s = splits[ch.item];
-      if (ch.n == frontier[ch.item].n) {  // the whole node
-        ch.left = s.left;
-        ch.right = s.right;
-        ch.safe = ch.n;
-        return;
-      }
-      const CellEntry* e = a.data() + frontier[ch.item].begin + ch.begin;
-      std::uint32_t left = 0, right = 0, last_left = 0, last_right = 0;  // one past
-      for (std::uint32_t j = 0; j < ch.n; ++j) {
-        const bool l = e[j].min[s.axis] < s.split;
-        const bool r = e[j].max[s.axis] >= s.split;
-        left += l;
-        right += r;
-        last_left = l ? j + 1 : last_left;
-        last_right = r ? j + 1 : last_right;
-      }
-      ch.left = left;
-      ch.right = right;
-      ch.safe = std::min(last_left, last_right);
-    });
-    for (std::size_t k = 0, left = 0, right = 0; k < chunks.size(); ++k) {
-      Chunk& ch = chunks[k];
-      if (ch.begin == 0) left = right = 0;
-      const std::size_t at = out_at[ch.item];
-      if (!split_ok[ch.item]) {
-        ch.left_at = at + ch.begin;
-        continue;
-      }
-      ch.left_at = at + left;
-      ch.right_at = at + splits[ch.item].left + 1 + right;
-      left += ch.left;
-      right += ch.right;
-      if ((k + 1 == chunks.size() || chunks[k + 1].begin == 0) &&
-          (left != splits[ch.item].left || right != splits[ch.item].right))
-        throw std::logic_error("k-d build: chunk counts differ from the split's");
-    }
-    tbb::parallel_for(std::size_t{0}, chunks.size(), [&](std::size_t k) {
-      const Chunk& ch = chunks[k];
-      const Item& it = frontier[ch.item];
-      const CellEntry* e = a.data() + it.begin + ch.begin;
-      if (!split_ok[ch.item]) {
-        if (ch.n) std::memcpy(b.data() + ch.left_at, e, std::size_t{ch.n} * sizeof(CellEntry));
-        return;
-      }
-      partition_range(e, ch.n, splits[ch.item], it.node, b.data() + ch.left_at, b.data() + ch.right_at, ch.safe);
-    });
-    a.swap(b);
-    frontier.swap(next);
+    frontier.push_back({0, 0, 0, n});
   }
   // 3. One serial subtree per task, in parallel, each writing its leaves
   // into its own slot of buffer b (touched by the top levels already: a
@@ -432,7 +307,7 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
   b.clear();
   b.resize(slot.back());
   tbb::parallel_for(std::size_t{0}, frontier.size(), [&](std::size_t t) {
-    const Item& it = frontier[t];
+    const BuildTask& it = frontier[t];
     tasks[t].build_into(a.data() + it.begin, it.n, it.depth, rule, buffers.scratch.local(), b.data() + slot[t],
                         slot[t + 1] - slot[t]);
   });

@@ -20,6 +20,7 @@
 
 #include "hbp/box_array.hpp"
 #include "hbp/kd_partition.hpp"
+#include "partition/kd_sampled_build.hpp"
 #include "partition/raw_buffer.hpp"
 
 namespace hbp::kd {
@@ -121,6 +122,8 @@ struct BuildBuffers {
   RawBuffer<CellEntry>* b = nullptr;
   std::vector<SubtreeBuilder> tasks;   // one per subtree task: its output
   tbb::enumerable_thread_specific<BuildScratch> scratch;
+  SampledTopBuffers top;               // the top levels from a sample
+  SubtreeBuilder sample_tree;
 };
 
 // Builds the whole tree from scratch: nodes (node 0 the root), every leaf's

@@ -15,7 +15,6 @@
 
 #include "hbp/error.hpp"
 #include "partition/kd_build.hpp"
-#include "partition/kd_sampled_build.hpp"
 #include "partition/raw_buffer.hpp"
 
 namespace hbp {
@@ -162,7 +161,6 @@ struct KdPartition::State {
   kd::SubtreeBuilder splitter;
   kd::BuildScratch split_scratch;
   kd::BuildBuffers build;
-  kd::SampledBuildBuffers sampled_build;
   bool rebuild_next = false;
   double rebuild_duplication = 0;
   std::size_t rebuild_cells = 0;
@@ -213,28 +211,17 @@ void KdPartition::rebuild(const BoxArray& boxes) {
   s.home.resize(n);
   s.prev.resize(n);
   s.margin.resize(n);
+  std::fill(s.margin.data(), s.margin.data() + n, 0.0f);  // the first maintained frame descends once
   s.objects = n;
   const kd::SplitRule rule{cell_limit_, x_split_weight_, &cell_cost_};
-  const std::uint32_t rate = kd::sample_rate(n, rule);
-  if (rate > 1) {
-    // Planes from a sample, every object routed once (margins included: the
-    // next frame need not descend them again); the next frame's entry buffer
-    // holds the build's per-object words.
-    kd::build_tree_sampled(boxes, rule, rate, s.sampled_build, s.next_entries, nodes_, s.entries, s.home.data(),
-                           s.prev.data(), s.margin.data());
-  } else {
-    std::fill(s.margin.data(), s.margin.data() + n, 0.0f);  // the first maintained frame descends once
-    // The next frame's entry buffer and the per-object entries serve as the
-    // build's scratch: the pages the next frame needs are touched once.
-    s.build.a = &s.next_entries;
-    s.build.b = &s.latest;
-    kd::build_tree(boxes, rule, s.build, nodes_, s.entries, s.home.data(), s.prev.data());
-  }
+  // The next frame's entry buffer and the per-object entries serve as the
+  // build's scratch: the pages the next frame needs are touched once.
+  s.build.a = &s.next_entries;
+  s.build.b = &s.latest;
+  kd::build_tree(boxes, rule, s.build, nodes_, s.entries, s.home.data(), s.prev.data());
   if (nodes_.capacity() > 2 * nodes_.size() + 4096) nodes_.shrink_to_fit();  // a past peak of splits
   entries_ = s.entries.data();
   number_leaves();
-  // Cells a sample underestimated are split exactly, as in maintenance.
-  if (rate > 1 && split_oversized()) number_leaves();
   stats_.rebuilt = true;
 }
 

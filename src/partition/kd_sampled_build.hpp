@@ -1,18 +1,15 @@
 #pragma once
-// The from-scratch build of a large frame (the first frame and every
-// rebuild), from a sample: the split planes are chosen on a sample of the
-// objects (one in `rate`, a tree built with the cell limit divided by the
-// rate), then every object is routed through the finished tree once, in id
-// order, and written into every cell its box reaches (a count pass and a
-// scatter pass over fixed chunks of ids), and each cell is put in min-x order
-// in the cache. The exact build (kd_build.hpp) moves every entry through
-// every level of the tree instead: 11 memory-bound passes over all entries
-// at 1,024,000 objects.
-//
-// The cells are exact (the routing is the partition's own half-open rule);
-// only the planes come from the sample. A cell the sample underestimated may
-// come out over the limit: the caller splits it exactly, as it splits any
-// leaf that grows over the limit between frames.
+// The top levels of the from-scratch build of a large frame (the first frame
+// and every rebuild), from a sample: the planes down to nodes of about a
+// subtree task's size (kd_build.cpp: 2^15 entries) are chosen on one object
+// in kTopSampleRate (each such node still decided on a thousand samples and
+// more), then every object is routed through those levels once, in id order
+// (a count pass and a scatter pass over fixed chunks of ids), into the tasks'
+// buffers, and each task's entries are put in min-x order in the cache. The
+// exact build moved every entry through every top level instead (six
+// memory-bound passes over all entries at 1,024,000 objects, after a radix
+// sort of all objects). The levels below, where the cells take their shape,
+// are built exactly by the subtree tasks as before.
 #include <tbb/enumerable_thread_specific.h>
 
 #include <cstdint>
@@ -20,50 +17,54 @@
 
 #include "hbp/box_array.hpp"
 #include "hbp/kd_partition.hpp"
-#include "partition/kd_build.hpp"
 #include "partition/raw_buffer.hpp"
 
 namespace hbp::kd {
 
-// The tree as the count pass walks it: 8 bytes a node (the whole tree of
-// 2,048 cells in the L1 cache), a leaf a fixed point (split +inf: every box
-// goes "left", to the leaf itself), so a group of objects steps down the
-// tree together for as many levels as the deepest leaf, without a branch.
+struct SplitRule;
+class SubtreeBuilder;
+struct BuildScratch;
+
+// One node left for a serial subtree task: its entries are
+// entries[begin, begin + n), sorted by min x, ties by id.
+struct BuildTask {
+  std::uint32_t node, depth;
+  std::size_t begin;
+  std::uint32_t n;
+};
+
+// The tree as the routing pass walks it: 8 bytes a node, a leaf a fixed
+// point (split +inf: every box goes "left", to the leaf itself), so a group
+// of objects steps down the tree together for as many levels as the deepest
+// leaf, without a branch.
 struct RouteNode {
   float split;
   std::uint32_t child_axis;  // child | axis << 30
 };
 
-// One object in `rate` goes into the sample (1: build exactly, with
-// build_tree). Sampling needs frames large enough to be worth it and a cell
-// limit that leaves enough samples per cell for its count to be estimated;
-// the engine-cost rule needs exact counts under the limit, so it builds
-// exactly.
-std::uint32_t sample_rate(std::size_t n, const SplitRule& rule);
-
 // Buffers kept from build to build (fresh pages cost more than the build).
-struct SampledBuildBuffers {
+struct SampledTopBuffers {
   RawBuffer<CellEntry> sample;
-  SubtreeBuilder sample_tree;
-  BuildScratch sample_scratch;
-  RawBuffer<std::uint32_t> counts;  // entries per (chunk of ids, cell), then each chunk's cursor per cell
-  std::vector<RouteNode> route;  // the tree as the count pass walks it
-  tbb::enumerable_thread_specific<std::vector<std::uint32_t>> forked;  // a chunk's objects in several cells
-  std::vector<std::vector<std::uint32_t>> forked_cells;  // per chunk: their cells, object after object
+  std::vector<RouteNode> route;
+  RawBuffer<std::uint32_t> counts;  // entries per (chunk of ids, task), then each chunk's cursor per task
+  RawBuffer<std::uint32_t> task_of;  // per object: its one task, or that it reaches several
+  std::vector<std::vector<std::uint32_t>> forked_tasks;  // per chunk: the tasks of its objects in several
+  tbb::enumerable_thread_specific<std::vector<std::uint32_t>> forked;  // a chunk's objects in several tasks
   tbb::enumerable_thread_specific<std::vector<std::uint64_t>> sort_keys;
-  tbb::enumerable_thread_specific<std::vector<CellEntry>> sort_entries;
 };
 
-// Builds the whole tree: nodes (node 0 the root), every leaf's entries in
-// `entries` (min-x order, ties by id), for every object its home (the first
-// node where its descent forked, else its leaf), and for objects homed at an
-// inner node the box of this descent (prev) and its margin (the smallest
-// distance from a face of the box to a plane it was tested against), so the
-// next frame's maintenance need not descend them again. `scratch` is used
-// for per-object words during the build (its contents are not kept).
-// Deterministic for any thread count.
-void build_tree_sampled(const BoxArray& boxes, const SplitRule& rule, std::uint32_t rate, SampledBuildBuffers& buffers,
-                        RawBuffer<CellEntry>& scratch, std::vector<KdTreeNode>& nodes, RawBuffer<CellEntry>& entries,
-                        std::uint32_t* home, StoredBox* prev, float* margin);
+// Whether a frame of n objects takes its top levels from a sample.
+bool samples_top_levels(std::size_t n, std::uint32_t task_entries);
+
+// Builds the top levels: nodes (node 0 the root; the tasks' nodes are leaves
+// for now), the tasks in depth-first order, left before right, and their
+// entries in `out` (build tags: kNoFork, or for an object the top levels
+// route into several tasks the first fork, marked kNotOwner on all copies
+// but the leftmost); `scratch` is overwritten. Nodes of at most task_entries entries (as the sample
+// estimates them) are not split. Deterministic for any thread count.
+void build_top_levels(const BoxArray& boxes, const SplitRule& rule, std::uint32_t task_entries,
+                      SampledTopBuffers& buffers, SubtreeBuilder& sample_tree, BuildScratch& sample_scratch,
+                      std::vector<KdTreeNode>& nodes, RawBuffer<CellEntry>& out, RawBuffer<CellEntry>& scratch,
+                      std::vector<BuildTask>& tasks);
 
 }  // namespace hbp::kd
