@@ -7,8 +7,6 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
-#include <chrono>
-#include <cstdio>
 #include <array>
 #include <cmath>
 #include <random>
@@ -458,7 +456,6 @@ BoxArray sampled_build_scene(int kind, std::uint32_t n) {
 TEST(KdPartitionSampledBuild, AdversarialScenesGiveExactCellsOnOneOrTwoThreads) {
   const std::uint32_t n = 40000;
   for (int kind = 0; kind < 5; ++kind) {
-    const auto t0 = std::chrono::steady_clock::now();
     const BoxArray boxes = sampled_build_scene(kind, n);
     for (std::uint32_t limit : {1024u, 128u}) {
       const std::string where = "kind " + std::to_string(kind) + " limit " + std::to_string(limit);
@@ -481,11 +478,10 @@ TEST(KdPartitionSampledBuild, AdversarialScenesGiveExactCellsOnOneOrTwoThreads) 
         EXPECT_GT(two.cell_count(), n / limit) << where;
       }
     }
-    std::printf("kind %d %.0f ms\n", kind, std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
   }
 }
 
-// A rebuild mid-run (the boxes grow at frame 3: the duplication passes the
+// A rebuild mid-run (the boxes grow in y and z at frame 3: the duplication passes the
 // rebuild rule, the next frame rebuilds from a sample) and slow motion after
 // it (objects in several cells keep them while they move less than the margin
 // the build gave them): every frame the oracle's pairs, the same order on
@@ -496,11 +492,11 @@ TEST(KdPartitionSampledBuild, RebuildMidRunMatchesTheOracleEveryFrame) {
   auto frame = [&](int f) {
     BoxArray b;
     b.reserve(n);
-    const float grow = f >= 3 ? 40.0f : 0.0f;
+    const float grow = f >= 3 ? 60.0f : 0.0f;  // in y and z only: the sweep oracle stays cheap
     for (std::uint32_t i = 0; i < n; ++i) {
       Aabb a = base.get(i);
       const float d = 0.2f * static_cast<float>(f) * (i % 3 == 0 ? 1.0f : -0.5f);
-      for (int k = 0; k < 3; ++k) a.min[k] += d, a.max[k] += d + grow;
+      for (int k = 0; k < 3; ++k) a.min[k] += d, a.max[k] += d + (k > 0 ? grow : 0.0f);
       b.push_back(a);
     }
     return b;
@@ -509,7 +505,7 @@ TEST(KdPartitionSampledBuild, RebuildMidRunMatchesTheOracleEveryFrame) {
   HybridBroadPhase two({.engine = "sw", .threads = 2, .sorted = false});
   KdPartition p(1024, 0.5f);
   int rebuilds = 0;
-  for (int f = 0; f < 7; ++f) {
+  for (int f = 0; f < 6; ++f) {
     const BoxArray boxes = frame(f);
     const std::string where = "frame " + std::to_string(f);
     p.update(boxes);
