@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <cstddef>
 #include <cstring>
 #include <limits>
 #include <stdexcept>
@@ -64,18 +65,32 @@ bool choose_split(const CellEntry* e, std::uint32_t n, std::uint32_t depth, cons
   };
 
   // Axes ordered by the (weighted) spread of box centres, widest first.
-  float lo[3], hi[3];
-  for (int a = 0; a < 3; ++a) {
-    lo[a] = std::numeric_limits<float>::infinity();
-    hi[a] = -std::numeric_limits<float>::infinity();
-  }
+  // The three centres of an entry at once, as 4-lane vectors (GCC/Clang
+  // vector extensions: the same float operations per lane as centre(), so
+  // the same values; a fifth of the subtree tasks' instructions went to this
+  // loop done axis by axis). Lane 3 is max x and the id's bits masked to 0.
+  using V4 = float __attribute__((vector_size(16)));
+  using I4 = std::int32_t __attribute__((vector_size(16)));
+  static_assert(offsetof(CellEntry, min) == 0 && offsetof(CellEntry, max) == 12 && sizeof(CellEntry) == 32);
+  const float inf = std::numeric_limits<float>::infinity();
+  V4 vlo = {inf, inf, inf, inf}, vhi = {-inf, -inf, -inf, -inf};
+  const V4 half = {0.5f, 0.5f, 0.5f, 0.5f};
+  const I4 xyz = {-1, -1, -1, 0};
   for (std::uint32_t k = 0; k < samples; ++k) {
     const CellEntry& s = sample(k);
-    for (int a = 0; a < 3; ++a) {
-      const float c = centre(s, a);
-      lo[a] = std::min(lo[a], c);
-      hi[a] = std::max(hi[a], c);
-    }
+    V4 mn, mx;
+    std::memcpy(&mn, &s.min[0], sizeof mn);
+    std::memcpy(&mx, &s.max[0], sizeof mx);
+    mn = reinterpret_cast<V4>(reinterpret_cast<I4>(mn) & xyz);
+    mx = reinterpret_cast<V4>(reinterpret_cast<I4>(mx) & xyz);
+    const V4 c = half * mn + half * mx;
+    vlo = c < vlo ? c : vlo;  // std::min(lo, c)
+    vhi = vhi < c ? c : vhi;  // std::max(hi, c)
+  }
+  float lo[3], hi[3];
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = vlo[a];
+    hi[a] = vhi[a];
   }
   int axes[3] = {0, 1, 2};
   auto spread = [&](int a) { return (hi[a] - lo[a]) * (a == 0 ? rule.x_split_weight : 1.0f); };
