@@ -25,9 +25,12 @@ namespace {
 // more cells.)
 constexpr std::uint32_t kTopSampleRate = 32;
 // The routing passes work on fixed chunks of ids, each counting its entries
-// per task. The tasks' contents do not depend on the chunks (each task is
-// sorted by min x, then id, afterwards).
+// per task (a chunk x task table of at most kMaxCountWords words: larger
+// chunks for frames of tens of millions of objects). The tasks' contents do
+// not depend on the chunks (each task is sorted by min x, then id,
+// afterwards).
 constexpr std::uint32_t kRouteChunk = 1u << 14;
+constexpr std::size_t kMaxCountWords = std::size_t{1} << 20;
 // Objects stepped down the tree together (independent chains of loads: the
 // latency of one level hides behind the others').
 constexpr std::uint32_t kLockstep = 8;
@@ -131,7 +134,12 @@ void build_top_levels(const BoxArray& boxes, const SplitRule& rule, std::uint32_
 
   // 2. Count pass, in id order: every object's entries counted per (chunk,
   // task), its one task noted (or that it reaches several, then listed).
-  const std::uint32_t chunks = (n + kRouteChunk - 1) / kRouteChunk;
+  std::uint32_t chunk = kRouteChunk;
+  if (std::size_t{(n + chunk - 1) / chunk} * task_count > kMaxCountWords) {
+    const std::size_t most = std::max<std::size_t>(1, kMaxCountWords / task_count);
+    chunk = static_cast<std::uint32_t>((n + most - 1) / most);
+  }
+  const std::uint32_t chunks = (n + chunk - 1) / chunk;
   buffers.counts.resize(std::size_t{chunks} * task_count);
   buffers.task_of.resize(n);
   buffers.forked_tasks.resize(chunks);
@@ -141,7 +149,7 @@ void build_top_levels(const BoxArray& boxes, const SplitRule& rule, std::uint32_
   tbb::parallel_for(std::uint32_t{0}, chunks, [&, tree, walk, counts, task_of](std::uint32_t c) {
     std::uint32_t* const count = counts + std::size_t{c} * task_count;
     std::fill(count, count + task_count, 0u);
-    const std::uint32_t begin = c * kRouteChunk, end = std::min(n, (c + 1) * kRouteChunk);
+    const std::uint32_t begin = c * chunk, end = std::min(n, (c + 1) * chunk);
     std::vector<std::uint32_t>& forked = buffers.forked.local();
     forked.clear();
     // Groups of kLockstep objects step down together, each level a load of
@@ -213,8 +221,8 @@ void build_top_levels(const BoxArray& boxes, const SplitRule& rule, std::uint32_
   tbb::parallel_for(std::uint32_t{0}, chunks, [&, counts, task_of, staged](std::uint32_t c) {
     std::uint32_t* const cursor = counts + std::size_t{c} * task_count;
     const std::uint32_t* listed = buffers.forked_tasks[c].data();
-    const std::uint32_t end = std::min(n, (c + 1) * kRouteChunk);
-    for (std::uint32_t i = c * kRouteChunk; i < end; ++i) {
+    const std::uint32_t end = std::min(n, (c + 1) * chunk);
+    for (std::uint32_t i = c * chunk; i < end; ++i) {
       CellEntry e = {{src[0][i], src[1][i], src[2][i]}, {src[3][i], src[4][i], src[5][i]}, i, kNoFork};
       const std::uint32_t t = task_of[i];
       if (t != kSeveralTasks) {
