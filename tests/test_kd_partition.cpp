@@ -521,4 +521,19 @@ TEST(KdPartitionSampledBuild, RebuildMidRunMatchesTheOracleEveryFrame) {
   EXPECT_EQ(rebuilds, 1);  // the frame after the growth, and only it
 }
 
+// A cell limit above the subtree task size: the sampled top levels must not
+// split a node the limit lets stand (40,000 objects under a limit of 50,000:
+// one cell), and a frame over it splits down to the limit, not to the tasks.
+TEST(KdPartitionSampledBuild, LimitAboveTheTaskSizeIsKept) {
+  const BoxArray boxes = sampled_build_scene(0, 40000);
+  KdPartition whole(50000);
+  whole.update(boxes);
+  EXPECT_EQ(whole.cell_count(), 1u);
+  KdPartition halves(30000);
+  halves.update(boxes);
+  EXPECT_GE(halves.cell_count(), 2u);
+  EXPECT_LE(halves.cell_count(), 3u);
+  expect_valid_cells(halves, boxes, "limit 30,000");
+}
+
 }  // namespace

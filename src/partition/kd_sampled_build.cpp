@@ -98,9 +98,11 @@ void build_top_levels(const BoxArray& boxes, const SplitRule& rule, std::uint32_
     const std::uint32_t id = sample_id(j, kTopSampleRate);
     sample[j] = {{src[0][id], src[1][id], src[2][id]}, {src[3][id], src[4][id], src[5][id]}, id, 0};
   }
-  // Split down to the task size only (the engine-cost rule applies under the
-  // cell limit, far below).
-  const SplitRule top_rule{std::max(2u, task_entries / kTopSampleRate), rule.x_split_weight, nullptr};
+  // Split down to the task size only, and never a node under the cell limit
+  // (the exact build leaves such a node to its task, whose exact rule splits
+  // it or not, the engine-cost rule included).
+  const std::uint32_t top_limit = std::max(task_entries, rule.cell_limit) / kTopSampleRate;
+  const SplitRule top_rule{std::max(2u, top_limit), rule.x_split_weight, nullptr};
   sample_tree.build(sample.data(), samples, 0, top_rule, true, sample_scratch);
   nodes = sample_tree.nodes;  // local indices: the root is node 0, as the partition's
   const KdTreeNode* const tree = nodes.data();
