@@ -6,7 +6,9 @@
 //
 // Entries arrive sorted by min x (ties by id) and every partition step is
 // stable, so every leaf comes out sorted too: the cells' min-x order costs one
-// radix sort of the objects per build, not one sort per cell.
+// radix sort per subtree task (of the objects, for a frame of one task), not
+// one sort per cell. The levels above the tasks come from a sample
+// (kd_sampled_build.hpp).
 //
 // While building, CellEntry::build_tag carries a tag per copy: the first node
 // where the object forked into both children (its "home": the deepest node

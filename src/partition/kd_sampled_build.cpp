@@ -20,9 +20,9 @@ namespace {
 // every top-level decision rests on at least 1,024 samples at the default
 // task size (its median within a few per cent of the exact one); the levels
 // that shape the cells are built exactly, by the subtree tasks. (Sampling
-// down to the cells lost: 20-40 samples a cell made cells of uneven size and
-// shape, the sweep up to 12 % slower, and on clustered and huge scenes 25-80 %
-// more cells.)
+// down to the cells lost: 20-60 samples a cell made cells of uneven size and
+// shape, the sweep 11-21 % more instructions, and on clustered and huge
+// scenes 25-80 % more cells: docs/hybrid-system.md.)
 constexpr std::uint32_t kTopSampleRate = 32;
 // The routing passes work on fixed chunks of ids, each counting its entries
 // per task (a chunk x task table of at most kMaxCountWords words: larger
