@@ -144,7 +144,12 @@ bool choose_split(const CellEntry* e, std::uint32_t n, std::uint32_t depth, cons
     // The x weight shapes cells for the sweep, but not at any price: when the
     // axis of widest unweighted spread duplicates clearly fewer objects, it
     // wins (scenes of huge boxes: duplication 38 instead of 4 otherwise).
-    if (rule.x_split_weight != 1.0f) {
+    // Any split sends every entry at least one way (min <= max), so the
+    // other axis's children hold at least n entries: when this split's hold
+    // at most kWeightedDuplicationLimit * n, the other cannot win and is not
+    // tried (the same choice, for half the work at most nodes of a scene of
+    // small boxes).
+    if (rule.x_split_weight != 1.0f && double(out.left) + out.right > kWeightedDuplicationLimit * n) {
       int plain = 0;
       for (int b = 1; b < 3; ++b)
         if (hi[b] - lo[b] > hi[plain] - lo[plain]) plain = b;
