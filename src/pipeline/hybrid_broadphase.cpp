@@ -157,6 +157,7 @@ struct HybridBroadPhase::Impl {
   tbb::task_arena arena;
   KdPartition own_partition;
   bool partition_in_use = false;                  // own_partition holds a tree from an earlier frame
+  bool refresh_in_engine = false;                 // own_partition's cells are refreshed as the engine takes them
   bool boxes_checked = false;  // this frame's boxes were validated by the caller (HybridAccess)
   const KdPartition* partition = &own_partition;  // this frame's cells
   tbb::enumerable_thread_specific<Worker> workers;
@@ -300,6 +301,14 @@ struct HybridBroadPhase::Impl {
 
   // ---- Scheduling the cells ---------------------------------------------
 
+  // Cell c for its first trip through the engine. On a maintained frame the
+  // partition rewrites each cell (kept members with this frame's boxes, plus
+  // newcomers) right here, so the engine reads it from the cache instead of
+  // from memory after a pass over all cells.
+  std::span<const CellEntry> engine_cell(std::uint32_t c) {
+    return refresh_in_engine ? own_partition.refresh_cell(c) : partition->cell(c);
+  }
+
   bool serial_engine_phase() const {
     return arena.max_concurrency() == 1 || partition->stats().entries < kSerialEntries;
   }
@@ -326,7 +335,7 @@ struct HybridBroadPhase::Impl {
       CellOutcome& r = outcomes[c];
       std::vector<Pair>& out = cell_pairs[c];
       out.clear();
-      w.cell.load(partition->cell(c));
+      w.cell.load(engine_cell(c));
       emit_cell(w, partition->region(c), out, r);
       if (consumer) consumer(c, out.data(), out.size());
     };
@@ -374,7 +383,7 @@ struct HybridBroadPhase::Impl {
   void first_pass(std::uint32_t c) {
     Worker& w = workers.local();
     CellOutcome& r = outcomes[c];
-    w.cell.load(partition->cell(c));
+    w.cell.load(engine_cell(c));
     const CellRegion& region = partition->region(c);
     r.stored = &w.stored;
     r.offset = w.stored.size();
@@ -503,8 +512,33 @@ struct HybridBroadPhase::Impl {
     }
     partition = &own_partition;
     if (!boxes_checked) validate_boxes(*boxes);
-    own_partition.update(*boxes);
+    // An engine without a capacity limit takes a cell a few objects over the
+    // cell limit for one frame (split at the start of the next); others get
+    // the refresh in the engine only when no cell can outgrow the limit.
+    const bool unlimited = prototype->capacity() == std::numeric_limits<std::uint32_t>::max();
+    refresh_in_engine = own_partition.begin_update(*boxes, unlimited);
     partition_in_use = true;
+  }
+
+  // The engine stage with the partition's deferred refresh: completed after
+  // it, or, when a cell throws (max_pairs), the half-refreshed tree dropped.
+  void run_cells_and_finish(const PairSink& sink, const PairSink& consumer, double& partition_ms, double& engine_ms,
+                            double& merge_ms) {
+    try {
+      run_cells(sink, consumer, engine_ms, merge_ms);
+    } catch (...) {
+      if (refresh_in_engine) {
+        refresh_in_engine = false;
+        own_partition.reset();
+        partition_in_use = false;
+      }
+      throw;
+    }
+    if (!refresh_in_engine) return;
+    refresh_in_engine = false;
+    const auto t_finish = SteadyClock::now();
+    own_partition.finish_update();
+    partition_ms += ms_since(t_finish);
   }
 
   // Frames the partition would leave as one cell: no partition, no workers.
@@ -583,7 +617,7 @@ struct HybridBroadPhase::Impl {
       const auto t_partition = SteadyClock::now();
       partition_frame(boxes, shared);
       partition_ms = ms_since(t_partition);
-      run_cells(sink, consumer, engine_ms, merge_ms);
+      run_cells_and_finish(sink, consumer, partition_ms, engine_ms, merge_ms);
     }
     const auto t_sort = SteadyClock::now();
     sort_output();
