@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <string>
 #include <vector>
@@ -478,6 +479,52 @@ TEST(KdPartition, AnEngineErrorMidRefreshLeavesTheBroadPhaseExact) {
   }
   EXPECT_GT(thrown, 0);
   EXPECT_GT(exact_after_throw, 0);
+}
+
+}  // namespace
+
+namespace {
+
+// The partitioned path screens the frame's boxes in parallel, vectorised,
+// before the partition: a NaN, an infinity or an inverted box on any axis,
+// in any lane of a vector or in a chunk's tail, is rejected naming the
+// object, and the instance goes on.
+TEST(KdPartition, TheParallelScreenRejectsEveryDefectInAnyLane) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(0, 1000);
+  BoxArray good;
+  for (int i = 0; i < 20000; ++i) {
+    const float x = u(rng), y = u(rng), z = u(rng);
+    good.push_back({{x, y, z}, {x + 3, y + 3, z + 3}});
+  }
+  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+  HybridBroadPhase bp({.engine = "sw", .cell_limit = 256, .threads = 2});
+  const std::vector<Pair> want = bp.update(good);
+  ASSERT_FALSE(want.empty());
+  int rejected = 0;
+  for (std::uint32_t at : {0u, 5u, 16383u, 16384u, 19999u}) {
+    for (int axis = 0; axis < 3; ++axis) {
+      for (int kind = 0; kind < 5; ++kind) {
+        BoxArray bad = good;
+        Aabb b = good.get(at);
+        if (kind == 0) b.min[axis] = nan;
+        if (kind == 1) b.max[axis] = nan;
+        if (kind == 2) b.max[axis] = inf;
+        if (kind == 3) b.min[axis] = -inf;
+        if (kind == 4) b.min[axis] = b.max[axis] + 1;  // inverted
+        bad.set(at, b);
+        try {
+          bp.update(bad);
+          ADD_FAILURE() << "accepted defect " << kind << " on axis " << axis << " at " << at;
+        } catch (const hbp::InvalidInput& e) {
+          EXPECT_NE(std::string(e.what()).find("object " + std::to_string(at) + ":"), std::string::npos) << e.what();
+          ++rejected;
+        }
+      }
+    }
+    ASSERT_TRUE(bp.update(good) == want) << "after defects at " << at;
+  }
+  EXPECT_EQ(rejected, 5 * 3 * 5);
 }
 
 }  // namespace

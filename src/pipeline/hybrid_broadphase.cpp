@@ -77,15 +77,18 @@ void validate_boxes(const BoxArray& boxes) {
       tbb::blocked_range<std::size_t>(0, boxes.size(), 16384), false,
       [&](const auto& r, bool acc) {
         if (acc) return true;
-        bool ok = true;
+        int bad = 0;
         for (int k = 0; k < 3; ++k) {
           const float* lo = boxes.min(k);
           const float* hi = boxes.max(k);
-          // x - x == 0 exactly when x is finite; written so it vectorises.
+          // x - x == 0 exactly when x is finite. An int OR of the failures,
+          // not a bool AND of the passes: GCC 12 vectorises only this form
+          // (the bool form ran as scalar compares and branches, ~60
+          // instructions an object).
           for (std::size_t i = r.begin(); i != r.end(); ++i)
-            ok &= (lo[i] - lo[i] == 0.0f) & (hi[i] - hi[i] == 0.0f) & (lo[i] <= hi[i]);
+            bad |= !(lo[i] - lo[i] == 0.0f) | !(hi[i] - hi[i] == 0.0f) | !(lo[i] <= hi[i]);
         }
-        return !ok;
+        return bad != 0;
       },
       [](bool a, bool b) { return a || b; });
   if (bad) boxes.validate("frame");
