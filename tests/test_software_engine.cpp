@@ -267,6 +267,21 @@ TEST(MinXOrder, SortsLikeAStableSortOnValue) {
       std::vector<std::uint32_t> sorted = order;
       std::sort(sorted.begin(), sorted.end());
       for (std::uint32_t i = 0; i < n; ++i) ASSERT_EQ(sorted[i], i);  // a permutation
+      // in_min_x_order: true once ordered (-0 and +0 equal), false with any
+      // one pair swapped, wherever it sits in the vector lanes.
+      std::vector<float> ordered(n);
+      for (std::uint32_t i = 0; i < n; ++i) ordered[i] = x[order[i]];
+      ASSERT_TRUE(hbp::in_min_x_order(ordered.data(), n)) << "n=" << n;
+      for (std::uint32_t i = 1; i < n; i += 1 + i / 3) {
+        if (!(ordered[i - 1] < ordered[i])) continue;
+        std::swap(ordered[i - 1], ordered[i]);
+        ASSERT_FALSE(hbp::in_min_x_order(ordered.data(), n)) << "n=" << n << " swapped at " << i;
+        std::swap(ordered[i - 1], ordered[i]);
+      }
+      if (n > 1 && ordered[n - 2] < ordered[n - 1]) {
+        std::swap(ordered[n - 2], ordered[n - 1]);
+        ASSERT_FALSE(hbp::in_min_x_order(ordered.data(), n)) << "n=" << n << " last pair";
+      }
     }
   }
 }
