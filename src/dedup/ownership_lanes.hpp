@@ -78,14 +78,15 @@ inline typename L::Mask owns_member(const RowThresholds<L>& t, V cx, V cy, V cz)
   return L::at_least(L::at_least(L::at_least(cx, t.t[0]), cy, t.t[1]), cz, t.t[2]);
 }
 // Every box of min[0..2][0..n) has min < hi on all three axes.
+// (An int OR of the failures: GCC 12 vectorises it, not a bool AND.)
 inline bool all_members(const CellRegion& r, const float* const min[3], unsigned n) {
-  bool ok = true;
+  int stray = 0;
   for (int k = 0; k < 3; ++k) {
     const float* m = min[k];
     const float hi = r.hi[k];
-    for (unsigned i = 0; i < n; ++i) ok &= m[i] < hi;
+    for (unsigned i = 0; i < n; ++i) stray |= !(m[i] < hi);
   }
-  return ok;
+  return stray == 0;
 }
 }  // namespace
 }  // namespace hbp::dedup
