@@ -71,8 +71,21 @@ CellEntry make_entry(const Box6& x, std::uint32_t id) {
 // Nearly sorted (objects move a fraction of their size per frame): insertion
 // sort is linear plus the few inversions.
 void insertion_sort(CellEntry* e, std::uint32_t n) {
+  if (n < 2) return;
+  // The last key in order stays in a register: an entry past it costs a
+  // load, a compare and a branch (half the instructions of entry_less on
+  // two loaded entries).
+  float last = e[0].min[0];
   for (std::uint32_t i = 1; i < n; ++i) {
-    if (!kd::entry_less(e[i], e[i - 1])) continue;
+    const float x = e[i].min[0];
+    if (x > last) {
+      last = x;
+      continue;
+    }
+    if (!kd::entry_less(e[i], e[i - 1])) {  // equal min x, ids in order
+      last = x;
+      continue;
+    }
     const CellEntry v = e[i];
     std::uint32_t j = i;
     do {
