@@ -579,7 +579,7 @@ std::span<const CellEntry> KdPartition::refresh_cell(std::uint32_t c) {
   const CellEntry* latest = s.latest.data();
   for (std::uint32_t e = 0; e < m; ++e) dst[k + e] = latest[s.add_ids[a0 + e]];
   insertion_sort(dst + k, m);
-  merge_tail(dst, k, m, s.merge_scratch.local());
+  if (m > 0 && k > 0) merge_tail(dst, k, m, s.merge_scratch.local());  // (the thread's scratch looked up only when needed)
   leaf.first = static_cast<std::uint32_t>(s.cell_offsets[c]);
   leaf.size = k + m;
   return {dst, leaf.size};
