@@ -71,27 +71,36 @@ void release_if_oversized(std::vector<T>& v, std::size_t used, std::size_t keep)
   if (v.capacity() > 2 * used + keep) std::vector<T>().swap(v);
 }
 
-// Cheap parallel screen; on failure the serial validate() names the object.
+// True when a box of [begin, end) has a NaN or infinite coordinate or min >
+// max on some axis (the screen; the serial BoxArray::validate then names
+// the object). x - x == 0 exactly when x is finite. An int OR of the
+// failures, not a bool AND of the passes: GCC 12 vectorises only this form
+// (the bool form ran as scalar compares and branches, ~60 instructions an
+// object, as does BoxArray::validate).
+bool screen_fails(const BoxArray& boxes, std::size_t begin, std::size_t end) {
+  int bad = 0;
+  for (int k = 0; k < 3; ++k) {
+    const float* lo = boxes.min(k);
+    const float* hi = boxes.max(k);
+    for (std::size_t i = begin; i != end; ++i)
+      bad |= !(lo[i] - lo[i] == 0.0f) | !(hi[i] - hi[i] == 0.0f) | !(lo[i] <= hi[i]);
+  }
+  return bad != 0;
+}
+
+// The frame's boxes screened in parallel; on failure the serial validate()
+// names the object.
 void validate_boxes(const BoxArray& boxes) {
   const bool bad = tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, boxes.size(), 16384), false,
-      [&](const auto& r, bool acc) {
-        if (acc) return true;
-        int bad = 0;
-        for (int k = 0; k < 3; ++k) {
-          const float* lo = boxes.min(k);
-          const float* hi = boxes.max(k);
-          // x - x == 0 exactly when x is finite. An int OR of the failures,
-          // not a bool AND of the passes: GCC 12 vectorises only this form
-          // (the bool form ran as scalar compares and branches, ~60
-          // instructions an object).
-          for (std::size_t i = r.begin(); i != r.end(); ++i)
-            bad |= !(lo[i] - lo[i] == 0.0f) | !(hi[i] - hi[i] == 0.0f) | !(lo[i] <= hi[i]);
-        }
-        return bad != 0;
-      },
+      [&](const auto& r, bool acc) { return acc || screen_fails(boxes, r.begin(), r.end()); },
       [](bool a, bool b) { return a || b; });
   if (bad) boxes.validate("frame");
+}
+
+// The same on the calling thread (one-cell frames: small worlds).
+void validate_boxes_serial(const BoxArray& boxes) {
+  if (screen_fails(boxes, 0, boxes.size())) boxes.validate("frame");
 }
 
 struct Worker {
@@ -548,7 +557,7 @@ struct HybridBroadPhase::Impl {
   bool is_one_cell_frame(const BoxArray* boxes) const { return boxes && boxes->size() <= cell_limit; }
 
   void run_one_cell(const BoxArray& boxes, const PairSink& sink, const PairSink& consumer) {
-    if (!boxes_checked) boxes.validate("frame");
+    if (!boxes_checked) validate_boxes_serial(boxes);
     if (partition_in_use) own_partition.reset();  // its tree is stale by the next large frame
     partition_in_use = false;
     cell_pairs.clear();  // buffers of earlier, larger frames
