@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <string>
 #include <vector>
@@ -534,6 +535,123 @@ TEST(KdPartitionSampledBuild, LimitAboveTheTaskSizeIsKept) {
   EXPECT_GE(halves.cell_count(), 2u);
   EXPECT_LE(halves.cell_count(), 3u);
   expect_valid_cells(halves, boxes, "limit 30,000");
+}
+
+// The two-step update (begin_update, refresh_cell per cell, finish_update),
+// as the hybrid broad phase drives it: cells refreshed in any order give
+// exact cells every frame. Without allow_oversized they are exactly the
+// one-pass update's; with it, a cell may end a frame over the limit and is
+// split at the start of the next (here also on frames where objects vanish
+// from the end of the array).
+TEST(KdPartition, CellsRefreshedOneByOneStayExactAndSplitNextFrame) {
+  const std::vector<BoxArray> frames = stress_frames(16);
+  for (std::uint32_t limit : {7u, 64u}) {
+    KdPartition whole(limit, 0.5f), stepwise(limit, 0.5f), oversized(limit, 0.5f);
+    bool went_over = false, deferred = false;
+    std::uint32_t later_splits = 0;
+    for (std::size_t f = 0; f < frames.size(); ++f) {
+      const std::string where = "limit " + std::to_string(limit) + " frame " + std::to_string(f);
+      whole.update(frames[f]);
+      for (bool allow : {false, true}) {
+        KdPartition& p = allow ? oversized : stepwise;
+        if (p.begin_update(frames[f], allow)) {
+          deferred = true;
+          EXPECT_THROW(p.begin_update(frames[f], allow), std::logic_error) << where;
+          for (std::uint32_t c = p.cell_count(); c-- > 0;) {
+            const auto cell = p.refresh_cell(c);
+            ASSERT_EQ(cell.data(), p.cell(c).data()) << where;
+            ASSERT_EQ(cell.size(), p.cell(c).size()) << where;
+          }
+          p.finish_update();
+        }
+        expect_valid_cells(p, frames[f], where + (allow ? " (oversized allowed)" : ""));
+      }
+      ASSERT_EQ(stepwise.cell_count(), whole.cell_count()) << where;
+      for (std::uint32_t c = 0; c < whole.cell_count(); ++c) {
+        const auto a = whole.cell(c), b = stepwise.cell(c);
+        ASSERT_EQ(a.size(), b.size()) << where << " cell " << c;
+        for (std::size_t k = 0; k < a.size(); ++k) ASSERT_EQ(a[k].id, b[k].id) << where << " cell " << c;
+      }
+      if (went_over) later_splits += oversized.stats().splits;
+      went_over = oversized.stats().max_cell > limit && oversized.stats().oversized_cells > 0;
+    }
+    EXPECT_TRUE(deferred) << "limit " << limit;
+    EXPECT_GT(later_splits, 0u) << "limit " << limit << ": no over-full cell split on the next frame";
+  }
+}
+
+// A frame that stops in the engine (max_pairs) while the partition's cells
+// are being refreshed cell by cell leaves the broad phase usable: the next
+// frames rebuild and are exact.
+TEST(KdPartition, AnEngineErrorMidRefreshLeavesTheBroadPhaseExact) {
+  const std::vector<BoxArray> frames = stress_frames(12);
+  std::vector<std::size_t> counts;
+  for (const BoxArray& b : frames) counts.push_back(hbp::brute_force_pairs(b).size());
+  std::vector<std::size_t> sorted_counts = counts;
+  std::sort(sorted_counts.begin(), sorted_counts.end());
+  const std::size_t limit = sorted_counts[sorted_counts.size() / 2];
+  HybridBroadPhase bp({.engine = "sw", .cell_limit = 64, .max_pairs = limit});
+  int thrown = 0, exact_after_throw = 0;
+  bool last_threw = false;
+  for (std::size_t f = 0; f < frames.size(); ++f) {
+    if (counts[f] > limit) {
+      EXPECT_THROW(bp.update(frames[f]), hbp::CapacityExceeded) << "frame " << f;
+      ++thrown;
+      last_threw = true;
+      continue;
+    }
+    expect_oracle(bp, frames[f], "frame " + std::to_string(f));
+    exact_after_throw += last_threw;
+    last_threw = false;
+  }
+  EXPECT_GT(thrown, 0);
+  EXPECT_GT(exact_after_throw, 0);
+}
+
+}  // namespace
+
+namespace {
+
+// The partitioned path screens the frame's boxes in parallel, vectorised,
+// before the partition: a NaN, an infinity or an inverted box on any axis,
+// in any lane of a vector or in a chunk's tail, is rejected naming the
+// object, and the instance goes on.
+TEST(KdPartition, TheParallelScreenRejectsEveryDefectInAnyLane) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(0, 1000);
+  BoxArray good;
+  for (int i = 0; i < 20000; ++i) {
+    const float x = u(rng), y = u(rng), z = u(rng);
+    good.push_back({{x, y, z}, {x + 3, y + 3, z + 3}});
+  }
+  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+  HybridBroadPhase bp({.engine = "sw", .cell_limit = 256, .threads = 2});
+  const std::vector<Pair> want = bp.update(good);
+  ASSERT_FALSE(want.empty());
+  int rejected = 0;
+  for (std::uint32_t at : {0u, 5u, 16383u, 16384u, 19999u}) {
+    for (int axis = 0; axis < 3; ++axis) {
+      for (int kind = 0; kind < 5; ++kind) {
+        BoxArray bad = good;
+        Aabb b = good.get(at);
+        if (kind == 0) b.min[axis] = nan;
+        if (kind == 1) b.max[axis] = nan;
+        if (kind == 2) b.max[axis] = inf;
+        if (kind == 3) b.min[axis] = -inf;
+        if (kind == 4) b.min[axis] = b.max[axis] + 1;  // inverted
+        bad.set(at, b);
+        try {
+          bp.update(bad);
+          ADD_FAILURE() << "accepted defect " << kind << " on axis " << axis << " at " << at;
+        } catch (const hbp::InvalidInput& e) {
+          EXPECT_NE(std::string(e.what()).find("object " + std::to_string(at) + ":"), std::string::npos) << e.what();
+          ++rejected;
+        }
+      }
+    }
+    ASSERT_TRUE(bp.update(good) == want) << "after defects at " << at;
+  }
+  EXPECT_EQ(rejected, 5 * 3 * 5);
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include "engines/box_kernels.hpp"
@@ -138,6 +139,75 @@ TEST(SoftwareKernels, EveryIsaMatchesTheOracleWithAndWithoutARegion) {
   }
 }
 
+// The partition's cells hold only members (min < hi on every axis), and the
+// AVX-512 sweep then tests ownership against per-row thresholds
+// (dedup::owns_member); a cell with any other box takes the full rule.
+// Coordinates on a lattice that includes the planes (boxes starting exactly
+// on lo, row and candidate minima on both sides of lo, zero-size boxes); the
+// cells' pairs must be the owned oracle's, and together every pair once.
+TEST(SoftwareKernels, MemberCellsAndStrayBoxesOwnExactlyByTheRule) {
+  const float inf = std::numeric_limits<float>::infinity();
+  const float cuts[] = {-inf, 4, 8, inf};
+  std::mt19937 rng(17);
+  std::uniform_int_distribution<int> at(-1, 12), size(0, 4);
+  BoxArray boxes;
+  for (int i = 0; i < 400; ++i) {
+    hbp::Aabb b;
+    for (int a = 0; a < 3; ++a) {
+      b.min[a] = static_cast<float>(at(rng));
+      b.max[a] = b.min[a] + static_cast<float>(size(rng));
+    }
+    boxes.push_back(b);
+  }
+  const std::vector<Pair> all = hbp::brute_force_pairs(boxes);
+  ASSERT_GT(all.size(), 1000u);
+  for (k::Isa isa : available_isas()) {
+    std::vector<Pair> found;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        for (int l = 0; l < 3; ++l) {
+          const CellRegion r{{cuts[i], cuts[j], cuts[l]}, {cuts[i + 1], cuts[j + 1], cuts[l + 1]}};
+          std::vector<std::uint32_t> members;
+          for (std::uint32_t o = 0; o < boxes.size(); ++o) {
+            const hbp::Aabb b = boxes.get(o);
+            bool in = true;
+            for (int a = 0; a < 3; ++a) in &= b.min[a] < r.hi[a] && b.max[a] >= r.lo[a];
+            if (in) members.push_back(o);
+          }
+          // Members alone, then with one stray box that starts on hi (not a
+          // member: the full rule must keep it from owning anything).
+          for (bool stray : {false, true}) {
+            std::vector<std::uint32_t> cell = members;
+            if (stray && r.hi[1] < inf) {
+              for (std::uint32_t o = 0; o < boxes.size(); ++o)
+                if (boxes.get(o).min[1] == r.hi[1]) {
+                  cell.push_back(o);
+                  break;
+                }
+            }
+            std::sort(cell.begin(), cell.end(), [&](std::uint32_t a, std::uint32_t b) {
+              const float x = boxes.min(0)[a], y = boxes.min(0)[b];
+              return x < y || (x == y && a < b);
+            });
+            BoxArray local;
+            std::vector<std::uint32_t> ids(cell.size() + 16, 0xFFFFFFFFu);
+            for (std::size_t q = 0; q < cell.size(); ++q) {
+              local.push_back(boxes.get(cell[q]));
+              ids[q] = cell[q];
+            }
+            const auto n = static_cast<std::uint32_t>(cell.size());
+            const std::vector<Pair> want = with_ids(owned_oracle(local, r), ids);
+            const std::vector<Pair> got = run_kernel(k::sweep_kernel(isa), k::sweep_count_kernel(isa), local, ids, r,
+                                                     2 * n + 64);
+            ASSERT_EQ(got, want) << k::isa_name(isa) << " cell " << i << j << l << (stray ? " with a stray box" : "");
+            if (!stray) found.insert(found.end(), got.begin(), got.end());
+          }
+        }
+    EXPECT_EQ(hbp::canonicalize(found), 0u) << k::isa_name(isa) << ": a pair owned by two cells";
+    EXPECT_EQ(found, all) << k::isa_name(isa) << ": every pair once over the cells";
+  }
+}
+
 TEST(SoftwareKernels, DenseCellsResumeWhenTheOutputIsFull) {
   std::mt19937 rng(9);
   for (k::Isa isa : available_isas()) {
@@ -197,6 +267,21 @@ TEST(MinXOrder, SortsLikeAStableSortOnValue) {
       std::vector<std::uint32_t> sorted = order;
       std::sort(sorted.begin(), sorted.end());
       for (std::uint32_t i = 0; i < n; ++i) ASSERT_EQ(sorted[i], i);  // a permutation
+      // in_min_x_order: true once ordered (-0 and +0 equal), false with any
+      // one pair swapped, wherever it sits in the vector lanes.
+      std::vector<float> ordered(n);
+      for (std::uint32_t i = 0; i < n; ++i) ordered[i] = x[order[i]];
+      ASSERT_TRUE(hbp::in_min_x_order(ordered.data(), n)) << "n=" << n;
+      for (std::uint32_t i = 1; i < n; i += 1 + i / 3) {
+        if (!(ordered[i - 1] < ordered[i])) continue;
+        std::swap(ordered[i - 1], ordered[i]);
+        ASSERT_FALSE(hbp::in_min_x_order(ordered.data(), n)) << "n=" << n << " swapped at " << i;
+        std::swap(ordered[i - 1], ordered[i]);
+      }
+      if (n > 1 && ordered[n - 2] < ordered[n - 1]) {
+        std::swap(ordered[n - 2], ordered[n - 1]);
+        ASSERT_FALSE(hbp::in_min_x_order(ordered.data(), n)) << "n=" << n << " last pair";
+      }
     }
   }
 }

@@ -81,6 +81,26 @@ class KdPartition {
   // cells keep their members and only objects that cross a plane move); any
   // box may change arbitrarily and objects may be added or removed at the end.
   void update(const BoxArray& boxes);
+  // The same update in two steps, for a caller that consumes the cells one
+  // by one (the hybrid broad phase refreshes a cell right before its engine
+  // reads it, while it is in the cache, instead of writing every cell in one
+  // pass and reading it back from memory in the next):
+  // - begin_update(boxes, allow_oversized) does everything but rewriting
+  //   the cells and returns true when that is left to the caller; false when
+  //   the update is complete (a build, or a frame where a cell might grow past
+  //   the limit and allow_oversized is false).
+  // - refresh_cell(c) then brings cell c up to date; call it exactly once per
+  //   cell, before reading cell(c), from any thread, in any order.
+  // - finish_update() after every cell is refreshed.
+  // With allow_oversized, a cell may hold more than cell_limit objects for
+  // this frame (for engines with no capacity limit); it is split at the start
+  // of the next update. Between begin_update and finish_update the partition
+  // is in flux: stats().entries is an upper bound, only cell_count(),
+  // region(c) and refreshed cells may be read; if the caller gives up (an
+  // exception), it must call reset().
+  bool begin_update(const BoxArray& boxes, bool allow_oversized);
+  std::span<const CellEntry> refresh_cell(std::uint32_t c);
+  void finish_update();
   // Drops the tree; the next update builds from scratch.
   void reset();
 
@@ -127,7 +147,9 @@ class KdPartition {
   void number_leaves();
   void find_crossings(const BoxArray& boxes);
   void bucket_additions();
-  void refresh_cells(const BoxArray& boxes);
+  void lay_out_cells();
+  void refresh_cells();
+  void end_frame();
   bool split_oversized();
   void compute_stats(std::size_t objects);
   bool degraded() const;

@@ -1,6 +1,8 @@
 // GCC 12 reports its own _mm512_undefined_ps() inside _mm512_max_ps as
-// "may be used uninitialized" (a false positive in the intrinsic header).
+// "may be used uninitialized" (a false positive in the intrinsic header;
+// "is used uninitialized" once the max sits in a lambda of a template).
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#pragma GCC diagnostic ignored "-Wuninitialized"
 #include <immintrin.h>
 
 #include "dedup/ownership_avx512.hpp"
@@ -117,8 +119,11 @@ struct Rows {
 // the pair stops once, when both rows are past their reach (one exit
 // mispredict per two rows). Hits come per vector, row i's before row
 // i + 1's: an order of its own, the same for any thread count.
+// kMembers: every box of the cell has min < hi (dedup::all_members, true for
+// the partition's cells), so ownership is three compares against per-row
+// thresholds (dedup::owns_member) instead of six and two max.
 struct PairedRows {
-  template <class Out>
+  template <bool kMembers, class Out>
   static void sweep_rows(const KernelInput& in, const RegionVec& rv, std::uint32_t i, Out& out) {
     const float *minx = in.min[0], *miny = in.min[1], *minz = in.min[2];
     const float *maxy = in.max[1], *maxz = in.max[2];
@@ -129,6 +134,16 @@ struct PairedRows {
     const __m512 lz1 = _mm512_set1_ps(minz[i + 1]), hz1 = _mm512_set1_ps(maxz[i + 1]);
     const __m512i id0 = _mm512_set1_epi32(static_cast<int>(in.ids[i]));
     const __m512i id1 = _mm512_set1_epi32(static_cast<int>(in.ids[i + 1]));
+    dedup::RowThresholds<Lanes> t0{}, t1{};
+    if constexpr (kMembers) {
+      t0 = dedup::row_thresholds<Lanes>(in.region, minx[i], miny[i], minz[i]);
+      t1 = dedup::row_thresholds<Lanes>(in.region, minx[i + 1], miny[i + 1], minz[i + 1]);
+    }
+    auto owns = [&](const dedup::RowThresholds<Lanes>& t, __m512 ly, __m512 lz, __m512 vminx, __m512 vminy,
+                    __m512 vminz) {
+      if constexpr (kMembers) return dedup::owns_member(t, vminx, vminy, vminz);
+      else return dedup::owns_sorted_x(rv, ly, lz, vminx, vminy, vminz);
+    };
     // One vector of candidates j..j+15 against both rows; `own` drops row
     // i + 1's own lane (the first vector starts at it). Returns whether
     // either row's reach covers all 16 lanes (the scan goes on).
@@ -140,12 +155,10 @@ struct PairedRows {
       const __mmask16 mx1 = _mm512_cmp_ps_mask(vminx, bx1, _CMP_LE_OQ);
       const __mmask16 m0 = mx0 & _mm512_cmp_ps_mask(vmaxy, ly0, _CMP_GE_OQ) &
                            _mm512_cmp_ps_mask(vminy, hy0, _CMP_LE_OQ) & _mm512_cmp_ps_mask(vmaxz, lz0, _CMP_GE_OQ) &
-                           _mm512_cmp_ps_mask(vminz, hz0, _CMP_LE_OQ) &
-                           dedup::owns_sorted_x(rv, ly0, lz0, vminx, vminy, vminz);
+                           _mm512_cmp_ps_mask(vminz, hz0, _CMP_LE_OQ) & owns(t0, ly0, lz0, vminx, vminy, vminz);
       const __mmask16 m1 = mx1 & own & _mm512_cmp_ps_mask(vmaxy, ly1, _CMP_GE_OQ) &
                            _mm512_cmp_ps_mask(vminy, hy1, _CMP_LE_OQ) & _mm512_cmp_ps_mask(vmaxz, lz1, _CMP_GE_OQ) &
-                           _mm512_cmp_ps_mask(vminz, hz1, _CMP_LE_OQ) &
-                           dedup::owns_sorted_x(rv, ly1, lz1, vminx, vminy, vminz);
+                           _mm512_cmp_ps_mask(vminz, hz1, _CMP_LE_OQ) & owns(t1, ly1, lz1, vminx, vminy, vminz);
       out.emit(id0, in.ids + j, m0);
       out.emit(id1, in.ids + j, m1);
       return (mx0 == 0xFFFF) | (mx1 == 0xFFFF);
@@ -169,13 +182,18 @@ struct PairedRows {
   // (one at a time when it has room for one only, so a small output still
   // makes progress); as store_rows in box_kernel_rows.hpp.
   static std::uint32_t sweep(const KernelInput& in, std::uint32_t row, KernelOutput& out) {
+    return dedup::all_members(in.region, in.min, in.n) ? sweep_from<true>(in, row, out)
+                                                       : sweep_from<false>(in, row, out);
+  }
+  template <bool kMembers>
+  static std::uint32_t sweep_from(const KernelInput& in, std::uint32_t row, KernelOutput& out) {
     const RegionVec r = Rows::region(in.region);
     Store s{out.first, out.second, out.count};
     std::uint32_t i = row;
     while (i < in.n) {
       const std::size_t room = out.capacity - s.count;
       if (i + 1 < in.n && room >= 2 * std::size_t{in.n - i} + kOutputSlack) {
-        sweep_rows(in, r, i, s);
+        sweep_rows<kMembers>(in, r, i, s);
         i += 2;
       } else if (room >= std::size_t{in.n - i} + kOutputSlack) {
         Rows::sweep_row(in, r, i, s);
@@ -188,10 +206,14 @@ struct PairedRows {
     return i;
   }
   static std::uint64_t sweep_count(const KernelInput& in, std::uint32_t row) {
+    return dedup::all_members(in.region, in.min, in.n) ? count_from<true>(in, row) : count_from<false>(in, row);
+  }
+  template <bool kMembers>
+  static std::uint64_t count_from(const KernelInput& in, std::uint32_t row) {
     const RegionVec r = Rows::region(in.region);
     Count c;
     std::uint32_t i = row;
-    for (; i + 1 < in.n; i += 2) sweep_rows(in, r, i, c);
+    for (; i + 1 < in.n; i += 2) sweep_rows<kMembers>(in, r, i, c);
     if (i < in.n) Rows::sweep_row(in, r, i, c);
     return c.count;
   }

@@ -71,8 +71,21 @@ CellEntry make_entry(const Box6& x, std::uint32_t id) {
 // Nearly sorted (objects move a fraction of their size per frame): insertion
 // sort is linear plus the few inversions.
 void insertion_sort(CellEntry* e, std::uint32_t n) {
+  if (n < 2) return;
+  // The last key in order stays in a register: an entry past it costs a
+  // load, a compare and a branch (half the instructions of entry_less on
+  // two loaded entries).
+  float last = e[0].min[0];
   for (std::uint32_t i = 1; i < n; ++i) {
-    if (!kd::entry_less(e[i], e[i - 1])) continue;
+    const float x = e[i].min[0];
+    if (x > last) {
+      last = x;
+      continue;
+    }
+    if (!kd::entry_less(e[i], e[i - 1])) {  // equal min x, ids in order
+      last = x;
+      continue;
+    }
     const CellEntry v = e[i];
     std::uint32_t j = i;
     do {
@@ -152,7 +165,11 @@ struct KdPartition::State {
   std::vector<std::vector<std::uint64_t>> chunk_adds;  // (cell << 32 | id) per chunk
   std::vector<std::uint32_t> add_offsets;              // cell -> first addition in add_ids
   std::vector<std::uint32_t> add_ids;
-  std::vector<std::size_t> cell_offsets;
+  std::vector<std::size_t> cell_offsets;       // cell -> its first entry in next_entries
+  std::uint32_t frame_objects = 0;             // this frame's object count
+  bool may_outgrow = false;                    // a cell may end this frame over the limit (and splittable)
+  bool deferred = false;                       // begin_update left the cells' refresh to the caller
+  bool split_pending = false;                  // a cell ended the last (deferred) frame over the limit
   tbb::enumerable_thread_specific<std::vector<CellEntry>> merge_scratch;
   tbb::enumerable_thread_specific<std::vector<std::uint32_t>> movers;  // find_crossings: objects to descend
   std::vector<CellEntry> merged;
@@ -179,25 +196,69 @@ KdPartition::~KdPartition() = default;
 KdPartition::KdPartition(KdPartition&&) noexcept = default;
 KdPartition& KdPartition::operator=(KdPartition&&) noexcept = default;
 
-void KdPartition::reset() { nodes_.clear(); }
+void KdPartition::reset() {
+  nodes_.clear();
+  state_->deferred = false;
+  state_->split_pending = false;
+}
 
 void KdPartition::update(const BoxArray& boxes) {
+  if (!begin_update(boxes, false)) return;
+  refresh_cells();
+  finish_update();
+}
+
+bool KdPartition::begin_update(const BoxArray& boxes, bool allow_oversized) {
   if (boxes.size() >= std::numeric_limits<std::uint32_t>::max())
     throw CapacityExceeded("k-d partition: at most 2^32 - 1 objects per frame");
+  State& s = *state_;
+  if (s.deferred) throw std::logic_error("k-d partition: begin_update before the last frame's finish_update");
   stats_.rebuilt = false;
   stats_.merges = 0;
   stats_.splits = 0;
-  if (nodes_.empty() || state_->rebuild_next) {
+  s.frame_objects = static_cast<std::uint32_t>(boxes.size());
+  if (nodes_.empty() || s.rebuild_next) {
     rebuild(boxes);
-  } else {
-    maintain(boxes);
+    end_frame();
+    return false;
   }
-  compute_stats(boxes.size());
+  maintain(boxes);
+  if (allow_oversized || !s.may_outgrow) {
+    s.deferred = true;
+    entries_ = s.next_entries.data();  // cell(c) shows each cell once refresh_cell(c) wrote it
+    stats_.entries = s.cell_offsets.back();
+    stats_.cells = static_cast<std::uint32_t>(leaf_nodes_.size());
+    return true;
+  }
+  // A cell may outgrow the limit: every cell now, then the splits.
+  refresh_cells();
+  s.entries.swap(s.next_entries);
+  entries_ = s.entries.data();
+  if (split_oversized()) number_leaves();
+  end_frame();
+  return false;
+}
+
+void KdPartition::finish_update() {
+  State& s = *state_;
+  if (!s.deferred) throw std::logic_error("k-d partition: finish_update without begin_update");
+  s.deferred = false;
+  s.entries.swap(s.next_entries);
+  entries_ = s.entries.data();
+  s.split_pending = false;
+  for (std::uint32_t c = 0; c < leaf_nodes_.size(); ++c)
+    s.split_pending |= cell_size(c) > cell_limit_ && s.leaf_depth[c] < kMaxDepth;
+  end_frame();
+}
+
+void KdPartition::end_frame() {
+  compute_stats(state_->frame_objects);
   State& s = *state_;
   if (stats_.rebuilt) {
     s.rebuild_duplication = stats_.duplication;
     s.rebuild_cells = leaf_nodes_.size();
     s.rebuild_next = false;
+    s.split_pending = false;
   } else {
     // Decided now, done at the start of the next frame: no frame pays for
     // both maintenance and a rebuild.
@@ -228,6 +289,12 @@ void KdPartition::rebuild(const BoxArray& boxes) {
 void KdPartition::maintain(const BoxArray& boxes) {
   State& s = *state_;
   const std::size_t n = boxes.size();
+  // A cell the last frame left over the limit (deferred refresh) is split
+  // first, over last frame's boxes and ids (as it would have been then).
+  if (s.split_pending) {
+    s.split_pending = false;
+    if (split_oversized()) number_leaves();
+  }
   if (n != s.objects) {  // objects appended (no home yet) or removed at the end
     s.home.resize(n);
     s.prev.resize(n);
@@ -243,8 +310,7 @@ void KdPartition::maintain(const BoxArray& boxes) {
   number_leaves();
   find_crossings(boxes);
   bucket_additions();
-  refresh_cells(boxes);
-  if (split_oversized()) number_leaves();
+  lay_out_cells();
 }
 
 void KdPartition::merge_sparse() {
@@ -472,46 +538,51 @@ void KdPartition::bucket_additions() {
     if (adds.capacity() > 2 * adds.size() + 4096) adds.shrink_to_fit();
 }
 
-void KdPartition::refresh_cells(const BoxArray& boxes) {
-  // Each cell, into the next buffer: its members with this frame's boxes,
-  // minus those that no longer reach its region, in repaired min-x order,
-  // plus its additions merged in.
+void KdPartition::lay_out_cells() {
+  // Where each cell goes in the next buffer: room for its members and its
+  // additions (an upper bound: some members leave).
   State& s = *state_;
   const auto cells = static_cast<std::uint32_t>(leaf_nodes_.size());
-  const auto n = static_cast<std::uint32_t>(boxes.size());
   s.cell_offsets.resize(cells + 1);
   std::size_t total = 0;
+  s.may_outgrow = false;
   for (std::uint32_t c = 0; c < cells; ++c) {
     s.cell_offsets[c] = total;
-    total += nodes_[leaf_nodes_[c]].size + (s.add_offsets[c + 1] - s.add_offsets[c]);
+    const std::size_t need = nodes_[leaf_nodes_[c]].size + (s.add_offsets[c + 1] - s.add_offsets[c]);
+    s.may_outgrow |= need > cell_limit_ && s.leaf_depth[c] < kMaxDepth;
+    total += need;
   }
   s.cell_offsets[cells] = total;
   if (total > std::numeric_limits<std::uint32_t>::max() / 2)
     throw CapacityExceeded("k-d partition: more than 2^31 cell entries (" + std::to_string(total) + ")");
   s.next_entries.resize(total);
-  const CellEntry* from = s.entries.data();
-  CellEntry* to = s.next_entries.data();
-  const CellEntry* latest = s.latest.data();
+}
+
+void KdPartition::refresh_cells() {
+  const auto cells = static_cast<std::uint32_t>(leaf_nodes_.size());
   tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, cells, 4), [&](const auto& range) {
-    std::vector<CellEntry>& tmp = s.merge_scratch.local();
-    for (std::uint32_t c = range.begin(); c != range.end(); ++c) {
-      KdTreeNode& leaf = nodes_[leaf_nodes_[c]];
-      CellEntry* dst = to + s.cell_offsets[c];
-      std::uint32_t k = keep_members(from + leaf.first, leaf.size, latest, n, regions_[c], dst);
-      insertion_sort(dst, k);
-      const std::uint32_t a0 = s.add_offsets[c], m = s.add_offsets[c + 1] - a0;
-      for (std::uint32_t e = 0; e < m; ++e) {
-        const std::uint32_t id = s.add_ids[a0 + e];
-        dst[k + e] = latest[id];
-      }
-      insertion_sort(dst + k, m);
-      merge_tail(dst, k, m, tmp);
-      leaf.first = static_cast<std::uint32_t>(s.cell_offsets[c]);
-      leaf.size = k + m;
-    }
+    for (std::uint32_t c = range.begin(); c != range.end(); ++c) refresh_cell(c);
   });
-  s.entries.swap(s.next_entries);
-  entries_ = s.entries.data();
+}
+
+std::span<const CellEntry> KdPartition::refresh_cell(std::uint32_t c) {
+  // The cell, into the next buffer: its members with this frame's boxes,
+  // minus those that no longer reach its region, in repaired min-x order,
+  // plus its additions merged in.
+  State& s = *state_;
+  KdTreeNode& leaf = nodes_[leaf_nodes_[c]];
+  CellEntry* dst = s.next_entries.data() + s.cell_offsets[c];
+  std::uint32_t k =
+      keep_members(s.entries.data() + leaf.first, leaf.size, s.latest.data(), s.frame_objects, regions_[c], dst);
+  insertion_sort(dst, k);
+  const std::uint32_t a0 = s.add_offsets[c], m = s.add_offsets[c + 1] - a0;
+  const CellEntry* latest = s.latest.data();
+  for (std::uint32_t e = 0; e < m; ++e) dst[k + e] = latest[s.add_ids[a0 + e]];
+  insertion_sort(dst + k, m);
+  if (m > 0 && k > 0) merge_tail(dst, k, m, s.merge_scratch.local());  // (the thread's scratch looked up only when needed)
+  leaf.first = static_cast<std::uint32_t>(s.cell_offsets[c]);
+  leaf.size = k + m;
+  return {dst, leaf.size};
 }
 
 bool KdPartition::split_oversized() {

@@ -71,24 +71,36 @@ void release_if_oversized(std::vector<T>& v, std::size_t used, std::size_t keep)
   if (v.capacity() > 2 * used + keep) std::vector<T>().swap(v);
 }
 
-// Cheap parallel screen; on failure the serial validate() names the object.
+// True when a box of [begin, end) has a NaN or infinite coordinate or min >
+// max on some axis (the screen; the serial BoxArray::validate then names
+// the object). x - x == 0 exactly when x is finite. An int OR of the
+// failures, not a bool AND of the passes: GCC 12 vectorises only this form
+// (the bool form ran as scalar compares and branches, ~60 instructions an
+// object, as does BoxArray::validate).
+bool screen_fails(const BoxArray& boxes, std::size_t begin, std::size_t end) {
+  int bad = 0;
+  for (int k = 0; k < 3; ++k) {
+    const float* lo = boxes.min(k);
+    const float* hi = boxes.max(k);
+    for (std::size_t i = begin; i != end; ++i)
+      bad |= !(lo[i] - lo[i] == 0.0f) | !(hi[i] - hi[i] == 0.0f) | !(lo[i] <= hi[i]);
+  }
+  return bad != 0;
+}
+
+// The frame's boxes screened in parallel; on failure the serial validate()
+// names the object.
 void validate_boxes(const BoxArray& boxes) {
   const bool bad = tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, boxes.size(), 16384), false,
-      [&](const auto& r, bool acc) {
-        if (acc) return true;
-        bool ok = true;
-        for (int k = 0; k < 3; ++k) {
-          const float* lo = boxes.min(k);
-          const float* hi = boxes.max(k);
-          // x - x == 0 exactly when x is finite; written so it vectorises.
-          for (std::size_t i = r.begin(); i != r.end(); ++i)
-            ok &= (lo[i] - lo[i] == 0.0f) & (hi[i] - hi[i] == 0.0f) & (lo[i] <= hi[i]);
-        }
-        return !ok;
-      },
+      [&](const auto& r, bool acc) { return acc || screen_fails(boxes, r.begin(), r.end()); },
       [](bool a, bool b) { return a || b; });
   if (bad) boxes.validate("frame");
+}
+
+// The same on the calling thread (one-cell frames: small worlds).
+void validate_boxes_serial(const BoxArray& boxes) {
+  if (screen_fails(boxes, 0, boxes.size())) boxes.validate("frame");
 }
 
 struct Worker {
@@ -157,6 +169,7 @@ struct HybridBroadPhase::Impl {
   tbb::task_arena arena;
   KdPartition own_partition;
   bool partition_in_use = false;                  // own_partition holds a tree from an earlier frame
+  bool refresh_in_engine = false;                 // own_partition's cells are refreshed as the engine takes them
   bool boxes_checked = false;  // this frame's boxes were validated by the caller (HybridAccess)
   const KdPartition* partition = &own_partition;  // this frame's cells
   tbb::enumerable_thread_specific<Worker> workers;
@@ -300,6 +313,14 @@ struct HybridBroadPhase::Impl {
 
   // ---- Scheduling the cells ---------------------------------------------
 
+  // Cell c for its first trip through the engine. On a maintained frame the
+  // partition rewrites each cell (kept members with this frame's boxes, plus
+  // newcomers) right here, so the engine reads it from the cache instead of
+  // from memory after a pass over all cells.
+  std::span<const CellEntry> engine_cell(std::uint32_t c) {
+    return refresh_in_engine ? own_partition.refresh_cell(c) : partition->cell(c);
+  }
+
   bool serial_engine_phase() const {
     return arena.max_concurrency() == 1 || partition->stats().entries < kSerialEntries;
   }
@@ -326,7 +347,7 @@ struct HybridBroadPhase::Impl {
       CellOutcome& r = outcomes[c];
       std::vector<Pair>& out = cell_pairs[c];
       out.clear();
-      w.cell.load(partition->cell(c));
+      w.cell.load(engine_cell(c));
       emit_cell(w, partition->region(c), out, r);
       if (consumer) consumer(c, out.data(), out.size());
     };
@@ -374,7 +395,7 @@ struct HybridBroadPhase::Impl {
   void first_pass(std::uint32_t c) {
     Worker& w = workers.local();
     CellOutcome& r = outcomes[c];
-    w.cell.load(partition->cell(c));
+    w.cell.load(engine_cell(c));
     const CellRegion& region = partition->region(c);
     r.stored = &w.stored;
     r.offset = w.stored.size();
@@ -503,15 +524,40 @@ struct HybridBroadPhase::Impl {
     }
     partition = &own_partition;
     if (!boxes_checked) validate_boxes(*boxes);
-    own_partition.update(*boxes);
+    // An engine without a capacity limit takes a cell a few objects over the
+    // cell limit for one frame (split at the start of the next); others get
+    // the refresh in the engine only when no cell can outgrow the limit.
+    const bool unlimited = prototype->capacity() == std::numeric_limits<std::uint32_t>::max();
+    refresh_in_engine = own_partition.begin_update(*boxes, unlimited);
     partition_in_use = true;
+  }
+
+  // The engine stage with the partition's deferred refresh: completed after
+  // it, or, when a cell throws (max_pairs), the half-refreshed tree dropped.
+  void run_cells_and_finish(const PairSink& sink, const PairSink& consumer, double& partition_ms, double& engine_ms,
+                            double& merge_ms) {
+    try {
+      run_cells(sink, consumer, engine_ms, merge_ms);
+    } catch (...) {
+      if (refresh_in_engine) {
+        refresh_in_engine = false;
+        own_partition.reset();
+        partition_in_use = false;
+      }
+      throw;
+    }
+    if (!refresh_in_engine) return;
+    refresh_in_engine = false;
+    const auto t_finish = SteadyClock::now();
+    own_partition.finish_update();
+    partition_ms += ms_since(t_finish);
   }
 
   // Frames the partition would leave as one cell: no partition, no workers.
   bool is_one_cell_frame(const BoxArray* boxes) const { return boxes && boxes->size() <= cell_limit; }
 
   void run_one_cell(const BoxArray& boxes, const PairSink& sink, const PairSink& consumer) {
-    if (!boxes_checked) boxes.validate("frame");
+    if (!boxes_checked) validate_boxes_serial(boxes);
     if (partition_in_use) own_partition.reset();  // its tree is stale by the next large frame
     partition_in_use = false;
     cell_pairs.clear();  // buffers of earlier, larger frames
@@ -583,7 +629,7 @@ struct HybridBroadPhase::Impl {
       const auto t_partition = SteadyClock::now();
       partition_frame(boxes, shared);
       partition_ms = ms_since(t_partition);
-      run_cells(sink, consumer, engine_ms, merge_ms);
+      run_cells_and_finish(sink, consumer, partition_ms, engine_ms, merge_ms);
     }
     const auto t_sort = SteadyClock::now();
     sort_output();
