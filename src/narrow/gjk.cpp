@@ -9,14 +9,18 @@ namespace {
 
 void keep1(Simplex& s, int i) {
   s.v[0] = s.v[i];
+  s.dir[0] = s.dir[i];
   s.lambda[0] = 1;
   s.n = 1;
 }
 
 void keep2(Simplex& s, int i, int j, double li, double lj) {
   const SupportVertex vi = s.v[i], vj = s.v[j];
+  const V3 di = s.dir[i], dj = s.dir[j];
   s.v[0] = vi;
   s.v[1] = vj;
+  s.dir[0] = di;
+  s.dir[1] = dj;
   s.lambda[0] = li;
   s.lambda[1] = lj;
   s.n = 2;
@@ -24,9 +28,13 @@ void keep2(Simplex& s, int i, int j, double li, double lj) {
 
 void keep3(Simplex& s, int i, int j, int k, double li, double lj, double lk) {
   const SupportVertex vi = s.v[i], vj = s.v[j], vk = s.v[k];
+  const V3 di = s.dir[i], dj = s.dir[j], dk = s.dir[k];
   s.v[0] = vi;
   s.v[1] = vj;
   s.v[2] = vk;
+  s.dir[0] = di;
+  s.dir[1] = dj;
+  s.dir[2] = dk;
   s.lambda[0] = li;
   s.lambda[1] = lj;
   s.lambda[2] = lk;
@@ -101,31 +109,41 @@ void closest_triangle(Simplex& s, int i, int j, int k) {
   keep3(s, i, j, k, 1 - v - w, v, w);
 }
 
+constexpr int kTetFaces[4][4] = {{0, 1, 2, 3}, {0, 2, 3, 1}, {0, 3, 1, 2}, {1, 3, 2, 0}};
+
+// A sliver (volume tiny against its edges, e.g. three nearly equal support
+// points of a curved surface and one far vertex) has face planes whose
+// sides are rounding noise: it must never certify that it encloses the
+// origin. It is treated as flat.
+bool is_sliver(const Simplex& s) {
+  const V3 e1 = s.v[1].w - s.v[0].w, e2 = s.v[2].w - s.v[0].w, e3 = s.v[3].w - s.v[0].w;
+  const double vol6 = std::fabs(det3(e1, e2, e3));
+  const double edges = std::sqrt(norm2(e1) * norm2(e2) * norm2(e3));
+  return !(vol6 > 1e-12 * edges);
+}
+
+// Face f of the tetrahedron: the origin strictly on the other side of its
+// plane than the fourth vertex (or the plane through the fourth vertex):
+// the closest point may lie on this face.
+bool origin_beyond_face(const Simplex& s, const int f[4]) {
+  const V3 a = s.v[f[0]].w, b = s.v[f[1]].w, c = s.v[f[2]].w, d = s.v[f[3]].w;
+  const V3 n = cross(b - a, c - a);
+  const double side_origin = -dot(a, n);
+  const double side_opposite = dot(d - a, n);
+  return side_opposite == 0 || side_origin * side_opposite < 0;
+}
+
 // Tetrahedron: true if the origin is inside (s unchanged, lambda set);
 // otherwise reduces s to the closest face/edge/vertex. *sliver: the
 // tetrahedron was too flat to decide and was treated as flat.
 bool closest_tetrahedron(Simplex& s, bool* sliver_out) {
-  static constexpr int kFaces[4][4] = {{0, 1, 2, 3}, {0, 2, 3, 1}, {0, 3, 1, 2}, {1, 3, 2, 0}};
-  // A sliver (volume tiny against its edges, e.g. three nearly equal support
-  // points of a curved surface and one far vertex) has face planes whose
-  // sides are rounding noise: it must never certify that it encloses the
-  // origin. It is treated as flat: the closest point over all four faces.
-  const V3 e1 = s.v[1].w - s.v[0].w, e2 = s.v[2].w - s.v[0].w, e3 = s.v[3].w - s.v[0].w;
-  const double vol6 = std::fabs(det3(e1, e2, e3));
-  const double edges = std::sqrt(norm2(e1) * norm2(e2) * norm2(e3));
-  const bool sliver = !(vol6 > 1e-12 * edges);
+  const bool sliver = is_sliver(s);
   *sliver_out = sliver;
   bool outside_any = false;
   Simplex best;
   double best_d = INFINITY;
-  for (const auto& f : kFaces) {
-    const V3 a = s.v[f[0]].w, b = s.v[f[1]].w, c = s.v[f[2]].w, d = s.v[f[3]].w;
-    const V3 n = cross(b - a, c - a);
-    const double side_origin = -dot(a, n);
-    const double side_opposite = dot(d - a, n);
-    // Origin strictly on the other side of this face than the fourth vertex
-    // (or a flat tetrahedron): the closest point may lie on this face.
-    if (sliver || side_opposite == 0 || side_origin * side_opposite < 0) {
+  for (const auto& f : kTetFaces) {
+    if (sliver || origin_beyond_face(s, f)) {
       outside_any = true;
       Simplex t = s;
       closest_triangle(t, f[0], f[1], f[2]);
@@ -153,6 +171,13 @@ bool closest_tetrahedron(Simplex& s, bool* sliver_out) {
 
 }  // namespace
 
+bool tetrahedron_encloses_origin(const Simplex& s) {
+  if (s.n != 4 || is_sliver(s)) return false;
+  for (const auto& f : kTetFaces)
+    if (origin_beyond_face(s, f)) return false;
+  return true;
+}
+
 GjkResult gjk(const Convex& a, const Convex& b, const GjkOptions& options) {
   GjkResult r;
   Simplex& s = r.simplex;
@@ -170,6 +195,21 @@ GjkResult gjk(const Convex& a, const Convex& b, const GjkOptions& options) {
   if (norm2(options.initial_direction) > 0) v = -options.initial_direction;
   if (norm2(v) == 0) v = {scale, 0, 0};
   double prev_vv = INFINITY;
+  if (options.initial_simplex && options.initial_simplex->n == 4) {
+    // Last frame's tetrahedron, queried again: reduced to its closest
+    // feature as if GJK had just built it.
+    s = *options.initial_simplex;
+    bool sliver = false;
+    const bool inside = closest_tetrahedron(s, &sliver);
+    const V3 c = combine(s);
+    if (inside || (sliver && norm2(c) <= sliver_touch2) || norm2(c) <= touch2) {
+      r.intersecting = true;
+      r.distance = 0;
+      return r;
+    }
+    v = c;
+    prev_vv = norm2(c);
+  }
   for (int it = 0; it < options.max_iterations; ++it) {
     r.iterations = it + 1;
     const SupportVertex w = support_difference(a, b, -v);
@@ -189,6 +229,7 @@ GjkResult gjk(const Convex& a, const Convex& b, const GjkOptions& options) {
     }
     const Simplex before = s;
     const V3 v_before = v;
+    s.dir[s.n] = -v;
     s.v[s.n++] = w;
     bool inside = false, sliver = false;
     switch (s.n) {
