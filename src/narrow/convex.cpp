@@ -15,7 +15,9 @@ double bounding_radius(const Shape& shape) {
   return 0;
 }
 
-Convex make_convex(const Shape& shape) {
+Convex make_convex(const Shape& shape) { return make_convex(shape, bounding_radius(shape)); }
+
+Convex make_convex(const Shape& shape, double radius) {
   Convex c;
   c.kind = shape.kind;
   c.h[0] = 0.5 * shape.size.x;
@@ -25,7 +27,7 @@ Convex make_convex(const Shape& shape) {
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) c.m[i][j] = c.r[i][j] * c.h[j];
   c.centre = to_v3(shape.position);
-  c.radius = bounding_radius(shape);
+  c.radius = radius;
   return c;
 }
 

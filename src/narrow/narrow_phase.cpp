@@ -45,17 +45,18 @@ std::size_t NarrowPhase::process(const std::vector<Shape>& shapes, const Pair* p
     // positives end here).
     const Shape& sa = shapes[p.a];
     const Shape& sb = shapes[p.b];
-    const double reach = narrow::bounding_radius(sa) + narrow::bounding_radius(sb);
+    const double ra = narrow::bounding_radius(sa), rb = narrow::bounding_radius(sb);
+    const double reach = ra + rb;
     const double dx = sb.position.x - sa.position.x, dy = sb.position.y - sa.position.y,
                  dz = sb.position.z - sa.position.z;
     if (dx * dx + dy * dy + dz * dz > reach * reach) continue;
     // Pairs come sorted or grouped by their first object: its prepared
     // shape is reused across the group.
     if (p.a != prepared_id) {
-      a = narrow::make_convex(sa);
+      a = narrow::make_convex(sa, ra);
       prepared_id = p.a;
     }
-    const narrow::Convex b = narrow::make_convex(sb);
+    const narrow::Convex b = narrow::make_convex(sb, rb);
     narrow::Hit hit;
     narrow::Coherence warm, now;
     const NarrowCacheEntry* cached = cache ? cache->entry(p) : nullptr;

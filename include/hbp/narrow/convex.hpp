@@ -33,6 +33,8 @@ struct Convex {
 };
 
 Convex make_convex(const Shape& shape);
+// The same with its bounding radius already computed (bounding_radius).
+Convex make_convex(const Shape& shape, double radius);
 // Convex::radius without preparing the shape.
 double bounding_radius(const Shape& shape);
 
