@@ -4,17 +4,6 @@
 
 namespace hbp::narrow {
 
-double bounding_radius(const Shape& shape) {
-  const double hx = 0.5 * shape.size.x, hy = 0.5 * shape.size.y, hz = 0.5 * shape.size.z;
-  switch (shape.kind) {
-    case ShapeKind::Sphere: return std::fmax(hx, std::fmax(hy, hz));
-    case ShapeKind::Cuboid: return std::sqrt(hx * hx + hy * hy + hz * hz);
-    case ShapeKind::Cylinder:
-    case ShapeKind::Cone: return std::sqrt(std::fmax(hx * hx, hy * hy) + hz * hz);
-  }
-  return 0;
-}
-
 Convex make_convex(const Shape& shape) { return make_convex(shape, bounding_radius(shape)); }
 
 Convex make_convex(const Shape& shape, double radius) {

@@ -164,9 +164,9 @@ constexpr int kTetFaces[4][4] = {{0, 1, 2, 3}, {0, 2, 3, 1}, {0, 3, 1, 2}, {1, 3
 // origin. It is treated as flat.
 bool is_sliver(const Simplex& s) {
   const V3 e1 = s.v[1].w - s.v[0].w, e2 = s.v[2].w - s.v[0].w, e3 = s.v[3].w - s.v[0].w;
-  const double vol6 = std::fabs(det3(e1, e2, e3));
-  const double edges = std::sqrt(norm2(e1) * norm2(e2) * norm2(e3));
-  return !(vol6 > 1e-12 * edges);
+  // |det| > 1e-12 x the product of the edge lengths, squared (no square root).
+  const double vol6 = det3(e1, e2, e3);
+  return !(vol6 * vol6 > 1e-24 * (norm2(e1) * norm2(e2) * norm2(e3)));
 }
 
 // Face f of the tetrahedron: the origin strictly on the other side of its

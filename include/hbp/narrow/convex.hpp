@@ -2,6 +2,7 @@
 // A shape prepared for the narrow phase: rotation matrix, half extents and
 // bounding radius computed once, and the support mapping used by GJK/EPA and
 // the libccd adapter.
+#include <algorithm>
 #include <cmath>
 
 #include "hbp/narrow/vec_math.hpp"
@@ -35,8 +36,18 @@ struct Convex {
 Convex make_convex(const Shape& shape);
 // The same with its bounding radius already computed (bounding_radius).
 Convex make_convex(const Shape& shape, double radius);
-// Convex::radius without preparing the shape.
-double bounding_radius(const Shape& shape);
+// Convex::radius without preparing the shape (inline: the narrow phase's
+// first test on every candidate pair).
+inline double bounding_radius(const Shape& shape) {
+  const double hx = 0.5 * shape.size.x, hy = 0.5 * shape.size.y, hz = 0.5 * shape.size.z;
+  switch (shape.kind) {
+    case ShapeKind::Sphere: return std::max(hx, std::max(hy, hz));  // std::fmax is a libm call here
+    case ShapeKind::Cuboid: return std::sqrt(hx * hx + hy * hy + hz * hz);
+    case ShapeKind::Cylinder:
+    case ShapeKind::Cone: return std::sqrt(std::max(hx * hx, hy * hy) + hz * hz);
+  }
+  return 0;
+}
 
 // Tolerance scale of a pair: sum of the bounding radii.
 inline double pair_scale(const Convex& a, const Convex& b) { return a.radius + b.radius; }
