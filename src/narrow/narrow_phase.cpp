@@ -1,6 +1,7 @@
 #include "hbp/narrow/narrow_phase.hpp"
 
 #include <cstdint>
+#include <cstring>
 #include <string>
 
 #include "hbp/error.hpp"
@@ -44,27 +45,46 @@ std::size_t NarrowPhase::process(const std::vector<Shape>& shapes, const Pair* p
     // positives end here).
     const Shape& sa = shapes[p.a];
     const Shape& sb = shapes[p.b];
-    const double reach = narrow::bounding_radius(sa) + narrow::bounding_radius(sb);
+    const double ra = narrow::bounding_radius(sa), rb = narrow::bounding_radius(sb);
+    const double reach = ra + rb;
     const double dx = sb.position.x - sa.position.x, dy = sb.position.y - sa.position.y,
                  dz = sb.position.z - sa.position.z;
     if (dx * dx + dy * dy + dz * dz > reach * reach) continue;
     // Pairs come sorted or grouped by their first object: its prepared
     // shape is reused across the group.
     if (p.a != prepared_id) {
-      a = narrow::make_convex(sa);
+      a = narrow::make_convex(sa, ra);
       prepared_id = p.a;
     }
-    const narrow::Convex b = narrow::make_convex(sb);
+    const narrow::Convex b = narrow::make_convex(sb, rb);
     narrow::Hit hit;
     narrow::Coherence warm, now;
     const NarrowCacheEntry* cached = cache ? cache->entry(p) : nullptr;
-    if (cached) warm = {{cached->dir[0], cached->dir[1], cached->dir[2]}, cached->contact != 0};
+    if (cached) {
+      warm.dir = {cached->dir[0], cached->dir[1], cached->dir[2]};
+      warm.contact = cached->contact != 0;
+      warm.has_tetra = cached->has_tetra != 0;
+      if (warm.has_tetra) {
+        for (int i = 0; i < 4; ++i) oct_decode(cached->tetra[i], warm.tetra[i]);
+      }
+    }
     const bool collide = narrow::intersect(a, b, options_.contacts ? &hit : nullptr, options_.method,
                                            cached ? &warm : nullptr, learned ? &now : nullptr);
-    if (learned && narrow::norm2(now.dir) > 0)
-      learned->push_back({p,
-                          {static_cast<float>(now.dir.x), static_cast<float>(now.dir.y), static_cast<float>(now.dir.z)},
-                          now.contact ? 1u : 0u});
+    if (learned && narrow::norm2(now.dir) > 0) {
+      NarrowCacheEntry e{};
+      e.pair = p;
+      e.dir[0] = static_cast<float>(now.dir.x);
+      e.dir[1] = static_cast<float>(now.dir.y);
+      e.dir[2] = static_cast<float>(now.dir.z);
+      e.contact = now.contact ? 1 : 0;
+      e.has_tetra = now.has_tetra ? 1 : 0;
+      if (now.tetra_unchanged) {
+        std::memcpy(e.tetra, cached->tetra, sizeof e.tetra);
+      } else if (now.has_tetra) {
+        for (int i = 0; i < 4; ++i) oct_encode(now.tetra[i][0], now.tetra[i][1], now.tetra[i][2], e.tetra[i]);
+      }
+      learned->push_back(e);
+    }
     if (!collide) continue;
     Contact c;
     c.a = p.a;

@@ -2,6 +2,7 @@
 // A shape prepared for the narrow phase: rotation matrix, half extents and
 // bounding radius computed once, and the support mapping used by GJK/EPA and
 // the libccd adapter.
+#include <algorithm>
 #include <cmath>
 
 #include "hbp/narrow/vec_math.hpp"
@@ -9,12 +10,19 @@
 
 namespace hbp::narrow {
 
+// No default member initialisers on the arrays: make_convex writes every
+// field, and zeroing 200 bytes per shape (a `rep stos`) cost more than the
+// rest of make_convex at 100,000 objects.
 struct Convex {
   ShapeKind kind = ShapeKind::Cuboid;
-  double h[3] = {0, 0, 0};  // half extents along the local axes
-  double r[3][3] = {};      // local-to-world rotation (column j = local axis j)
+  double h[3];              // half extents along the local axes
+  double r[3][3];           // local-to-world rotation (column j = local axis j)
   V3 centre;
   double radius = 0;        // bounding-sphere radius about centre
+  // r with column j scaled by h[j]: maps the shape's unit frame (unit ball,
+  // cube [-1, 1]^3, unit cylinder / cone) to the world. The support mapping
+  // works there: u = m^T d, p = centre + m q(u), no scaling by h.
+  double m[3][3];
 
   V3 axis(int j) const { return {r[0][j], r[1][j], r[2][j]}; }
   V3 to_local(const V3& w) const;  // rotation only (direction or offset)
@@ -26,8 +34,20 @@ struct Convex {
 };
 
 Convex make_convex(const Shape& shape);
-// Convex::radius without preparing the shape.
-double bounding_radius(const Shape& shape);
+// The same with its bounding radius already computed (bounding_radius).
+Convex make_convex(const Shape& shape, double radius);
+// Convex::radius without preparing the shape (inline: the narrow phase's
+// first test on every candidate pair).
+inline double bounding_radius(const Shape& shape) {
+  const double hx = 0.5 * shape.size.x, hy = 0.5 * shape.size.y, hz = 0.5 * shape.size.z;
+  switch (shape.kind) {
+    case ShapeKind::Sphere: return std::max(hx, std::max(hy, hz));  // std::fmax is a libm call here
+    case ShapeKind::Cuboid: return std::sqrt(hx * hx + hy * hy + hz * hz);
+    case ShapeKind::Cylinder:
+    case ShapeKind::Cone: return std::sqrt(std::max(hx * hx, hy * hy) + hz * hz);
+  }
+  return 0;
+}
 
 // Tolerance scale of a pair: sum of the bounding radii.
 inline double pair_scale(const Convex& a, const Convex& b) { return a.radius + b.radius; }
@@ -75,8 +95,54 @@ inline V3 local_support(ShapeKind kind, const double h[3], const V3& u) {
   return {};
 }
 
+// The support point in the unit frame: the direction there is u = m^T d
+// (for the ellipsoid A^2 u / |A u| of the local frame becomes u / |u|).
+// Same points as local_support up to rounding.
 inline V3 Convex::support(const V3& d) const {
-  return centre + to_world(local_support(kind, h, to_local(d)));
+  const double ux = m[0][0] * d.x + m[1][0] * d.y + m[2][0] * d.z;
+  const double uy = m[0][1] * d.x + m[1][1] * d.y + m[2][1] * d.z;
+  const double uz = m[0][2] * d.x + m[1][2] * d.y + m[2][2] * d.z;
+  double qx, qy, qz;
+  switch (kind) {
+    case ShapeKind::Cuboid:
+      qx = ux >= 0 ? 1 : -1;
+      qy = uy >= 0 ? 1 : -1;
+      qz = uz >= 0 ? 1 : -1;
+      break;
+    case ShapeKind::Sphere: {
+      const double len2 = ux * ux + uy * uy + uz * uz;
+      if (len2 == 0) {
+        qx = qy = 0;
+        qz = 1;
+        break;
+      }
+      const double inv = 1 / std::sqrt(len2);
+      qx = ux * inv;
+      qy = uy * inv;
+      qz = uz * inv;
+      break;
+    }
+    default: {  // cylinder, cone: the rim point of the unit section
+      const double len = std::sqrt(ux * ux + uy * uy);
+      const double inv = len == 0 ? 0 : 1 / len;
+      qx = ux * inv;
+      qy = uy * inv;
+      qz = uz >= 0 ? 1 : -1;
+      // Cone: the apex (0, 0, 1) or a point of the base rim at z = -1.
+      if (kind == ShapeKind::Cone) {
+        if (uz >= len - uz) {
+          qx = qy = 0;
+          qz = 1;
+        } else {
+          qz = -1;
+        }
+      }
+      break;
+    }
+  }
+  return {centre.x + m[0][0] * qx + m[0][1] * qy + m[0][2] * qz,
+          centre.y + m[1][0] * qx + m[1][1] * qy + m[1][2] * qz,
+          centre.z + m[2][0] * qx + m[2][1] * qy + m[2][2] * qz};
 }
 
 }  // namespace hbp::narrow

@@ -22,8 +22,17 @@ inline SupportVertex support_difference(const Convex& A, const Convex& B, const 
 struct Simplex {
   SupportVertex v[4];
   double lambda[4] = {0, 0, 0, 0};  // barycentric weights of the closest point
+  // The support directions that produced v (v[i] = support_difference(a,
+  // b, dir[i])): next frame, the same directions give a colliding pair its
+  // tetrahedron again without GJK's iterations.
+  V3 dir[4];
   int n = 0;
 };
+
+// The origin strictly inside the tetrahedron s.v[0..3] (s.n == 4): the test
+// that ends GJK on an intersecting pair, sliver rule included (a tetrahedron
+// too flat for its face-side tests to mean anything never encloses).
+bool tetrahedron_encloses_origin(const Simplex& s);
 
 struct GjkResult {
   bool intersecting = false;
@@ -44,6 +53,10 @@ struct GjkOptions {
   // First search direction (the cached one of the last frame: from a
   // towards b); zero: the centre line.
   V3 initial_direction;
+  // A tetrahedron of support points to start from (e.g. last frame's
+  // directions queried again; null or n != 4: none). GJK goes on from its
+  // closest feature to the origin.
+  const Simplex* initial_simplex = nullptr;
 };
 
 GjkResult gjk(const Convex& a, const Convex& b, const GjkOptions& options = {});

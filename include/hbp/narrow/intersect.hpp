@@ -49,12 +49,24 @@ bool intersect(const Convex& a, const Convex& b, Hit* hit, NarrowMethod method);
 struct Coherence {
   V3 dir;
   bool contact = false;
+  // Contact only: the support directions of the tetrahedron that enclosed
+  // the origin (EPA's start), when there was one.
+  bool has_tetra = false;
+  // Learned only: the tetrahedron is the warm one, unchanged (its cached
+  // code can be kept as it is).
+  bool tetra_unchanged = false;
+  // Left uninitialised unless has_tetra: a pair's Coherence is made and
+  // reset several times per pair, most pairs never have one.
+  double tetra[4][3];
 };
 // With frame-to-frame coherence: `warm` (may be null) is what the last frame
 // learned for this pair; *learned receives this frame's. The verdict never
 // depends on `warm`: a cached axis is used only where one support query
 // proves separation; a pair that collided last frame skips the quick
-// rejects (they would rarely reject it) and starts GJK from its normal.
+// rejects (they would rarely reject it); with contacts, it queries last
+// frame's tetrahedron directions again and, if the new support points still
+// enclose the origin (GJK's own test, sliver rule included), EPA starts from
+// them without GJK; otherwise GJK runs as on a cold pair.
 bool intersect(const Convex& a, const Convex& b, Hit* hit, NarrowMethod method, const Coherence* warm,
                Coherence* learned);
 }  // namespace narrow
