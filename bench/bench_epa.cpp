@@ -4,7 +4,7 @@
 // warm directions. Reports CPU time per pair and EPA iterations per pair.
 //
 //   bench_epa --benchmark_filter=Epa --benchmark_min_time=1
-//   valgrind --tool=callgrind bench_epa --benchmark_filter=EpaCold/20000
+//   valgrind --tool=callgrind --toggle-collect='*run_epa*' bench_epa --benchmark_filter=EpaCold --benchmark_min_time=0.01
 //
 // Arg: number of objects.
 #include <benchmark/benchmark.h>
@@ -77,22 +77,38 @@ const std::vector<EpaCase>& cases(std::uint32_t n) {
   return all[n] = std::move(out);
 }
 
-void BM_EpaCold(benchmark::State& state) {
-  const auto& cs = cases(static_cast<std::uint32_t>(state.range(0)));
+// Not inlined: callgrind's --toggle-collect='*run_epa*' counts only this.
+[[gnu::noinline]] std::int64_t run_epa(const std::vector<EpaCase>& cs) {
   hbp::narrow::EpaOptions eo;
   eo.rel_tolerance = hbp::narrow::kContactDepthTolerance;
   std::int64_t iterations = 0;
-  for (auto _ : state) {
-    iterations = 0;
-    for (const EpaCase& c : cs) {
-      const hbp::narrow::EpaResult r = hbp::narrow::epa(c.a, c.b, c.simplex, eo);
-      benchmark::DoNotOptimize(r.depth);
-      iterations += r.iterations;
-    }
+  for (const EpaCase& c : cs) {
+    const hbp::narrow::EpaResult r = hbp::narrow::epa(c.a, c.b, c.simplex, eo);
+    benchmark::DoNotOptimize(r.depth);
+    iterations += r.iterations;
   }
+  return iterations;
+}
+
+void BM_EpaCold(benchmark::State& state) {
+  const auto& cs = cases(static_cast<std::uint32_t>(state.range(0)));
+  std::int64_t iterations = 0;
+  for (auto _ : state) iterations = run_epa(cs);
   state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(cs.size()));
   state.counters["pairs"] = static_cast<double>(cs.size());
   state.counters["iter_per_pair"] = static_cast<double>(iterations) / static_cast<double>(cs.size());
+  hbp::narrow::EpaOptions eo;
+  eo.rel_tolerance = hbp::narrow::kContactDepthTolerance;
+  int unconverged = 0, notok = 0, sep = 0;
+  for (const EpaCase& c : cs) {
+    const hbp::narrow::EpaResult r = hbp::narrow::epa(c.a, c.b, c.simplex, eo);
+    unconverged += !r.converged;
+    notok += !r.ok;
+    sep += r.separated;
+  }
+  state.counters["unconverged"] = unconverged;
+  state.counters["notok"] = notok;
+  state.counters["separated"] = sep;
 }
 
 // GJK + EPA through intersect(), with last frame's normal (the path
