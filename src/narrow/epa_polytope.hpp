@@ -192,7 +192,7 @@ class Polytope {
     nx_[f] = u.x;
     ny_[f] = u.y;
     nz_[f] = u.z;
-    dist_[f] = dot(u, wa + wb + wc) * (1.0 / 3.0);  // the mean over the 3 vertices
+    dist_[f] = dot(u, wa);
     FaceTopology& T = topo_[f];
     T.v[0] = static_cast<std::uint8_t>(a);
     T.v[1] = static_cast<std::uint8_t>(b);
