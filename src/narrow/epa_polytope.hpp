@@ -144,7 +144,7 @@ class Polytope {
       const int e1 = kNext[e];
       if (nx_[f] * x + ny_[f] * y + nz_[f] * z - dist_[f] < -plane_eps_) {
         // f does not see w: its edge e is on the horizon.
-        const int nf = new_face(F.v[e1], F.v[e], wi);
+        const int nf = new_face(F.v[e1], F.v[e], wi, V3{x, y, z});
         if (nf < 0) return false;
         link(nf, 0, f, e);
         if (last >= 0) {
@@ -171,7 +171,10 @@ class Polytope {
  private:
   // New face (a, b, c), counter-clockwise seen from outside; its neighbours
   // are linked by the caller. -1 if out of capacity or degenerate.
-  int new_face(int a, int b, int c) {
+  int new_face(int a, int b, int c) { return new_face(a, b, c, w(c)); }
+  // The same with vertex c's coordinates at hand (the new vertex of an
+  // expansion: no reload of what was just stored).
+  int new_face(int a, int b, int c, const V3& wc) {
     int f;
     if (nfree_ > 0) {
       f = free_[--nfree_];
@@ -181,7 +184,7 @@ class Polytope {
     } else {
       return -1;
     }
-    const V3 wa = w(a), wb = w(b), wc = w(c);
+    const V3 wa = w(a), wb = w(b);
     const V3 n = cross(wb - wa, wc - wa);
     const double len2 = norm2(n);
     if (!(len2 > area_eps2_)) {
