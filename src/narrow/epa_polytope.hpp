@@ -62,7 +62,7 @@ inline constexpr int kNext[3] = {1, 2, 0};  // (e + 1) % 3 without a division
 
 class Polytope {
  public:
-  explicit Polytope(double scale) : area_eps2_(1e-28 * scale * scale * scale * scale), plane_eps_(1e-13 * scale) {}
+  explicit Polytope(double scale) : area_eps2_(1e-28 * scale * scale * scale * scale), plane_eps_(1e-13 * scale) { free_[0] = 0; }
 
   int vertex_count() const { return nv_; }
   V3 w(int i) const { return {wx_[i], wy_[i], wz_[i]}; }
@@ -135,7 +135,12 @@ class Polytope {
     stack[sp++] = topo_[from].adj[2];
     stack[sp++] = topo_[from].adj[1];
     stack[sp++] = topo_[from].adj[0];
-    int first = -1, last = -1, count = 0;
+    // The fan of new faces is stitched as it is made, each to the one
+    // before; the first is stitched to a scratch face (slot kMaxFaces), so
+    // no branch tells the first from the others.
+    constexpr int kScratch = kMaxFaces;
+    int last = kScratch, count = 0;
+    bool broken = false;
     while (sp > 0) {
       const int ref = stack[--sp];
       const int f = ref >> 2, e = ref & 3;
@@ -147,12 +152,8 @@ class Polytope {
         const int nf = new_face(F.v[e1], F.v[e], wi, V3{x, y, z});
         if (nf < 0) return false;
         link(nf, 0, f, e);
-        if (last >= 0) {
-          if (topo_[last].v[1] != topo_[nf].v[0]) return false;
-          link(last, 1, nf, 2);
-        } else {
-          first = nf;
-        }
+        broken |= (last != kScratch) & (topo_[last].v[1] != topo_[nf].v[0]);
+        link(last, 1, nf, 2);
         last = nf;
         ++count;
         continue;
@@ -162,7 +163,9 @@ class Polytope {
       stack[sp++] = F.adj[kNext[e1]];
       stack[sp++] = F.adj[e1];
     }
-    if (count < 3 || topo_[last].v[1] != topo_[first].v[0]) return false;
+    if (broken || count < 3) return false;
+    const int first = topo_[kScratch].adj[1] >> 2;
+    if (topo_[last].v[1] != topo_[first].v[0]) return false;
     link(last, 1, first, 2);
     for (int i = 0; i < nremoved_; ++i) release(removed_[i]);
     return true;
@@ -175,20 +178,18 @@ class Polytope {
   // The same with vertex c's coordinates at hand (the new vertex of an
   // expansion: no reload of what was just stored).
   int new_face(int a, int b, int c, const V3& wc) {
-    int f;
-    if (nfree_ > 0) {
-      f = free_[--nfree_];
-    } else if (nused_ < kMaxFaces) {
-      f = nused_++;
-      dist_[f] = INFINITY;
-    } else {
-      return -1;
-    }
+    if (nfree_ == 0 && nused_ == kMaxFaces) return -1;
+    // A free slot if there is one, else a fresh one; branch-free (whether
+    // the free list is empty is unpredictable). free_ is 1-based.
+    const bool reuse = nfree_ > 0;
+    const int f = reuse ? free_[nfree_] : nused_;
+    nfree_ -= reuse;
+    nused_ += !reuse;
     const V3 wa = w(a), wb = w(b);
     const V3 n = cross(wb - wa, wc - wa);
     const double len2 = norm2(n);
     if (!(len2 > area_eps2_)) {
-      free_[nfree_++] = static_cast<std::uint16_t>(f);
+      release(f);
       return -1;
     }
     const V3 u = n * (1.0 / std::sqrt(len2));
@@ -206,7 +207,7 @@ class Polytope {
 
   void release(int f) {
     dist_[f] = INFINITY;
-    free_[nfree_++] = static_cast<std::uint16_t>(f);
+    free_[++nfree_] = static_cast<std::uint16_t>(f);
   }
 
   void link(int f, int e, int g, int h) {
@@ -223,8 +224,8 @@ class Polytope {
   // Face planes: unit normal, and offset = distance from the origin (+inf
   // once the face is free: the closest-face scan reads only this array).
   Uninitialised<double, kMaxFaces> nx_, ny_, nz_, dist_;
-  Uninitialised<FaceTopology, kMaxFaces> topo_;
-  std::uint16_t free_[kMaxFaces];
+  Uninitialised<FaceTopology, kMaxFaces + 1> topo_;  // + the horizon's scratch face
+  std::uint16_t free_[kMaxFaces + 1];  // free slots, 1-based (free_[0] is read, never used)
   std::uint16_t removed_[kMaxFaces];
 };
 
