@@ -72,6 +72,8 @@ TEST(EpaPolytope, OutOfVerticesStillReportsASeparatingDepth) {
   o.rel_tolerance = 1e-12;  // unreachable: EPA stops at its capacity
   const narrow::EpaResult r = narrow::epa(ca, cb, g.simplex, o);
   ASSERT_TRUE(r.ok);
+  EXPECT_FALSE(r.converged);
+  EXPECT_GT(r.iterations, 150);
   EXPECT_GT(r.depth, 40.0);
   EXPECT_LE(r.lower_bound, r.depth);
   Shape moved = b;
