@@ -49,7 +49,7 @@ inline V3 Convex::to_world(const V3& l) const {
 inline V3 local_support(ShapeKind kind, const double h[3], const V3& u) {
   switch (kind) {
     case ShapeKind::Cuboid:
-      return {u.x >= 0 ? h[0] : -h[0], u.y >= 0 ? h[1] : -h[1], u.z >= 0 ? h[2] : -h[2]};
+      return {std::copysign(h[0], u.x), std::copysign(h[1], u.y), std::copysign(h[2], u.z)};
     case ShapeKind::Sphere: {
       // Ellipsoid x^2/a^2 + ... = 1: the support point is A^2 u / |A u|.
       const V3 s{h[0] * u.x, h[1] * u.y, h[2] * u.z};
@@ -64,7 +64,7 @@ inline V3 local_support(ShapeKind kind, const double h[3], const V3& u) {
       const double len = std::sqrt(sx * sx + sy * sy);
       const double rx = len == 0 ? 0 : h[0] * sx / len;
       const double ry = len == 0 ? 0 : h[1] * sy / len;
-      if (kind == ShapeKind::Cylinder) return {rx, ry, u.z >= 0 ? h[2] : -h[2]};
+      if (kind == ShapeKind::Cylinder) return {rx, ry, std::copysign(h[2], u.z)};
       // Cone: the apex (0, 0, +h) or a point of the base rim at z = -h.
       const double apex = h[2] * u.z;
       const double base = len - h[2] * u.z;
