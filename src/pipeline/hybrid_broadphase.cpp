@@ -19,6 +19,7 @@
 #include "hbp/kd_partition.hpp"
 #include "hbp/software_engine.hpp"
 #include "pipeline/hybrid_access.hpp"
+#include "partition/raw_buffer.hpp"
 #include "pipeline/ordered_cell.hpp"
 #include "support/clock.hpp"
 
@@ -70,6 +71,10 @@ template <class T>
 void release_if_oversized(std::vector<T>& v, std::size_t used, std::size_t keep) {
   if (v.capacity() > 2 * used + keep) std::vector<T>().swap(v);
 }
+template <class T>
+void release_if_oversized(RawBuffer<T>& v, std::size_t used, std::size_t keep) {
+  if (v.capacity() > 2 * used + keep) RawBuffer<T>().swap(v);
+}
 
 // Cheap parallel screen; on failure the serial validate() names the object.
 void validate_boxes(const BoxArray& boxes) {
@@ -95,10 +100,13 @@ struct Worker {
   std::unique_ptr<CellEngine> engine;
   const SoftwareEngine* direct = nullptr;  // the engine when it writes global ids itself
   OrderedCell cell;                        // the cell being processed, in min-x order
+  std::vector<std::uint32_t> codes;        // its boxes' owner codes (software engine)
   std::vector<std::uint32_t> first, second;  // kernel hits before they move on (the stage)
   std::vector<Pair> local;                 // other engines: pairs in local indices
   BoxArray tile;                           // other engines: two blocks of an over-full cell
-  std::vector<Pair> stored;                // this worker's cells' pairs, before the copy to the list
+  // This worker's cells' pairs, before the copy to the list. Not zero-filled
+  // as it grows (std::vector::resize would write every pair twice).
+  RawBuffer<Pair> stored;
   std::size_t touched = 0;                 // entries of `stored`'s allocation written in earlier frames
   bool store_full = false;                 // this frame's touch budget is spent: dense cells are counted
 };
@@ -111,7 +119,7 @@ struct CellOutcome {
   // Where the cell's pairs wait for the copy into the frame's list, or
   // nullptr when the cell was only counted (first frame, spent touch budget)
   // and writes them in the second pass.
-  const std::vector<Pair>* stored = nullptr;
+  const RawBuffer<Pair>* stored = nullptr;
   std::size_t offset = 0;
 };
 
@@ -140,12 +148,30 @@ void grow_pairs(std::vector<Pair>& v, std::size_t want, bool twofold = true) {
   v.swap(grown);
 }
 
-// Appends the stage's first `count` hits to out as canonical pairs.
-void drain_stage(const Worker& w, std::size_t count, std::vector<Pair>& out) {
+// Room for `count` more pairs at the end of out (uninitialised in a
+// RawBuffer); returns where they go.
+Pair* extend(std::vector<Pair>& out, std::size_t count) {
   const std::size_t base = out.size();
   grow_pairs(out, base + count);
   out.resize(base + count);
-  SoftwareEngine::write_pairs(w.first.data(), w.second.data(), count, out.data() + base);
+  return out.data() + base;
+}
+Pair* extend(RawBuffer<Pair>& out, std::size_t count) {
+  const std::size_t base = out.size();
+  out.grow(base + count);  // at least twofold when it reallocates
+  return out.data() + base;
+}
+template <class Out>
+void append(Out& out, Pair p) {
+  *extend(out, 1) = p;
+}
+void truncate(std::vector<Pair>& out, std::size_t n) { out.resize(n); }
+void truncate(RawBuffer<Pair>& out, std::size_t n) { out.truncate(n); }
+
+// Appends the stage's first `count` hits to out as canonical pairs.
+template <class Out>
+void drain_stage(const Worker& w, std::size_t count, Out& out) {
+  SoftwareEngine::write_pairs(w.first.data(), w.second.data(), count, extend(out, count));
 }
 
 }  // namespace
@@ -207,8 +233,15 @@ struct HybridBroadPhase::Impl {
 
   // ---- One cell through the engine ---------------------------------------
 
+  // The cell in min-x order, and for the software engine its owner codes.
+  static void load_cell(Worker& w, std::span<const CellEntry> entries, const CellRegion& region) {
+    w.cell.load(entries);
+    if (w.direct) SoftwareEngine::owner_codes(w.cell.boxes(), region, w.codes);
+  }
+
   // Appends the owned pairs (global ids, canonical) of the loaded cell to out.
-  void emit_cell(Worker& w, const CellRegion& region, std::vector<Pair>& out, CellOutcome& r) {
+  template <class Out>
+  void emit_cell(Worker& w, const CellRegion& region, Out& out, CellOutcome& r) {
     if (w.direct)
       emit_direct(w, region, out, r);
     else if (w.cell.size() <= w.engine->capacity())
@@ -221,7 +254,8 @@ struct HybridBroadPhase::Impl {
   // into out whenever it fills. Should out grow past `limit` pairs (a
   // store's touch budget), what the cell appended is taken back and false
   // returned.
-  bool emit_direct(Worker& w, const CellRegion& region, std::vector<Pair>& out, CellOutcome& r,
+  template <class Out>
+  bool emit_direct(Worker& w, const CellRegion& region, Out& out, CellOutcome& r,
                    std::size_t limit = std::numeric_limits<std::size_t>::max()) {
     const std::size_t start = out.size();
     const std::uint64_t pairs_before = r.pairs;
@@ -229,10 +263,10 @@ struct HybridBroadPhase::Impl {
     fit_stage(w, stage_pairs(n));
     for (std::uint32_t row = 0; row < n;) {
       std::size_t count = 0;
-      row = w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), region, row, w.first.data(), w.second.data(),
+      row = w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), w.codes.data(), region, row, w.first.data(), w.second.data(),
                                 w.first.size(), count);
       if (out.size() + count > limit) {
-        out.resize(start);
+        truncate(out, start);
         r.pairs = pairs_before;
         return false;
       }
@@ -245,12 +279,13 @@ struct HybridBroadPhase::Impl {
   }
 
   // Any other engine: local indices, mapped to ids.
-  void emit_whole(Worker& w, const CellRegion& region, std::vector<Pair>& out, CellOutcome& r) {
+  template <class Out>
+  void emit_whole(Worker& w, const CellRegion& region, Out& out, CellOutcome& r) {
     w.local.clear();
     r.cycles += w.engine->find_owned_pairs(w.cell.boxes(), region, w.local).cycles;
     charge(w.local.size());
     const std::uint32_t* ids = w.cell.ids();
-    for (const Pair& p : w.local) out.push_back(make_pair(ids[p.a], ids[p.b]));
+    for (const Pair& p : w.local) append(out, make_pair(ids[p.a], ids[p.b]));
     r.pairs += w.local.size();
     r.candidates += w.local.size();
   }
@@ -259,7 +294,8 @@ struct HybridBroadPhase::Impl {
   // every pair of blocks of cap/2 through the engine. Block i's own pairs
   // are kept from the run (i, i+1); the last block's from (k-2, k-1). Two
   // consecutive ranges of the min-x order are in min-x order together.
-  void emit_tiled(Worker& w, const CellRegion& region, std::vector<Pair>& out, CellOutcome& r) {
+  template <class Out>
+  void emit_tiled(Worker& w, const CellRegion& region, Out& out, CellOutcome& r) {
     const std::uint32_t n = w.cell.size();
     const std::uint32_t block = std::max<std::uint32_t>(1, w.engine->capacity() / 2);
     const std::uint32_t k = (n + block - 1) / block;
@@ -278,7 +314,7 @@ struct HybridBroadPhase::Impl {
         for (const Pair& p : w.local) {
           const bool a_in_i = p.a < ni, b_in_i = p.b < ni;
           const bool keep = (a_in_i != b_in_i) || (a_in_i && keep_i) || (!a_in_i && keep_j);
-          if (keep) out.push_back(make_pair(id(p.a), id(p.b)));
+          if (keep) append(out, make_pair(id(p.a), id(p.b)));
         }
         charge(out.size() - before);
         r.pairs += out.size() - before;
@@ -326,7 +362,7 @@ struct HybridBroadPhase::Impl {
       CellOutcome& r = outcomes[c];
       std::vector<Pair>& out = cell_pairs[c];
       out.clear();
-      w.cell.load(partition->cell(c));
+      load_cell(w, partition->cell(c), partition->region(c));
       emit_cell(w, partition->region(c), out, r);
       if (consumer) consumer(c, out.data(), out.size());
     };
@@ -374,8 +410,8 @@ struct HybridBroadPhase::Impl {
   void first_pass(std::uint32_t c) {
     Worker& w = workers.local();
     CellOutcome& r = outcomes[c];
-    w.cell.load(partition->cell(c));
     const CellRegion& region = partition->region(c);
+    load_cell(w, partition->cell(c), region);
     r.stored = &w.stored;
     r.offset = w.stored.size();
     if (!w.direct || (!count_dense_cells && options.max_pairs)) {
@@ -388,13 +424,13 @@ struct HybridBroadPhase::Impl {
     fit_stage(w, std::max(room, stage_pairs(n)));
     std::size_t count = 0;
     std::uint32_t row =
-        w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), region, 0, w.first.data(), w.second.data(), room, count);
+        w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), w.codes.data(), region, 0, w.first.data(), w.second.data(), room, count);
     const bool over_budget = w.store_full && w.stored.size() + count > w.stored.capacity();
     if ((row < n || over_budget) && !options.max_pairs) {
       // Dense (or past a spent budget): count now, write in the second pass. (With max_pairs set, a
       // pair explosion must stop as soon as the limit is passed, not after
       // counting every pair: such cells keep storing, charged per drain.)
-      count += w.direct->count_pairs(w.cell.boxes(), w.cell.ids(), region, row);
+      count += w.direct->count_pairs(w.cell.boxes(), w.cell.ids(), w.codes.data(), region, row);
       r.stored = nullptr;
       r.pairs = r.candidates = count;
       return;
@@ -405,7 +441,7 @@ struct HybridBroadPhase::Impl {
       r.pairs += count;
       if (row >= n) break;
       count = 0;
-      row = w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), region, row, w.first.data(), w.second.data(),
+      row = w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), w.codes.data(), region, row, w.first.data(), w.second.data(),
                                 w.first.size(), count);
     }
     r.candidates = r.pairs;
@@ -432,13 +468,13 @@ struct HybridBroadPhase::Impl {
       return;
     }
     Worker& w = workers.local();
-    w.cell.load(partition->cell(c));
+    load_cell(w, partition->cell(c), partition->region(c));
     const std::uint32_t n = w.cell.size();
     fit_stage(w, stage_pairs(n));
     std::size_t written = 0;
     for (std::uint32_t row = 0; row < n;) {
       std::size_t count = 0;
-      row = w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), partition->region(c), row, w.first.data(),
+      row = w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), w.codes.data(), partition->region(c), row, w.first.data(),
                                 w.second.data(), w.first.size(), count);
       if (written + count > r.pairs) throw std::logic_error("hybrid broad phase: cell pair count changed");
       SoftwareEngine::write_pairs(w.first.data(), w.second.data(), count, dst + written);
@@ -463,7 +499,7 @@ struct HybridBroadPhase::Impl {
     const std::size_t share = store_share();
     for (Worker& w : workers)
       if (w.stored.capacity() + last_frame_pairs / 16 < share) {
-        grow_pairs(w.stored, share, false);
+        w.stored.reserve(share);
         w.touched = 0;
       }
   }
@@ -518,6 +554,7 @@ struct HybridBroadPhase::Impl {
     for (Worker& other : workers) other.stored.clear();
     Worker& w = workers.local();
     w.cell.load(boxes);
+    if (w.direct) SoftwareEngine::owner_codes(w.cell.boxes(), CellRegion::everything(), w.codes);
     outcomes.assign(1, CellOutcome{});
     pairs.clear();
     release_if_oversized(pairs, 0, kKeepPairs);
