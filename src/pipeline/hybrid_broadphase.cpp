@@ -57,6 +57,10 @@ constexpr std::size_t kTouchPairsPerFrame = std::size_t{16} << 20;
 // cell after cell).
 constexpr std::size_t kKeepPairs = 1 << 15;
 constexpr std::size_t kKeepCellPairs = 1 << 10;  // per cell: there are thousands
+// Fresh output lists of at least this many bytes are faulted in by all
+// workers at once, in chunks of a huge page (see prefault).
+constexpr std::size_t kPrefaultBytes = std::size_t{8} << 20;
+constexpr std::size_t kPrefaultChunk = std::size_t{2} << 20;
 
 void advise_huge_pages(void* data, std::size_t bytes) {
   constexpr std::uintptr_t kHuge = std::uintptr_t{2} << 20;
@@ -121,6 +125,15 @@ struct CellOutcome {
   // and writes them in the second pass.
   const RawBuffer<Pair>* stored = nullptr;
   std::size_t offset = 0;
+  bool in_place = false;  // written straight into the frame's list by the front lane
+};
+
+// The front of the last frame's list, which the front lane overwrites with
+// this frame's first cells (an output for emit_direct: never grows past it).
+struct ListFront {
+  Pair* base;
+  std::size_t used;
+  std::size_t size() const { return used; }
 };
 
 std::size_t stage_pairs(std::uint32_t n) {
@@ -165,7 +178,12 @@ template <class Out>
 void append(Out& out, Pair p) {
   *extend(out, 1) = p;
 }
+Pair* extend(ListFront& out, std::size_t count) {
+  out.used += count;
+  return out.base + out.used - count;
+}
 void truncate(std::vector<Pair>& out, std::size_t n) { out.resize(n); }
+void truncate(ListFront& out, std::size_t n) { out.used = n; }
 void truncate(RawBuffer<Pair>& out, std::size_t n) { out.truncate(n); }
 
 // Appends the stage's first `count` hits to out as canonical pairs.
@@ -195,6 +213,7 @@ struct HybridBroadPhase::Impl {
   std::atomic<std::uint64_t> running_pairs{0};
   std::size_t last_frame_pairs = 0;  // the pair count of the last frame through run_cells
   bool count_dense_cells = false;    // this frame has no estimate: dense cells are counted, then written
+  std::size_t in_place_pairs = 0;    // pairs the front lane wrote straight into `pairs` this frame
 
   static std::uint32_t choose_limit(const BroadPhaseOptions& o, const CellEngine& e) {
     const std::uint32_t limit = o.cell_limit ? o.cell_limit : e.default_cell_limit();
@@ -457,12 +476,83 @@ struct HybridBroadPhase::Impl {
     return false;
   }
 
+  // ---- The front lane -------------------------------------------------------
+  //
+  // A steady frame's cells are claimed from both ends of the cell order: one
+  // lane takes cells 0, 1, 2 ... and writes their pairs straight into the
+  // front of the frame's list (the last frame's list, its pages warm),
+  // where they stay; the other lanes take cells from the back into their
+  // stores, copied into place afterwards as before. The lanes meet where
+  // their work balances, the front lane's cells need no copy and no store
+  // (one thread: no copy at all), and the list is the same, in the same
+  // order: cell c's pairs start at the sum of the pairs of cells before it
+  // either way. The front lane stops writing in place when the list's old
+  // size would be passed (that cell and its later ones are stored).
+
+  bool front_lane_allowed() const {
+    return dynamic_cast<const SoftwareEngine*>(prototype.get()) && !count_dense_cells && !options.max_pairs &&
+           !pairs.empty();
+  }
+
+  void run_lanes(std::uint32_t cells) {
+    // The last frame's list is dead now; one much larger than this frame
+    // needs is released rather than kept as a window.
+    release_if_oversized(pairs, last_frame_pairs, kKeepPairs);
+    std::atomic<std::uint64_t> ends{std::uint64_t{cells}};  // (next front cell << 32) | end of the back
+    ListFront front{pairs.data(), 0};
+    const std::size_t window = pairs.size();
+    const int lanes = serial_engine_phase() ? 1 : std::max(1, arena.max_concurrency());
+    auto lane = [&](int k) {
+      std::uint32_t c;
+      if (k != 0) {
+        while (claim(ends, false, c)) first_pass(c);
+        return;
+      }
+      bool in_place = window > 0;
+      while (claim(ends, true, c)) {
+        if (!(in_place && (in_place = front_cell(c, front, window)))) first_pass(c);
+      }
+    };
+    if (lanes == 1)
+      lane(0);
+    else
+      tbb::parallel_for(0, lanes, 1, lane);
+    in_place_pairs = front.used;
+  }
+
+  // The next cell from the front (or the back); false when the lanes met.
+  static bool claim(std::atomic<std::uint64_t>& ends, bool from_front, std::uint32_t& c) {
+    std::uint64_t v = ends.load(std::memory_order_relaxed);
+    while (true) {
+      const auto lo = static_cast<std::uint32_t>(v >> 32), hi = static_cast<std::uint32_t>(v);
+      if (lo >= hi) return false;
+      const std::uint64_t next = from_front ? v + (std::uint64_t{1} << 32) : v - 1;
+      if (ends.compare_exchange_weak(v, next, std::memory_order_relaxed)) {
+        c = from_front ? lo : hi - 1;
+        return true;
+      }
+    }
+  }
+
+  // Cell c's pairs straight into the list after the front lane's earlier
+  // cells; false (nothing kept) when they would pass the window.
+  bool front_cell(std::uint32_t c, ListFront& front, std::size_t window) {
+    Worker& w = workers.local();
+    CellOutcome& r = outcomes[c];
+    const CellRegion& region = partition->region(c);
+    load_cell(w, partition->cell(c), region);
+    if (!emit_direct(w, region, front, r, window)) return false;
+    r.in_place = true;
+    return true;
+  }
+
   // Second pass: stored pairs are copied to their place in the frame's list
   // (cell order: the same list for any thread count); dense cells run their
   // kernel again, draining the stage there.
   void second_pass(std::uint32_t c) {
     const CellOutcome& r = outcomes[c];
     Pair* dst = pairs.data() + offsets[c];
+    if (r.in_place) return;
     if (r.stored) {
       if (r.pairs) std::memcpy(dst, r.stored->data() + r.offset, r.pairs * sizeof(Pair));
       return;
@@ -513,7 +603,12 @@ struct HybridBroadPhase::Impl {
     if (options.max_pairs && total > options.max_pairs)
       throw CapacityExceeded("frame has " + std::to_string(total) + " overlapping pairs, above max_pairs = " +
                              std::to_string(options.max_pairs));
-    reserve_output(total);
+    if (in_place_pairs) {
+      // The front lane's cells are in place: keep them (growing copies).
+      if (total > pairs.capacity()) pairs.reserve(total + total / 8);
+    } else {
+      reserve_output(total);
+    }
     pairs.resize(total);
   }
 
@@ -528,6 +623,21 @@ struct HybridBroadPhase::Impl {
     std::vector<Pair>().swap(pairs);
     pairs.reserve(total + total / 8);
     advise_huge_pages(pairs.data(), pairs.capacity() * sizeof(Pair));
+    prefault(pairs.data(), total * sizeof(Pair));
+  }
+
+  // Faults fresh pages in from every worker: the kernel zeroes each page
+  // on first touch (on our VMs well under 1 GB/s a thread), and the list's
+  // resize that follows would otherwise take every fault on one thread. One
+  // write per 4 KiB page of storage the resize then overwrites.
+  void prefault(void* data, std::size_t bytes) {
+    if (bytes < kPrefaultBytes || serial_engine_phase()) return;
+    auto* base = static_cast<volatile unsigned char*>(data);
+    const std::size_t chunks = (bytes + kPrefaultChunk - 1) / kPrefaultChunk;
+    tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t k) {
+      const std::size_t end = std::min(bytes, (k + 1) * kPrefaultChunk);
+      for (std::size_t at = k * kPrefaultChunk; at < end; at += 4096) base[at] = 0;
+    });
   }
 
   // ---- The frame -----------------------------------------------------------
@@ -574,6 +684,7 @@ struct HybridBroadPhase::Impl {
       w.store_full = false;
     }
     count_dense_cells = last_frame_pairs == 0;
+    in_place_pairs = 0;
     if (!(sink || consumer)) size_stores();
     if (sink || consumer) {
       stream_cells(sink, consumer);
@@ -583,7 +694,10 @@ struct HybridBroadPhase::Impl {
       merge_ms = ms_since(t_merge);
     } else {
       cell_pairs.clear();
-      for_each_cell(cells, [&](std::uint32_t c) { first_pass(c); });
+      if (front_lane_allowed())
+        run_lanes(cells);
+      else
+        for_each_cell(cells, [&](std::uint32_t c) { first_pass(c); });
       engine_ms = ms_since(t_engine);
       const auto t_merge = SteadyClock::now();
       size_output(cells);
