@@ -68,6 +68,9 @@ TEST(DedupOwnership, EveryOverlappingPairHasExactlyOneOwnerHoldingBoth) {
       const unsigned sa = dedup::sides(r, a.min[0], a.min[1], a.min[2]);
       const unsigned sb = dedup::sides(r, b.min[0], b.min[1], b.min[2]);
       EXPECT_EQ(owned, dedup::owns_sides(sa, sb));
+      // The kernels' one-AND form, both ways round.
+      EXPECT_EQ(owned, (dedup::owner_code(sb) & dedup::owner_demand(sa)) == 0);
+      EXPECT_EQ(owned, (dedup::owner_code(sa) & dedup::owner_demand(sb)) == 0);
       // The sweep's form, with b after a in min-x order.
       const Aabb& first = a.min[0] <= b.min[0] ? a : b;
       const Aabb& second = a.min[0] <= b.min[0] ? b : a;

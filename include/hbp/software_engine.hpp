@@ -34,20 +34,28 @@ class SoftwareEngine final : public CellEngine {
   static const char* isa();
 
   // The hybrid system's path, without intermediate copies. `cell` is sorted
-  // by min x (the sweep needs it), ids[k] is the id reported for box k
-  // (readable up to cell.size() + kOutputSlack). Runs rows [row, n) and
+  // by min x (the sweep needs it), ids[k] is the id reported for box k and
+  // owner_codes[k] its owner code against `region` (owner_codes() below),
+  // both readable up to cell.size() + kOutputSlack. Runs rows [row, n) and
   // writes hit k as the two ids (first[count + k], second[count + k]), not yet
   // ordered; returns the row it stopped at: n when done, earlier when fewer
-  // than n - row + kOutputSlack of `capacity` entries were free (drain with
-  // write_pairs() and resume from there).
-  std::uint32_t emit_hits(const BoxArray& cell, const std::uint32_t* ids, const CellRegion& region, std::uint32_t row,
-                          std::uint32_t* first, std::uint32_t* second, std::size_t capacity,
-                          std::size_t& count) const;
+  // than 2 (n - row) + kOutputSlack of `capacity` entries were free (drain
+  // with write_pairs() and resume from there; a capacity of min_output(n)
+  // always makes progress). The hits come in the same order however often
+  // the caller drains.
+  std::uint32_t emit_hits(const BoxArray& cell, const std::uint32_t* ids, const std::uint32_t* owner_codes,
+                          const CellRegion& region, std::uint32_t row, std::uint32_t* first, std::uint32_t* second,
+                          std::size_t capacity, std::size_t& count) const;
   // Hits as canonical pairs (min id, max id), written to out[0 .. count).
   static void write_pairs(const std::uint32_t* first, const std::uint32_t* second, std::size_t count, Pair* out);
   // The hits rows [row, n) would emit, counted without storing them.
-  std::uint64_t count_pairs(const BoxArray& cell, const std::uint32_t* ids, const CellRegion& region,
-                            std::uint32_t row) const;
+  std::uint64_t count_pairs(const BoxArray& cell, const std::uint32_t* ids, const std::uint32_t* owner_codes,
+                            const CellRegion& region, std::uint32_t row) const;
+  // Each box's owner code against `region` (the ownership rule split per
+  // box, dedup/ownership.hpp: owner_code), padded: codes.size() becomes
+  // cell.size() + kOutputSlack.
+  static void owner_codes(const BoxArray& cell, const CellRegion& region, std::vector<std::uint32_t>& codes);
+  static constexpr std::size_t min_output(std::uint32_t n) { return 2 * std::size_t{n} + 16; }
   // Spare entries emit_hits may write past the last hit it reports.
   static constexpr std::size_t kOutputSlack = 16;
 
@@ -58,6 +66,7 @@ class SoftwareEngine final : public CellEngine {
   std::vector<std::uint32_t> first_, second_;  // kernel output, reused across cells
   std::size_t stage_capacity_ = 0;
   std::vector<std::uint32_t> local_ids_;  // 0, 1, 2, ...: local indices as ids
+  std::vector<std::uint32_t> codes_;      // the cell's owner codes
   BoxArray sorted_;                    // find_pairs on unsorted input
   std::vector<std::uint32_t> order_;
   std::vector<std::uint64_t> order_scratch_;  // the radix sort's key words

@@ -59,4 +59,20 @@ inline unsigned char sides(const CellRegion& r, float x, float y, float z) {
 
 inline bool owns_sides(unsigned a, unsigned b) { return ((a | b) & 7u) == 7u && (a & b & 56u) == 56u; }
 
+// The same test as one AND, for the AVX-512 kernels (one vptestnmd per row and
+// vector of candidates instead of two maxima and six compares): a box's
+// owner code is its sides() complemented (the conditions it fails; bits 6-31
+// always set), a row's demand the conditions its candidates must not fail:
+// the >= lo sides the row itself fails, every < hi side, and bit 8 (failed
+// by every box) when the row fails a < hi side itself, so it owns nothing.
+// owns_sides(a, b) == ((owner_code(b) & owner_demand(a)) == 0). (In an
+// anonymous namespace: the AVX-512 kernels' file calls them, and its copy
+// must not be the one the linker keeps for callers without AVX-512.)
+namespace {
+inline unsigned owner_code(unsigned sides_byte) { return ~sides_byte; }
+inline unsigned owner_demand(unsigned sides_byte) {
+  return ((sides_byte & 7u) ^ 7u) | 56u | ((sides_byte & 56u) == 56u ? 0u : 256u);
+}
+}  // namespace
+
 }  // namespace hbp::dedup

@@ -18,8 +18,6 @@ struct Avx512Lanes {
   static Mask within(Vec p, Vec lo, Vec hi) {
     return _mm512_mask_cmp_ps_mask(_mm512_cmp_ps_mask(p, lo, _CMP_GE_OQ), p, hi, _CMP_LT_OQ);
   }
-  static Mask at_least(Vec p, Vec t) { return _mm512_cmp_ps_mask(p, t, _CMP_GE_OQ); }
-  static Mask at_least(Mask m, Vec p, Vec t) { return _mm512_mask_cmp_ps_mask(m, p, t, _CMP_GE_OQ); }
   static Mask within(Mask m, Vec p, Vec lo, Vec hi) {
     return _mm512_mask_cmp_ps_mask(_mm512_mask_cmp_ps_mask(m, p, lo, _CMP_GE_OQ), p, hi, _CMP_LT_OQ);
   }

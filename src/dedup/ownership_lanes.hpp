@@ -9,9 +9,6 @@
 //   L::max(Vec, Vec) -> Vec
 //   L::within(Vec p, Vec lo, Vec hi) -> Mask           lanes with lo <= p < hi
 //   L::within(Mask m, Vec p, Vec lo, Vec hi) -> Mask   m's lanes that also are
-//   L::at_least(Vec p, Vec t), L::at_least(Mask m, Vec p, Vec t) -> Mask
-//                                       lanes with p >= t (member cells only;
-//                                       AVX-512 so far)
 // Everything is in an anonymous namespace: each ISA's kernel file keeps its
 // own copy, compiled with its own flags (see engines/box_kernels.hpp).
 #include "hbp/cell_region.hpp"
@@ -55,38 +52,5 @@ inline typename L::Mask owns_sorted_x(const RegionLanes<L>& r, V ly, V lz, V cx,
   return contains(r, cx, L::max(cy, ly), L::max(cz, lz));
 }
 
-// Member cells. The partition puts a box in a cell only when its min < hi on
-// every axis (the routing rule), so for two members max(a, b) < hi always
-// holds, and max(a, b) >= lo iff a >= lo or b >= lo: the rule comes down to
-// one threshold per row and axis, t = (a >= lo ? -inf : lo), and one compare
-// per candidate and axis, b >= t. Three compares instead of six and two max.
-// Exact only when every box of the cell is a member: callers check
-// all_members() first (boxes from anywhere else take owns / owns_sorted_x).
-template <class L>
-struct RowThresholds {
-  typename L::Vec t[3];
-};
-template <class L>
-inline RowThresholds<L> row_thresholds(const CellRegion& r, float ax, float ay, float az) {
-  const float a[3] = {ax, ay, az};
-  RowThresholds<L> v;
-  for (int k = 0; k < 3; ++k) v.t[k] = L::broadcast(a[k] >= r.lo[k] ? -__builtin_inff() : r.lo[k]);
-  return v;
-}
-template <class L, class V = typename L::Vec>
-inline typename L::Mask owns_member(const RowThresholds<L>& t, V cx, V cy, V cz) {
-  return L::at_least(L::at_least(L::at_least(cx, t.t[0]), cy, t.t[1]), cz, t.t[2]);
-}
-// Every box of min[0..2][0..n) has min < hi on all three axes.
-// (An int OR of the failures: GCC 12 vectorises it, not a bool AND.)
-inline bool all_members(const CellRegion& r, const float* const min[3], unsigned n) {
-  int stray = 0;
-  for (int k = 0; k < 3; ++k) {
-    const float* m = min[k];
-    const float hi = r.hi[k];
-    for (unsigned i = 0; i < n; ++i) stray |= !(m[i] < hi);
-  }
-  return stray == 0;
-}
 }  // namespace
 }  // namespace hbp::dedup

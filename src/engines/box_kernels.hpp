@@ -17,9 +17,17 @@ struct KernelInput {
   // ids[k]: the id reported for box k (the global object id, or k itself for
   // local indices); readable up to n + 16, like the box lanes.
   const std::uint32_t* ids;
+  // owner_codes[k]: box k's owner code against `region` (write_owner_codes),
+  // readable up to n + 16 like ids. The AVX-512 kernels test ownership on
+  // these (one AND per row and vector), the others on the region.
+  const std::uint32_t* owner_codes;
   std::uint32_t n;     // boxes; lanes are padded by >= 16 non-overlapping boxes
   CellRegion region;   // ownership filter (CellRegion::everything() for none)
 };
+
+// Writes dedup::owner_code(dedup::sides(...)) of boxes [0, n) against r to
+// codes[0 .. n), and 16 padding codes that own nothing after them.
+void write_owner_codes(const float* const min[3], std::uint32_t n, const CellRegion& r, std::uint32_t* codes);
 
 struct KernelOutput {
   // Hit k is between the boxes with ids first[k] (the row) and second[k]:
@@ -33,11 +41,15 @@ struct KernelOutput {
 };
 
 // Both kernels process rows from `row` on and return the row they stopped at:
-// n when done, earlier when the output might overflow. Row i starts only when
-// n - i + kOutputSlack entries are free (a row emits at most n - i - 1 pairs;
-// vector kernels store whole vectors past the last pair); the caller drains
-// or grows the buffer and resumes.
+// n when done, earlier when the output might overflow. Rows i and i + 1 start
+// only when 2 (n - i) + kOutputSlack entries are free (a row emits at most
+// n - i - 1 pairs; vector kernels store whole vectors past the last pair;
+// the AVX-512 sweep runs two rows at once, and where it stops must not
+// depend on the room, or the order of the hits would); the caller drains or
+// grows the buffer and resumes; an output of min_output(n) entries always
+// makes progress.
 inline constexpr std::size_t kOutputSlack = 16;
+inline constexpr std::size_t min_output(std::uint32_t n) { return 2 * std::size_t{n} + kOutputSlack; }
 //   sweep:     boxes sorted by min x; scans j > i while min_x[j] <= max_x[i]
 //   all-pairs: any order; every j > i (the area-efficient datapath's work)
 using Kernel = std::uint32_t (*)(const KernelInput& in, std::uint32_t row, KernelOutput& out);

@@ -1,20 +1,15 @@
 // GCC 12 reports its own _mm512_undefined_ps() inside _mm512_max_ps as
-// "may be used uninitialized" (a false positive in the intrinsic header;
-// "is used uninitialized" once the max sits in a lambda of a template).
+// "may be used uninitialized" (a false positive in the intrinsic header).
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-#pragma GCC diagnostic ignored "-Wuninitialized"
 #include <immintrin.h>
 
-#include "dedup/ownership_avx512.hpp"
+#include "dedup/ownership.hpp"
 #include "engines/box_kernel_rows.hpp"
 #include "engines/box_kernels.hpp"
 
 namespace hbp::kernels {
 
 namespace {
-
-using Lanes = dedup::Avx512Lanes;
-using RegionVec = dedup::RegionLanes<Lanes>;
 
 // Vectors of candidates every sweep row scans before it tests for its end
 // (paper scene, 1,024,000 objects: rows reach 2.6 vectors on average; 3
@@ -41,30 +36,41 @@ struct Count {
   void emit(__m512i, const std::uint32_t*, __mmask16 mask) { count += static_cast<std::uint64_t>(__builtin_popcount(mask)); }
 };
 
-// This ISA's rows, for KernelsOf (box_kernel_rows.hpp).
+// A row's owner demand (dedup::owner_demand) in every lane: its candidates
+// are owned where (owner code & demand) == 0.
+inline __m512i demand_of(const KernelInput& in, std::uint32_t i) {
+  return _mm512_set1_epi32(static_cast<int>(dedup::owner_demand(~in.owner_codes[i])));
+}
+
+// The lanes of candidates j..j+15 the row of `demand` owns a pair with.
+inline __mmask16 owned(const KernelInput& in, std::uint32_t j, __m512i demand) {
+  return _mm512_testn_epi32_mask(_mm512_loadu_si512(in.owner_codes + j), demand);
+}
+
+// This ISA's rows, for KernelsOf (box_kernel_rows.hpp). Ownership comes from
+// the boxes' owner codes, not the region.
 struct Rows {
-  static RegionVec region(const CellRegion& r) { return dedup::load_region<Lanes>(r); }
+  static const CellRegion& region(const CellRegion& r) { return r; }
 
   template <class Out>
-  static void sweep_row(const KernelInput& in, const RegionVec& rv, std::uint32_t i, Out& out) {
+  [[gnu::always_inline]] static void sweep_row(const KernelInput& in, const CellRegion&, std::uint32_t i, Out& out) {
     const float *minx = in.min[0], *miny = in.min[1], *minz = in.min[2];
     const float *maxy = in.max[1], *maxz = in.max[2];
     const __m512 bx = _mm512_set1_ps(in.max[0][i]);
     const __m512 ly = _mm512_set1_ps(miny[i]), hy = _mm512_set1_ps(maxy[i]);
     const __m512 lz = _mm512_set1_ps(minz[i]), hz = _mm512_set1_ps(maxz[i]);
     const __m512i id_i = _mm512_set1_epi32(static_cast<int>(in.ids[i]));
+    const __m512i demand = demand_of(in, i);
     // One vector of candidates j..j+15; returns the lanes within the row's
     // x reach (all 16: the scan goes on).
     auto step = [&](std::uint32_t j) {
-      const __m512 vminx = _mm512_loadu_ps(minx + j);
-      const __m512 vminy = _mm512_loadu_ps(miny + j), vminz = _mm512_loadu_ps(minz + j);
-      const __mmask16 mx = _mm512_cmp_ps_mask(vminx, bx, _CMP_LE_OQ);
+      const __mmask16 mx = _mm512_cmp_ps_mask(_mm512_loadu_ps(minx + j), bx, _CMP_LE_OQ);
       // Independent compares joined by kand: a short dependency chain.
       const __mmask16 my = _mm512_cmp_ps_mask(_mm512_loadu_ps(maxy + j), ly, _CMP_GE_OQ) &
-                           _mm512_cmp_ps_mask(vminy, hy, _CMP_LE_OQ);
+                           _mm512_cmp_ps_mask(_mm512_loadu_ps(miny + j), hy, _CMP_LE_OQ);
       const __mmask16 mz = _mm512_cmp_ps_mask(_mm512_loadu_ps(maxz + j), lz, _CMP_GE_OQ) &
-                           _mm512_cmp_ps_mask(vminz, hz, _CMP_LE_OQ);
-      const __mmask16 m = mx & my & mz & dedup::owns_sorted_x(rv, ly, lz, vminx, vminy, vminz);
+                           _mm512_cmp_ps_mask(_mm512_loadu_ps(minz + j), hz, _CMP_LE_OQ);
+      const __mmask16 m = mx & my & mz & owned(in, j, demand);
       out.emit(id_i, in.ids + j, m);
       return mx;
     };
@@ -90,24 +96,23 @@ struct Rows {
   }
 
   template <class Out>
-  static void allpairs_row(const KernelInput& in, const RegionVec& rv, std::uint32_t i, Out& out) {
+  [[gnu::always_inline]] static void allpairs_row(const KernelInput& in, const CellRegion&, std::uint32_t i, Out& out) {
     const float *minx = in.min[0], *miny = in.min[1], *minz = in.min[2];
     const float *maxx = in.max[0], *maxy = in.max[1], *maxz = in.max[2];
     const __m512 lx = _mm512_set1_ps(minx[i]), hx = _mm512_set1_ps(maxx[i]);
     const __m512 ly = _mm512_set1_ps(miny[i]), hy = _mm512_set1_ps(maxy[i]);
     const __m512 lz = _mm512_set1_ps(minz[i]), hz = _mm512_set1_ps(maxz[i]);
     const __m512i id_i = _mm512_set1_epi32(static_cast<int>(in.ids[i]));
+    const __m512i demand = demand_of(in, i);
     for (std::uint32_t j = i + 1; j < in.n; j += 16) {
-      const __m512 vminx = _mm512_loadu_ps(minx + j), vminy = _mm512_loadu_ps(miny + j),
-                   vminz = _mm512_loadu_ps(minz + j);
       __mmask16 m = _mm512_cmp_ps_mask(_mm512_loadu_ps(maxx + j), lx, _CMP_GE_OQ);
-      m = _mm512_mask_cmp_ps_mask(m, vminx, hx, _CMP_LE_OQ);
+      m = _mm512_mask_cmp_ps_mask(m, _mm512_loadu_ps(minx + j), hx, _CMP_LE_OQ);
       m = _mm512_mask_cmp_ps_mask(m, _mm512_loadu_ps(maxy + j), ly, _CMP_GE_OQ);
-      m = _mm512_mask_cmp_ps_mask(m, vminy, hy, _CMP_LE_OQ);
+      m = _mm512_mask_cmp_ps_mask(m, _mm512_loadu_ps(miny + j), hy, _CMP_LE_OQ);
       m = _mm512_mask_cmp_ps_mask(m, _mm512_loadu_ps(maxz + j), lz, _CMP_GE_OQ);
-      m = _mm512_mask_cmp_ps_mask(m, vminz, hz, _CMP_LE_OQ);
+      m = _mm512_mask_cmp_ps_mask(m, _mm512_loadu_ps(minz + j), hz, _CMP_LE_OQ);
       if (m) {
-        m &= dedup::owns(rv, lx, ly, lz, vminx, vminy, vminz);
+        m &= owned(in, j, demand);
         out.emit(id_i, in.ids + j, m);
       }
     }
@@ -119,12 +124,9 @@ struct Rows {
 // the pair stops once, when both rows are past their reach (one exit
 // mispredict per two rows). Hits come per vector, row i's before row
 // i + 1's: an order of its own, the same for any thread count.
-// kMembers: every box of the cell has min < hi (dedup::all_members, true for
-// the partition's cells), so ownership is three compares against per-row
-// thresholds (dedup::owns_member) instead of six and two max.
 struct PairedRows {
-  template <bool kMembers, class Out>
-  static void sweep_rows(const KernelInput& in, const RegionVec& rv, std::uint32_t i, Out& out) {
+  template <class Out>
+  [[gnu::always_inline]] static void sweep_rows(const KernelInput& in, std::uint32_t i, Out& out) {
     const float *minx = in.min[0], *miny = in.min[1], *minz = in.min[2];
     const float *maxy = in.max[1], *maxz = in.max[2];
     const __m512 bx0 = _mm512_set1_ps(in.max[0][i]), bx1 = _mm512_set1_ps(in.max[0][i + 1]);
@@ -134,16 +136,7 @@ struct PairedRows {
     const __m512 lz1 = _mm512_set1_ps(minz[i + 1]), hz1 = _mm512_set1_ps(maxz[i + 1]);
     const __m512i id0 = _mm512_set1_epi32(static_cast<int>(in.ids[i]));
     const __m512i id1 = _mm512_set1_epi32(static_cast<int>(in.ids[i + 1]));
-    dedup::RowThresholds<Lanes> t0{}, t1{};
-    if constexpr (kMembers) {
-      t0 = dedup::row_thresholds<Lanes>(in.region, minx[i], miny[i], minz[i]);
-      t1 = dedup::row_thresholds<Lanes>(in.region, minx[i + 1], miny[i + 1], minz[i + 1]);
-    }
-    auto owns = [&](const dedup::RowThresholds<Lanes>& t, __m512 ly, __m512 lz, __m512 vminx, __m512 vminy,
-                    __m512 vminz) {
-      if constexpr (kMembers) return dedup::owns_member(t, vminx, vminy, vminz);
-      else return dedup::owns_sorted_x(rv, ly, lz, vminx, vminy, vminz);
-    };
+    const __m512i demand0 = demand_of(in, i), demand1 = demand_of(in, i + 1);
     // One vector of candidates j..j+15 against both rows; `own` drops row
     // i + 1's own lane (the first vector starts at it). Returns whether
     // either row's reach covers all 16 lanes (the scan goes on).
@@ -151,14 +144,15 @@ struct PairedRows {
       const __m512 vminx = _mm512_loadu_ps(minx + j);
       const __m512 vminy = _mm512_loadu_ps(miny + j), vminz = _mm512_loadu_ps(minz + j);
       const __m512 vmaxy = _mm512_loadu_ps(maxy + j), vmaxz = _mm512_loadu_ps(maxz + j);
+      const __m512i codes = _mm512_loadu_si512(in.owner_codes + j);
       const __mmask16 mx0 = _mm512_cmp_ps_mask(vminx, bx0, _CMP_LE_OQ);
       const __mmask16 mx1 = _mm512_cmp_ps_mask(vminx, bx1, _CMP_LE_OQ);
       const __mmask16 m0 = mx0 & _mm512_cmp_ps_mask(vmaxy, ly0, _CMP_GE_OQ) &
                            _mm512_cmp_ps_mask(vminy, hy0, _CMP_LE_OQ) & _mm512_cmp_ps_mask(vmaxz, lz0, _CMP_GE_OQ) &
-                           _mm512_cmp_ps_mask(vminz, hz0, _CMP_LE_OQ) & owns(t0, ly0, lz0, vminx, vminy, vminz);
+                           _mm512_cmp_ps_mask(vminz, hz0, _CMP_LE_OQ) & _mm512_testn_epi32_mask(codes, demand0);
       const __mmask16 m1 = mx1 & own & _mm512_cmp_ps_mask(vmaxy, ly1, _CMP_GE_OQ) &
                            _mm512_cmp_ps_mask(vminy, hy1, _CMP_LE_OQ) & _mm512_cmp_ps_mask(vmaxz, lz1, _CMP_GE_OQ) &
-                           _mm512_cmp_ps_mask(vminz, hz1, _CMP_LE_OQ) & owns(t1, ly1, lz1, vminx, vminy, vminz);
+                           _mm512_cmp_ps_mask(vminz, hz1, _CMP_LE_OQ) & _mm512_testn_epi32_mask(codes, demand1);
       out.emit(id0, in.ids + j, m0);
       out.emit(id1, in.ids + j, m1);
       return (mx0 == 0xFFFF) | (mx1 == 0xFFFF);
@@ -178,43 +172,30 @@ struct PairedRows {
     }
   }
 
-  // Rows from `row` on, two at a time while the output has room for both
-  // (one at a time when it has room for one only, so a small output still
-  // makes progress); as store_rows in box_kernel_rows.hpp.
+  // Rows from `row` on, two at a time while the output has room for both,
+  // the last one alone when n - row is odd. The pairs of rows are always
+  // (row + 2k, row + 2k + 1), whatever the room (callers start at 0 and
+  // resume where the kernel stopped), so the hits come in the same order
+  // however the output is drained.
   static std::uint32_t sweep(const KernelInput& in, std::uint32_t row, KernelOutput& out) {
-    return dedup::all_members(in.region, in.min, in.n) ? sweep_from<true>(in, row, out)
-                                                       : sweep_from<false>(in, row, out);
-  }
-  template <bool kMembers>
-  static std::uint32_t sweep_from(const KernelInput& in, std::uint32_t row, KernelOutput& out) {
-    const RegionVec r = Rows::region(in.region);
     Store s{out.first, out.second, out.count};
     std::uint32_t i = row;
-    while (i < in.n) {
-      const std::size_t room = out.capacity - s.count;
-      if (i + 1 < in.n && room >= 2 * std::size_t{in.n - i} + kOutputSlack) {
-        sweep_rows<kMembers>(in, r, i, s);
-        i += 2;
-      } else if (room >= std::size_t{in.n - i} + kOutputSlack) {
-        Rows::sweep_row(in, r, i, s);
-        i += 1;
-      } else {
-        break;
-      }
+    for (; i + 1 < in.n; i += 2) {
+      if (out.capacity - s.count < 2 * std::size_t{in.n - i} + kOutputSlack) break;
+      sweep_rows(in, i, s);
+    }
+    if (i + 1 == in.n && out.capacity - s.count >= std::size_t{1} + kOutputSlack) {
+      Rows::sweep_row(in, in.region, i, s);
+      i += 1;
     }
     out.count = s.count;
     return i;
   }
   static std::uint64_t sweep_count(const KernelInput& in, std::uint32_t row) {
-    return dedup::all_members(in.region, in.min, in.n) ? count_from<true>(in, row) : count_from<false>(in, row);
-  }
-  template <bool kMembers>
-  static std::uint64_t count_from(const KernelInput& in, std::uint32_t row) {
-    const RegionVec r = Rows::region(in.region);
     Count c;
     std::uint32_t i = row;
-    for (; i + 1 < in.n; i += 2) sweep_rows<kMembers>(in, r, i, c);
-    if (i < in.n) Rows::sweep_row(in, r, i, c);
+    for (; i + 1 < in.n; i += 2) sweep_rows(in, i, c);
+    if (i < in.n) Rows::sweep_row(in, in.region, i, c);
     return c.count;
   }
 };

@@ -2,6 +2,7 @@
 #include <cstring>
 #include <string>
 
+#include "dedup/ownership.hpp"
 #include "engines/box_kernels.hpp"
 #include "hbp/error.hpp"
 
@@ -67,5 +68,10 @@ Kernel allpairs_kernel(Isa isa) { return kernel_set(isa).allpairs; }
 CountKernel sweep_count_kernel(Isa isa) { return kernel_set(isa).sweep_count; }
 CountKernel allpairs_count_kernel(Isa isa) { return kernel_set(isa).allpairs_count; }
 CanonicalPairs canonical_pairs(Isa isa) { return kernel_set(isa).canonical_pairs; }
+
+void write_owner_codes(const float* const min[3], std::uint32_t n, const CellRegion& r, std::uint32_t* codes) {
+  for (std::uint32_t i = 0; i < n; ++i) codes[i] = dedup::owner_code(dedup::sides(r, min[0][i], min[1][i], min[2][i]));
+  for (std::uint32_t k = 0; k < 16; ++k) codes[n + k] = ~0u;  // fails every side: owns nothing
+}
 
 }  // namespace hbp::kernels

@@ -31,13 +31,29 @@ static_assert(sizeof(Pair) == 2 * sizeof(std::uint32_t) && offsetof(Pair, a) == 
               "canonical_pairs writes Pairs as interleaved (a, b) words");
 static_assert(SoftwareEngine::kOutputSlack == kernels::kOutputSlack);
 
-std::uint32_t SoftwareEngine::emit_hits(const BoxArray& cell, const std::uint32_t* ids, const CellRegion& region,
-                                        std::uint32_t row, std::uint32_t* first, std::uint32_t* second,
-                                        std::size_t capacity, std::size_t& count) const {
+static_assert(SoftwareEngine::min_output(100) == kernels::min_output(100));
+
+void SoftwareEngine::owner_codes(const BoxArray& cell, const CellRegion& region, std::vector<std::uint32_t>& codes) {
+  const auto n = static_cast<std::uint32_t>(cell.size());
+  // Sized for an over-full cell, released once cells are small again.
+  if (codes.capacity() > 4 * (std::size_t{n} + kOutputSlack) + (std::size_t{1} << 16)) std::vector<std::uint32_t>().swap(codes);
+  codes.resize(n + kOutputSlack);
+  const float* const min[3] = {cell.min(0), cell.min(1), cell.min(2)};
+  kernels::write_owner_codes(min, n, region, codes.data());
+}
+
+std::uint32_t SoftwareEngine::emit_hits(const BoxArray& cell, const std::uint32_t* ids,
+                                        const std::uint32_t* owner_codes, const CellRegion& region, std::uint32_t row,
+                                        std::uint32_t* first, std::uint32_t* second, std::size_t capacity,
+                                        std::size_t& count) const {
   const auto n = static_cast<std::uint32_t>(cell.size());
   if (n < 2) return n;
-  const kernels::KernelInput in{
-      {cell.min(0), cell.min(1), cell.min(2)}, {cell.max(0), cell.max(1), cell.max(2)}, ids, n, region};
+  const kernels::KernelInput in{{cell.min(0), cell.min(1), cell.min(2)},
+                                {cell.max(0), cell.max(1), cell.max(2)},
+                                ids,
+                                owner_codes,
+                                n,
+                                region};
   const kernels::Isa isa = kernels::selected_isa();
   const kernels::Kernel k = kernel_ == Kernel::Sweep ? kernels::sweep_kernel(isa) : kernels::allpairs_kernel(isa);
   kernels::KernelOutput o{first, second, capacity, count};
@@ -51,12 +67,17 @@ void SoftwareEngine::write_pairs(const std::uint32_t* first, const std::uint32_t
   if (count) kernels::canonical_pairs(kernels::selected_isa())(first, second, count, reinterpret_cast<std::uint32_t*>(out));
 }
 
-std::uint64_t SoftwareEngine::count_pairs(const BoxArray& cell, const std::uint32_t* ids, const CellRegion& region,
+std::uint64_t SoftwareEngine::count_pairs(const BoxArray& cell, const std::uint32_t* ids,
+                                          const std::uint32_t* owner_codes, const CellRegion& region,
                                           std::uint32_t row) const {
   const auto n = static_cast<std::uint32_t>(cell.size());
   if (n < 2) return 0;
-  const kernels::KernelInput in{
-      {cell.min(0), cell.min(1), cell.min(2)}, {cell.max(0), cell.max(1), cell.max(2)}, ids, n, region};
+  const kernels::KernelInput in{{cell.min(0), cell.min(1), cell.min(2)},
+                                {cell.max(0), cell.max(1), cell.max(2)},
+                                ids,
+                                owner_codes,
+                                n,
+                                region};
   const kernels::Isa isa = kernels::selected_isa();
   return (kernel_ == Kernel::Sweep ? kernels::sweep_count_kernel(isa) : kernels::allpairs_count_kernel(isa))(in, row);
 }
@@ -68,6 +89,7 @@ void SoftwareEngine::run(const BoxArray& cell, const CellRegion& region, std::ve
     local_ids_.resize(n + kOutputSlack);
     std::iota(local_ids_.begin(), local_ids_.end(), 0u);
   }
+  owner_codes(cell, region, codes_);
   // A stage of a few rows' worth, drained into `out` whenever it fills: the
   // engine's own memory stays bounded by the cell size, not its pair count.
   const std::size_t want = 4 * (std::size_t{n} + kOutputSlack);
@@ -81,14 +103,13 @@ void SoftwareEngine::run(const BoxArray& cell, const CellRegion& region, std::ve
   std::uint32_t row = 0;
   while (row < n) {
     // Near the pair limit a round gets only the room the limit leaves plus
-    // one row's worth, so the call stops within n + kOutputSlack of it.
+    // two rows' worth, so the call stops within min_output(n) of it.
     const std::uint64_t appended = out.size() - start;
     const std::uint64_t left = appended < pair_limit_ ? pair_limit_ - appended : 0;
     const std::size_t room =
-        left >= stage_capacity_ ? stage_capacity_
-                                : std::min<std::size_t>(stage_capacity_, left + std::size_t{n} + kOutputSlack);
+        left >= stage_capacity_ ? stage_capacity_ : std::min<std::size_t>(stage_capacity_, left + min_output(n));
     std::size_t count = 0;
-    row = emit_hits(cell, local_ids_.data(), region, row, first_.data(), second_.data(), room, count);
+    row = emit_hits(cell, local_ids_.data(), codes_.data(), region, row, first_.data(), second_.data(), room, count);
     const std::size_t base = out.size();
     out.resize(base + count);
     write_pairs(first_.data(), second_.data(), count, out.data() + base);

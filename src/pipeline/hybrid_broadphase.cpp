@@ -19,6 +19,7 @@
 #include "hbp/kd_partition.hpp"
 #include "hbp/software_engine.hpp"
 #include "pipeline/hybrid_access.hpp"
+#include "partition/raw_buffer.hpp"
 #include "pipeline/ordered_cell.hpp"
 #include "support/clock.hpp"
 
@@ -56,6 +57,10 @@ constexpr std::size_t kTouchPairsPerFrame = std::size_t{16} << 20;
 // cell after cell).
 constexpr std::size_t kKeepPairs = 1 << 15;
 constexpr std::size_t kKeepCellPairs = 1 << 10;  // per cell: there are thousands
+// Fresh output lists of at least this many bytes are faulted in by all
+// workers at once, in chunks of a huge page (see prefault).
+constexpr std::size_t kPrefaultBytes = std::size_t{8} << 20;
+constexpr std::size_t kPrefaultChunk = std::size_t{2} << 20;
 
 void advise_huge_pages(void* data, std::size_t bytes) {
   constexpr std::uintptr_t kHuge = std::uintptr_t{2} << 20;
@@ -69,6 +74,10 @@ void advise_huge_pages(void* data, std::size_t bytes) {
 template <class T>
 void release_if_oversized(std::vector<T>& v, std::size_t used, std::size_t keep) {
   if (v.capacity() > 2 * used + keep) std::vector<T>().swap(v);
+}
+template <class T>
+void release_if_oversized(RawBuffer<T>& v, std::size_t used, std::size_t keep) {
+  if (v.capacity() > 2 * used + keep) RawBuffer<T>().swap(v);
 }
 
 // True when a box of [begin, end) has a NaN or infinite coordinate or min >
@@ -107,10 +116,13 @@ struct Worker {
   std::unique_ptr<CellEngine> engine;
   const SoftwareEngine* direct = nullptr;  // the engine when it writes global ids itself
   OrderedCell cell;                        // the cell being processed, in min-x order
+  std::vector<std::uint32_t> codes;        // its boxes' owner codes (software engine)
   std::vector<std::uint32_t> first, second;  // kernel hits before they move on (the stage)
   std::vector<Pair> local;                 // other engines: pairs in local indices
   BoxArray tile;                           // other engines: two blocks of an over-full cell
-  std::vector<Pair> stored;                // this worker's cells' pairs, before the copy to the list
+  // This worker's cells' pairs, before the copy to the list. Not zero-filled
+  // as it grows (std::vector::resize would write every pair twice).
+  RawBuffer<Pair> stored;
   std::size_t touched = 0;                 // entries of `stored`'s allocation written in earlier frames
   bool store_full = false;                 // this frame's touch budget is spent: dense cells are counted
 };
@@ -123,8 +135,17 @@ struct CellOutcome {
   // Where the cell's pairs wait for the copy into the frame's list, or
   // nullptr when the cell was only counted (first frame, spent touch budget)
   // and writes them in the second pass.
-  const std::vector<Pair>* stored = nullptr;
+  const RawBuffer<Pair>* stored = nullptr;
   std::size_t offset = 0;
+  bool in_place = false;  // written straight into the frame's list by the front lane
+};
+
+// The front of the last frame's list, which the front lane overwrites with
+// this frame's first cells (an output for emit_direct: never grows past it).
+struct ListFront {
+  Pair* base;
+  std::size_t used;
+  std::size_t size() const { return used; }
 };
 
 std::size_t stage_pairs(std::uint32_t n) {
@@ -152,12 +173,35 @@ void grow_pairs(std::vector<Pair>& v, std::size_t want, bool twofold = true) {
   v.swap(grown);
 }
 
-// Appends the stage's first `count` hits to out as canonical pairs.
-void drain_stage(const Worker& w, std::size_t count, std::vector<Pair>& out) {
+// Room for `count` more pairs at the end of out (uninitialised in a
+// RawBuffer); returns where they go.
+Pair* extend(std::vector<Pair>& out, std::size_t count) {
   const std::size_t base = out.size();
   grow_pairs(out, base + count);
   out.resize(base + count);
-  SoftwareEngine::write_pairs(w.first.data(), w.second.data(), count, out.data() + base);
+  return out.data() + base;
+}
+Pair* extend(RawBuffer<Pair>& out, std::size_t count) {
+  const std::size_t base = out.size();
+  out.grow(base + count);  // at least twofold when it reallocates
+  return out.data() + base;
+}
+template <class Out>
+void append(Out& out, Pair p) {
+  *extend(out, 1) = p;
+}
+Pair* extend(ListFront& out, std::size_t count) {
+  out.used += count;
+  return out.base + out.used - count;
+}
+void truncate(std::vector<Pair>& out, std::size_t n) { out.resize(n); }
+void truncate(ListFront& out, std::size_t n) { out.used = n; }
+void truncate(RawBuffer<Pair>& out, std::size_t n) { out.truncate(n); }
+
+// Appends the stage's first `count` hits to out as canonical pairs.
+template <class Out>
+void drain_stage(const Worker& w, std::size_t count, Out& out) {
+  SoftwareEngine::write_pairs(w.first.data(), w.second.data(), count, extend(out, count));
 }
 
 }  // namespace
@@ -182,6 +226,7 @@ struct HybridBroadPhase::Impl {
   std::atomic<std::uint64_t> running_pairs{0};
   std::size_t last_frame_pairs = 0;  // the pair count of the last frame through run_cells
   bool count_dense_cells = false;    // this frame has no estimate: dense cells are counted, then written
+  std::size_t in_place_pairs = 0;    // pairs the front lane wrote straight into `pairs` this frame
 
   static std::uint32_t choose_limit(const BroadPhaseOptions& o, const CellEngine& e) {
     const std::uint32_t limit = o.cell_limit ? o.cell_limit : e.default_cell_limit();
@@ -220,8 +265,15 @@ struct HybridBroadPhase::Impl {
 
   // ---- One cell through the engine ---------------------------------------
 
+  // The cell in min-x order, and for the software engine its owner codes.
+  static void load_cell(Worker& w, std::span<const CellEntry> entries, const CellRegion& region) {
+    w.cell.load(entries);
+    if (w.direct) SoftwareEngine::owner_codes(w.cell.boxes(), region, w.codes);
+  }
+
   // Appends the owned pairs (global ids, canonical) of the loaded cell to out.
-  void emit_cell(Worker& w, const CellRegion& region, std::vector<Pair>& out, CellOutcome& r) {
+  template <class Out>
+  void emit_cell(Worker& w, const CellRegion& region, Out& out, CellOutcome& r) {
     if (w.direct)
       emit_direct(w, region, out, r);
     else if (w.cell.size() <= w.engine->capacity())
@@ -234,7 +286,8 @@ struct HybridBroadPhase::Impl {
   // into out whenever it fills. Should out grow past `limit` pairs (a
   // store's touch budget), what the cell appended is taken back and false
   // returned.
-  bool emit_direct(Worker& w, const CellRegion& region, std::vector<Pair>& out, CellOutcome& r,
+  template <class Out>
+  bool emit_direct(Worker& w, const CellRegion& region, Out& out, CellOutcome& r,
                    std::size_t limit = std::numeric_limits<std::size_t>::max()) {
     const std::size_t start = out.size();
     const std::uint64_t pairs_before = r.pairs;
@@ -242,10 +295,10 @@ struct HybridBroadPhase::Impl {
     fit_stage(w, stage_pairs(n));
     for (std::uint32_t row = 0; row < n;) {
       std::size_t count = 0;
-      row = w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), region, row, w.first.data(), w.second.data(),
+      row = w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), w.codes.data(), region, row, w.first.data(), w.second.data(),
                                 w.first.size(), count);
       if (out.size() + count > limit) {
-        out.resize(start);
+        truncate(out, start);
         r.pairs = pairs_before;
         return false;
       }
@@ -258,12 +311,13 @@ struct HybridBroadPhase::Impl {
   }
 
   // Any other engine: local indices, mapped to ids.
-  void emit_whole(Worker& w, const CellRegion& region, std::vector<Pair>& out, CellOutcome& r) {
+  template <class Out>
+  void emit_whole(Worker& w, const CellRegion& region, Out& out, CellOutcome& r) {
     w.local.clear();
     r.cycles += w.engine->find_owned_pairs(w.cell.boxes(), region, w.local).cycles;
     charge(w.local.size());
     const std::uint32_t* ids = w.cell.ids();
-    for (const Pair& p : w.local) out.push_back(make_pair(ids[p.a], ids[p.b]));
+    for (const Pair& p : w.local) append(out, make_pair(ids[p.a], ids[p.b]));
     r.pairs += w.local.size();
     r.candidates += w.local.size();
   }
@@ -272,7 +326,8 @@ struct HybridBroadPhase::Impl {
   // every pair of blocks of cap/2 through the engine. Block i's own pairs
   // are kept from the run (i, i+1); the last block's from (k-2, k-1). Two
   // consecutive ranges of the min-x order are in min-x order together.
-  void emit_tiled(Worker& w, const CellRegion& region, std::vector<Pair>& out, CellOutcome& r) {
+  template <class Out>
+  void emit_tiled(Worker& w, const CellRegion& region, Out& out, CellOutcome& r) {
     const std::uint32_t n = w.cell.size();
     const std::uint32_t block = std::max<std::uint32_t>(1, w.engine->capacity() / 2);
     const std::uint32_t k = (n + block - 1) / block;
@@ -291,7 +346,7 @@ struct HybridBroadPhase::Impl {
         for (const Pair& p : w.local) {
           const bool a_in_i = p.a < ni, b_in_i = p.b < ni;
           const bool keep = (a_in_i != b_in_i) || (a_in_i && keep_i) || (!a_in_i && keep_j);
-          if (keep) out.push_back(make_pair(id(p.a), id(p.b)));
+          if (keep) append(out, make_pair(id(p.a), id(p.b)));
         }
         charge(out.size() - before);
         r.pairs += out.size() - before;
@@ -347,7 +402,7 @@ struct HybridBroadPhase::Impl {
       CellOutcome& r = outcomes[c];
       std::vector<Pair>& out = cell_pairs[c];
       out.clear();
-      w.cell.load(engine_cell(c));
+      load_cell(w, engine_cell(c), partition->region(c));
       emit_cell(w, partition->region(c), out, r);
       if (consumer) consumer(c, out.data(), out.size());
     };
@@ -391,12 +446,13 @@ struct HybridBroadPhase::Impl {
 
   // First pass: every cell through the engine, its pairs appended to the
   // worker's store; on a frame without an estimate, dense cells are only
-  // counted (see kStoredPairsPerBox).
-  void first_pass(std::uint32_t c) {
+  // counted (see kStoredPairsPerBox). `loaded`: the front lane already
+  // loaded (and refreshed) the cell into this worker and gave it up.
+  void first_pass(std::uint32_t c, bool loaded = false) {
     Worker& w = workers.local();
     CellOutcome& r = outcomes[c];
-    w.cell.load(engine_cell(c));
     const CellRegion& region = partition->region(c);
+    if (!loaded) load_cell(w, engine_cell(c), region);
     r.stored = &w.stored;
     r.offset = w.stored.size();
     if (!w.direct || (!count_dense_cells && options.max_pairs)) {
@@ -409,13 +465,13 @@ struct HybridBroadPhase::Impl {
     fit_stage(w, std::max(room, stage_pairs(n)));
     std::size_t count = 0;
     std::uint32_t row =
-        w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), region, 0, w.first.data(), w.second.data(), room, count);
+        w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), w.codes.data(), region, 0, w.first.data(), w.second.data(), room, count);
     const bool over_budget = w.store_full && w.stored.size() + count > w.stored.capacity();
     if ((row < n || over_budget) && !options.max_pairs) {
       // Dense (or past a spent budget): count now, write in the second pass. (With max_pairs set, a
       // pair explosion must stop as soon as the limit is passed, not after
       // counting every pair: such cells keep storing, charged per drain.)
-      count += w.direct->count_pairs(w.cell.boxes(), w.cell.ids(), region, row);
+      count += w.direct->count_pairs(w.cell.boxes(), w.cell.ids(), w.codes.data(), region, row);
       r.stored = nullptr;
       r.pairs = r.candidates = count;
       return;
@@ -426,7 +482,7 @@ struct HybridBroadPhase::Impl {
       r.pairs += count;
       if (row >= n) break;
       count = 0;
-      row = w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), region, row, w.first.data(), w.second.data(),
+      row = w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), w.codes.data(), region, row, w.first.data(), w.second.data(),
                                 w.first.size(), count);
     }
     r.candidates = r.pairs;
@@ -442,24 +498,104 @@ struct HybridBroadPhase::Impl {
     return false;
   }
 
+  // ---- The front lane -------------------------------------------------------
+  //
+  // A steady frame's cells are claimed from both ends of the cell order: one
+  // lane takes cells 0, 1, 2 ... and writes their pairs straight into the
+  // front of the frame's list (the last frame's list, its pages warm),
+  // where they stay; the other lanes take cells from the back into their
+  // stores, copied into place afterwards as before. The lanes meet where
+  // their work balances, the front lane's cells need no copy and no store
+  // (one thread: no copy at all), and the list is the same, in the same
+  // order: cell c's pairs start at the sum of the pairs of cells before it
+  // either way. The front lane stops writing in place when the list's old
+  // size would be passed (that cell and its later ones are stored).
+
+  bool front_lane_allowed() const {
+    return dynamic_cast<const SoftwareEngine*>(prototype.get()) && !count_dense_cells && !options.max_pairs &&
+           !pairs.empty();
+  }
+
+  void run_lanes(std::uint32_t cells) {
+    // The last frame's list is dead now; one much larger than this frame
+    // needs is released rather than kept as a window.
+    release_if_oversized(pairs, last_frame_pairs, kKeepPairs);
+    std::atomic<std::uint64_t> ends{std::uint64_t{cells}};  // (next front cell << 32) | end of the back
+    ListFront front{pairs.data(), 0};
+    const std::size_t window = pairs.size();
+    const int lanes = serial_engine_phase() ? 1 : std::max(1, arena.max_concurrency());
+    auto lane = [&](int k) {
+      std::uint32_t c;
+      if (k != 0) {
+        while (claim(ends, false, c)) first_pass(c);
+        return;
+      }
+      bool in_place = window > 0;
+      while (claim(ends, true, c)) {
+        // A cell the front lane gives up stays loaded (a cell is refreshed
+        // once a frame, on its first trip through the engine).
+        bool loaded = false;
+        if (in_place) {
+          in_place = front_cell(c, front, window);
+          if (in_place) continue;
+          loaded = true;
+        }
+        first_pass(c, loaded);
+      }
+    };
+    if (lanes == 1)
+      lane(0);
+    else
+      tbb::parallel_for(0, lanes, 1, lane);
+    in_place_pairs = front.used;
+  }
+
+  // The next cell from the front (or the back); false when the lanes met.
+  static bool claim(std::atomic<std::uint64_t>& ends, bool from_front, std::uint32_t& c) {
+    std::uint64_t v = ends.load(std::memory_order_relaxed);
+    while (true) {
+      const auto lo = static_cast<std::uint32_t>(v >> 32), hi = static_cast<std::uint32_t>(v);
+      if (lo >= hi) return false;
+      const std::uint64_t next = from_front ? v + (std::uint64_t{1} << 32) : v - 1;
+      if (ends.compare_exchange_weak(v, next, std::memory_order_relaxed)) {
+        c = from_front ? lo : hi - 1;
+        return true;
+      }
+    }
+  }
+
+  // Cell c's pairs straight into the list after the front lane's earlier
+  // cells; false (nothing kept, the cell stays loaded) when they would pass
+  // the window.
+  bool front_cell(std::uint32_t c, ListFront& front, std::size_t window) {
+    Worker& w = workers.local();
+    CellOutcome& r = outcomes[c];
+    const CellRegion& region = partition->region(c);
+    load_cell(w, engine_cell(c), region);
+    if (!emit_direct(w, region, front, r, window)) return false;
+    r.in_place = true;
+    return true;
+  }
+
   // Second pass: stored pairs are copied to their place in the frame's list
   // (cell order: the same list for any thread count); dense cells run their
   // kernel again, draining the stage there.
   void second_pass(std::uint32_t c) {
     const CellOutcome& r = outcomes[c];
     Pair* dst = pairs.data() + offsets[c];
+    if (r.in_place) return;
     if (r.stored) {
       if (r.pairs) std::memcpy(dst, r.stored->data() + r.offset, r.pairs * sizeof(Pair));
       return;
     }
     Worker& w = workers.local();
-    w.cell.load(partition->cell(c));
+    load_cell(w, partition->cell(c), partition->region(c));
     const std::uint32_t n = w.cell.size();
     fit_stage(w, stage_pairs(n));
     std::size_t written = 0;
     for (std::uint32_t row = 0; row < n;) {
       std::size_t count = 0;
-      row = w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), partition->region(c), row, w.first.data(),
+      row = w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), w.codes.data(), partition->region(c), row, w.first.data(),
                                 w.second.data(), w.first.size(), count);
       if (written + count > r.pairs) throw std::logic_error("hybrid broad phase: cell pair count changed");
       SoftwareEngine::write_pairs(w.first.data(), w.second.data(), count, dst + written);
@@ -484,7 +620,7 @@ struct HybridBroadPhase::Impl {
     const std::size_t share = store_share();
     for (Worker& w : workers)
       if (w.stored.capacity() + last_frame_pairs / 16 < share) {
-        grow_pairs(w.stored, share, false);
+        w.stored.reserve(share);
         w.touched = 0;
       }
   }
@@ -498,7 +634,12 @@ struct HybridBroadPhase::Impl {
     if (options.max_pairs && total > options.max_pairs)
       throw CapacityExceeded("frame has " + std::to_string(total) + " overlapping pairs, above max_pairs = " +
                              std::to_string(options.max_pairs));
-    reserve_output(total);
+    if (in_place_pairs) {
+      // The front lane's cells are in place: keep them (growing copies).
+      if (total > pairs.capacity()) pairs.reserve(total + total / 8);
+    } else {
+      reserve_output(total);
+    }
     pairs.resize(total);
   }
 
@@ -513,6 +654,21 @@ struct HybridBroadPhase::Impl {
     std::vector<Pair>().swap(pairs);
     pairs.reserve(total + total / 8);
     advise_huge_pages(pairs.data(), pairs.capacity() * sizeof(Pair));
+    prefault(pairs.data(), total * sizeof(Pair));
+  }
+
+  // Faults fresh pages in from every worker: the kernel zeroes each page
+  // on first touch (on our VMs well under 1 GB/s a thread), and the list's
+  // resize that follows would otherwise take every fault on one thread. One
+  // write per 4 KiB page of storage the resize then overwrites.
+  void prefault(void* data, std::size_t bytes) {
+    if (bytes < kPrefaultBytes || serial_engine_phase()) return;
+    auto* base = static_cast<volatile unsigned char*>(data);
+    const std::size_t chunks = (bytes + kPrefaultChunk - 1) / kPrefaultChunk;
+    tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t k) {
+      const std::size_t end = std::min(bytes, (k + 1) * kPrefaultChunk);
+      for (std::size_t at = k * kPrefaultChunk; at < end; at += 4096) base[at] = 0;
+    });
   }
 
   // ---- The frame -----------------------------------------------------------
@@ -564,6 +720,7 @@ struct HybridBroadPhase::Impl {
     for (Worker& other : workers) other.stored.clear();
     Worker& w = workers.local();
     w.cell.load(boxes);
+    if (w.direct) SoftwareEngine::owner_codes(w.cell.boxes(), CellRegion::everything(), w.codes);
     outcomes.assign(1, CellOutcome{});
     pairs.clear();
     release_if_oversized(pairs, 0, kKeepPairs);
@@ -583,6 +740,7 @@ struct HybridBroadPhase::Impl {
       w.store_full = false;
     }
     count_dense_cells = last_frame_pairs == 0;
+    in_place_pairs = 0;
     if (!(sink || consumer)) size_stores();
     if (sink || consumer) {
       stream_cells(sink, consumer);
@@ -592,7 +750,10 @@ struct HybridBroadPhase::Impl {
       merge_ms = ms_since(t_merge);
     } else {
       cell_pairs.clear();
-      for_each_cell(cells, [&](std::uint32_t c) { first_pass(c); });
+      if (front_lane_allowed())
+        run_lanes(cells);
+      else
+        for_each_cell(cells, [&](std::uint32_t c) { first_pass(c); });
       engine_ms = ms_since(t_engine);
       const auto t_merge = SteadyClock::now();
       size_output(cells);
