@@ -109,6 +109,31 @@ TEST(NarrowCacheTest, CommitAndFind) {
   EXPECT_NE(cache.find({3, 4}), nullptr);
 }
 
+// Frames whose pair counts grow and shrink: the cache's storage is
+// reallocated (fresh, huge-page advised, with slack) or reused, and every
+// entry is found with its own direction after each commit.
+TEST(NarrowCacheTest, StorageGrowsAndShrinksWithTheFrame) {
+  constexpr std::uint32_t kObjects = 200'000;
+  NarrowCache cache;
+  for (const std::uint32_t count : {10u, 200'000u, 210'000u, 300'000u, 5u, 120'000u}) {
+    std::vector<NarrowCacheEntry> list(count);
+    for (std::uint32_t k = 0; k < count; ++k) {
+      // Unique pairs, several per first object, in no sorted order.
+      const std::uint32_t j = (k * 7919u) % count;
+      list[k] = NarrowCacheEntry{{j % 100'000u, 100'000u + j / 100'000u}, {static_cast<float>(j), 0, 0}, 0, 0, {}};
+    }
+    cache.commit(&list, 1, kObjects);
+    ASSERT_EQ(cache.size(), count);
+    std::uint32_t wrong = 0;
+    for (std::uint32_t j = 0; j < count; ++j) {
+      const float* d = cache.find({j % 100'000u, 100'000u + j / 100'000u});
+      if (!d || d[0] != static_cast<float>(j)) ++wrong;
+    }
+    EXPECT_EQ(wrong, 0u) << count << " entries";
+    EXPECT_EQ(cache.find({count % 100'000u, 100'000u + count / 100'000u}), nullptr) << count << " entries";
+  }
+}
+
 // Frames of a moving paper scene: with the cache warm, the contacts are the
 // same pairs as without it, and the depths agree within the tolerance.
 TEST(NarrowCacheTest, SameVerdictsWithAndWithoutCache) {
