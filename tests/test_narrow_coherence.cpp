@@ -368,6 +368,12 @@ TEST(NarrowWarmTetrahedron, PipelineSameContactsOnOneOrTwoThreads) {
       ASSERT_EQ(a[i].normal.x, b[i].normal.x) << "frame " << f << " contact " << i;
       ASSERT_EQ(a[i].point.z, b[i].point.z) << "frame " << f << " contact " << i;
     }
+    // The after-frame tail is part of the frame's wall time.
+    for (const CollisionPipeline* cp : {&one, &two}) {
+      EXPECT_GT(cp->stats().tail_ms, 0.0) << "frame " << f;
+      EXPECT_LT(cp->stats().tail_ms, cp->stats().wall_ms) << "frame " << f;
+      EXPECT_GT(cp->stats().narrow_cpu_ms, 0.0) << "frame " << f;
+    }
   }
 }
 

@@ -23,6 +23,10 @@ struct PipelineStats {
   std::uint64_t contacts = 0;    // narrow-phase hits
   double wall_ms = 0;            // the overlapped whole, measured
   double narrow_cpu_ms = 0;      // narrow phase, summed over the threads that ran it
+  // The serial work after the last cell (contacts put in cell order, cache
+  // commit): the frame is about narrow_cpu_ms / threads + the broad phase's
+  // share + this; a larger wall time means a thread was missing or idle.
+  double tail_ms = 0;
 };
 
 class CollisionPipeline {

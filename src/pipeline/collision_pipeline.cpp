@@ -47,6 +47,7 @@ const std::vector<Contact>& CollisionPipeline::update(const BoxArray& boxes, con
     narrow_.process(shapes, pairs, count, *out, &cache_, learned);
     narrow_us += static_cast<std::uint64_t>((thread_cpu_ms() - start) * 1e3);
   });
+  const double broad_done_ms = ms_since(t0);
   const std::size_t cells = broad_.stats().cells;
   if (cell_contacts_.size() < cells) cell_contacts_.resize(cells);  // cells without pairs were never consumed
   if (cell_learned_.size() < cells) cell_learned_.resize(cells);
@@ -60,6 +61,7 @@ const std::vector<Contact>& CollisionPipeline::update(const BoxArray& boxes, con
   for (const auto& l : cell_learned_) learned_lists_.push_back(&l);
   cache_.commit(learned_lists_, shapes.size());
   stats_.wall_ms = ms_since(t0);
+  stats_.tail_ms = stats_.wall_ms - broad_done_ms;
   stats_.candidates = broad_.stats().pairs;
   stats_.contacts = contacts_.size();
   stats_.narrow_cpu_ms = static_cast<double>(narrow_us.load()) * 1e-3;

@@ -86,7 +86,7 @@ class FrameSource {
 // stages run one after the other on the same frame for comparison.
 struct NarrowFrame {
   std::uint64_t contacts = 0;
-  double pipelined_ms = 0, narrow_cpu_ms = 0, sequential_broad_ms = 0, sequential_narrow_ms = 0;
+  double pipelined_ms = 0, narrow_cpu_ms = 0, tail_ms = 0, sequential_broad_ms = 0, sequential_narrow_ms = 0;
 };
 
 NarrowFrame run_narrow(CollisionPipeline& cp, HybridBroadPhase& reference, const NarrowPhase& narrow,
@@ -96,6 +96,7 @@ NarrowFrame run_narrow(CollisionPipeline& cp, HybridBroadPhase& reference, const
   f.contacts = cp.stats().contacts;
   f.pipelined_ms = cp.stats().wall_ms;
   f.narrow_cpu_ms = cp.stats().narrow_cpu_ms;
+  f.tail_ms = cp.stats().tail_ms;
   reference.update(boxes);
   f.sequential_broad_ms = reference.stats().wall_ms;
   const auto& pairs = reference.pairs();
@@ -190,6 +191,7 @@ void run(const RunArgs& a) {
       f["narrow"] = {{"contacts", nf.contacts},
                      {"pipelined_wall_ms", nf.pipelined_ms},
                      {"narrow_cpu_ms", nf.narrow_cpu_ms},
+                     {"tail_ms", nf.tail_ms},
                      {"sequential_broad_ms", nf.sequential_broad_ms},
                      {"sequential_narrow_ms", nf.sequential_narrow_ms}};
     }
