@@ -240,6 +240,37 @@ TEST(SoftwareKernels, DenseCellsResumeWhenTheOutputIsFull) {
   }
 }
 
+// The AVX-512 sweep starts the candidates of two rows that both begin below
+// the region's lo x at the first box that does not (two such boxes own no
+// pair). Prefixes of every length that matters (none, one row, a pair of
+// rows, odd, all but one, all), dense and sparse cells, resumed with the
+// least room: always the owned oracle's pairs, and the same order whatever
+// the room.
+TEST(SoftwareKernels, RowsBelowTheLowXPlaneSkipTheirPrefix) {
+  std::mt19937 rng(17);
+  for (k::Isa isa : available_isas()) {
+    for (const float size : {1.5f, 12.0f}) {
+      const std::uint32_t n = 37;
+      const BoxArray boxes = random_boxes(n, 6, size, rng, true);
+      const auto ids = scrambled_ids(n);
+      std::vector<float> los;
+      for (std::uint32_t below : {0u, 1u, 2u, 3u, 17u, 18u, 35u, 36u}) los.push_back(boxes.min(0)[below]);
+      los.push_back(std::nextafter(boxes.min(0)[n - 1], 100.0f));  // every box below lo x
+      for (const float lo : los) {
+        const CellRegion r{{lo, -4, -3}, {lo + 5, 3, 8}};
+        const auto want = with_ids(owned_oracle(boxes, r), ids);
+        const auto roomy = run_kernel_in_order(k::sweep_kernel(isa), k::sweep_count_kernel(isa), boxes, ids, r, 1 << 12);
+        auto sorted = roomy;
+        hbp::canonicalize(sorted);
+        EXPECT_EQ(sorted, want) << k::isa_name(isa) << " lo x " << lo << " size " << size;
+        EXPECT_EQ(run_kernel_in_order(k::sweep_kernel(isa), k::sweep_count_kernel(isa), boxes, ids, r, k::min_output(n)),
+                  roomy)
+            << k::isa_name(isa) << " lo x " << lo << " size " << size;
+      }
+    }
+  }
+}
+
 // The hybrid system drains a cell's hits through outputs of different room
 // (a worker's stage, a counted cell's first rows): the order of the hits must
 // not depend on it, or the frame's pair order would depend on the thread

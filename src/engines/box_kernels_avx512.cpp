@@ -3,6 +3,8 @@
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #include <immintrin.h>
 
+#include <algorithm>
+
 #include "dedup/ownership.hpp"
 #include "engines/box_kernel_rows.hpp"
 #include "engines/box_kernels.hpp"
@@ -125,8 +127,13 @@ struct Rows {
 // mispredict per two rows). Hits come per vector, row i's before row
 // i + 1's: an order of its own, the same for any thread count.
 struct PairedRows {
+  // `below`: the boxes [0, below) have min x < the region's lo x (a prefix:
+  // boxes come in min-x order). Two of them own no pair (the ownership
+  // point's x is the larger min x, still below lo), so a pair of rows both
+  // in the prefix starts its candidates at `below`, past the ones it would
+  // only reject (cells whose boxes straddle their low x plane).
   template <class Out>
-  [[gnu::always_inline]] static void sweep_rows(const KernelInput& in, std::uint32_t i, Out& out) {
+  [[gnu::always_inline]] static void sweep_rows(const KernelInput& in, std::uint32_t i, std::uint32_t below, Out& out) {
     const float *minx = in.min[0], *miny = in.min[1], *minz = in.min[2];
     const float *maxy = in.max[1], *maxz = in.max[2];
     const __m512 bx0 = _mm512_set1_ps(in.max[0][i]), bx1 = _mm512_set1_ps(in.max[0][i + 1]);
@@ -160,7 +167,12 @@ struct PairedRows {
     // As in Rows::sweep_row: the first kSweepVectors vectors without an exit
     // test; a vector at j is read only while j <= n (index n is padding).
     std::uint32_t j = i + 1;
-    bool more = step(j, 0xFFFE);
+    __mmask16 own = 0xFFFE;
+    if (i + 1 < below) {
+      j = below;
+      own = 0xFFFF;
+    }
+    bool more = step(j, own);
     for (std::uint32_t k = 1; k < kSweepVectors; ++k) {
       if (j + 16 > in.n) return;  // the vector at j covered the padding
       j += 16;
@@ -177,12 +189,19 @@ struct PairedRows {
   // (row + 2k, row + 2k + 1), whatever the room (callers start at 0 and
   // resume where the kernel stopped), so the hits come in the same order
   // however the output is drained.
+  // The boxes with min x below the region's lo x (see sweep_rows).
+  static std::uint32_t below_lo(const KernelInput& in) {
+    const float lo = in.region.lo[0];
+    return static_cast<std::uint32_t>(std::lower_bound(in.min[0], in.min[0] + in.n, lo) - in.min[0]);
+  }
+
   static std::uint32_t sweep(const KernelInput& in, std::uint32_t row, KernelOutput& out) {
+    const std::uint32_t below = below_lo(in);
     Store s{out.first, out.second, out.count};
     std::uint32_t i = row;
     for (; i + 1 < in.n; i += 2) {
       if (out.capacity - s.count < 2 * std::size_t{in.n - i} + kOutputSlack) break;
-      sweep_rows(in, i, s);
+      sweep_rows(in, i, below, s);
     }
     if (i + 1 == in.n && out.capacity - s.count >= std::size_t{1} + kOutputSlack) {
       Rows::sweep_row(in, in.region, i, s);
@@ -192,9 +211,10 @@ struct PairedRows {
     return i;
   }
   static std::uint64_t sweep_count(const KernelInput& in, std::uint32_t row) {
+    const std::uint32_t below = below_lo(in);
     Count c;
     std::uint32_t i = row;
-    for (; i + 1 < in.n; i += 2) sweep_rows(in, i, c);
+    for (; i + 1 < in.n; i += 2) sweep_rows(in, i, below, c);
     if (i < in.n) Rows::sweep_row(in, in.region, i, c);
     return c.count;
   }
