@@ -32,7 +32,8 @@ using kd::StoredBox;
 // 100,000, 15.6-15.8 -> 15.1 ms at 1,024,000 (two threads, A/B).
 constexpr std::uint32_t kChunkObjects = 1u << 12;
 
-// The rebuild rule: the tree is rebuilt (on the next frame) when the frame's
+// The rebuild rule: the tree is rebuilt (spread over the next frames, see
+// rebuild_step) when the frame's
 // duplication ratio exceeds kDuplicationGrowth times its value after the last
 // rebuild plus kDuplicationSlack, when the cell count exceeds kCellGrowth
 // times its value then plus kCellSlack, or when merged-away nodes make the
@@ -178,7 +179,16 @@ struct KdPartition::State {
   kd::SubtreeBuilder splitter;
   kd::BuildScratch split_scratch;
   kd::BuildBuffers build;
-  bool rebuild_next = false;
+  // The spread rebuild: subtree roots still to rebuild, in tree order.
+  bool rebuilding = false;
+  bool round_done = false;                     // the spread rebuild finished this frame
+  std::vector<std::uint32_t> rebuild_queue;
+  std::size_t rebuild_cursor = 0;
+  std::vector<std::uint32_t> node_seen;        // node -> number_leaves' stamp when it was last reachable
+  std::vector<std::uint32_t> node_depth;       // node -> depth (reachable nodes)
+  std::uint32_t seen_stamp = 0;
+  std::vector<std::uint8_t> in_subtree;        // rebuild_subtree: the old subtree's nodes
+  std::vector<CellEntry> gathered;             // rebuild_subtree: the subtree's objects, once each
   double rebuild_duplication = 0;
   std::size_t rebuild_cells = 0;
 };
@@ -196,8 +206,15 @@ KdPartition::~KdPartition() = default;
 KdPartition::KdPartition(KdPartition&&) noexcept = default;
 KdPartition& KdPartition::operator=(KdPartition&&) noexcept = default;
 
+void KdPartition::set_rebuild_budget(std::uint32_t entries) {
+  if (entries < 2) throw InvalidInput("rebuild budget must be >= 2 entries (got " + std::to_string(entries) + ")");
+  rebuild_budget_ = entries;
+}
+
 void KdPartition::reset() {
   nodes_.clear();
+  state_->rebuilding = false;
+  state_->rebuild_queue.clear();
   state_->deferred = false;
   state_->split_pending = false;
 }
@@ -216,8 +233,10 @@ bool KdPartition::begin_update(const BoxArray& boxes, bool allow_oversized) {
   stats_.rebuilt = false;
   stats_.merges = 0;
   stats_.splits = 0;
+  stats_.rebuilt_subtrees = 0;
+  stats_.rebuilt_entries = 0;
   s.frame_objects = static_cast<std::uint32_t>(boxes.size());
-  if (nodes_.empty() || s.rebuild_next) {
+  if (nodes_.empty()) {
     rebuild(boxes);
     end_frame();
     return false;
@@ -254,15 +273,14 @@ void KdPartition::finish_update() {
 void KdPartition::end_frame() {
   compute_stats(state_->frame_objects);
   State& s = *state_;
-  if (stats_.rebuilt) {
+  if (stats_.rebuilt || s.round_done) {
     s.rebuild_duplication = stats_.duplication;
     s.rebuild_cells = leaf_nodes_.size();
-    s.rebuild_next = false;
-    s.split_pending = false;
-  } else {
-    // Decided now, done at the start of the next frame: no frame pays for
-    // both maintenance and a rebuild.
-    s.rebuild_next = degraded();
+    if (stats_.rebuilt) s.split_pending = false;
+    s.round_done = false;
+  } else if (!s.rebuilding && degraded()) {
+    // Decided now, done over the next frames (rebuild_step).
+    plan_rebuild();
   }
 }
 
@@ -280,6 +298,8 @@ void KdPartition::rebuild(const BoxArray& boxes) {
   s.build.a = &s.next_entries;
   s.build.b = &s.latest;
   kd::build_tree(boxes, rule, s.build, nodes_, s.entries, s.home.data(), s.prev.data());
+  s.rebuilding = false;
+  s.rebuild_queue.clear();
   if (nodes_.capacity() > 2 * nodes_.size() + 4096) nodes_.shrink_to_fit();  // a past peak of splits
   entries_ = s.entries.data();
   number_leaves();
@@ -295,6 +315,9 @@ void KdPartition::maintain(const BoxArray& boxes) {
     s.split_pending = false;
     if (split_oversized()) number_leaves();
   }
+  // A spread rebuild's share of this frame, over last frame's cells (before
+  // objects are appended or removed: every id in a cell has a home).
+  if (s.rebuilding) rebuild_step();
   if (n != s.objects) {  // objects appended (no home yet) or removed at the end
     s.home.resize(n);
     s.prev.resize(n);
@@ -370,6 +393,9 @@ void KdPartition::number_leaves() {
   regions_.clear();
   s.leaf_depth.clear();
   s.node_regions.resize(nodes_.size());
+  s.node_seen.resize(nodes_.size());
+  s.node_depth.resize(nodes_.size());
+  ++s.seen_stamp;
   s.live_nodes = 0;
   struct Item {
     std::uint32_t node;
@@ -386,6 +412,8 @@ void KdPartition::number_leaves() {
     ++s.live_nodes;
     stats_.depth = std::max(stats_.depth, it.depth);
     s.node_regions[it.node] = it.region;
+    s.node_seen[it.node] = s.seen_stamp;
+    s.node_depth[it.node] = it.depth;
     if (nd.axis < 0) {
       nd.leaf = static_cast<std::uint32_t>(leaf_nodes_.size());
       leaf_nodes_.push_back(it.node);
@@ -663,6 +691,156 @@ bool KdPartition::degraded() const {
   return stats_.duplication > kDuplicationGrowth * s.rebuild_duplication + kDuplicationSlack ||
          leaf_nodes_.size() > kCellGrowth * s.rebuild_cells + kCellSlack ||
          nodes_.size() > kDeadNodeFactor * s.live_nodes + kDeadNodeSlack;
+}
+
+namespace {
+// Entries in the leaves under node i (sizes[k] for every node k under it).
+std::uint64_t subtree_entries(const std::vector<KdTreeNode>& nodes, std::uint32_t i, std::vector<std::uint64_t>& sizes) {
+  const KdTreeNode& nd = nodes[i];
+  sizes[i] = nd.axis < 0 ? nd.size
+                         : subtree_entries(nodes, nd.child, sizes) + subtree_entries(nodes, nd.child + 1, sizes);
+  return sizes[i];
+}
+}  // namespace
+
+void KdPartition::plan_rebuild() {
+  // The subtrees of the spread rebuild: the highest inner nodes holding at
+  // most the budget's entries (or two full cells, for a cell limit above the
+  // budget), left to right. Their planes are rebuilt; the planes above them
+  // (a few levels at most: the paper scene's 1.1 M entries make about 32
+  // subtrees of 65,536 or fewer, five levels) are kept. A leaf above the
+  // subtrees stays as it is (the maintenance splits it when over-full).
+  State& s = *state_;
+  std::vector<std::uint64_t> sizes(nodes_.size(), 0);
+  subtree_entries(nodes_, 0, sizes);  // recursion depth <= kMaxDepth
+  const std::uint64_t task = std::max<std::uint64_t>(rebuild_budget_, 2ull * cell_limit_);
+  s.rebuild_queue.clear();
+  s.rebuild_cursor = 0;
+  std::vector<std::uint32_t> stack{0};
+  while (!stack.empty()) {
+    const std::uint32_t i = stack.back();
+    stack.pop_back();
+    const KdTreeNode& nd = nodes_[i];
+    if (nd.axis < 0) continue;
+    if (sizes[i] <= task) {
+      s.rebuild_queue.push_back(i);
+      continue;
+    }
+    stack.push_back(nd.child + 1);
+    stack.push_back(nd.child);
+  }
+  s.rebuilding = true;
+}
+
+void KdPartition::rebuild_step() {
+  // This frame's share: queued subtrees until the budget's entries are
+  // rebuilt (at least one). A queued node no longer reachable (merged away)
+  // or now a leaf is skipped. After the last one the node array is
+  // compacted (every rebuilt subtree left its old nodes behind).
+  State& s = *state_;
+  std::uint64_t done = 0;
+  while (s.rebuild_cursor < s.rebuild_queue.size() && done < rebuild_budget_) {
+    const std::uint32_t r = s.rebuild_queue[s.rebuild_cursor++];
+    if (r >= s.node_seen.size() || s.node_seen[r] != s.seen_stamp || nodes_[r].axis < 0) continue;
+    done += rebuild_subtree(r);
+    ++stats_.rebuilt_subtrees;
+  }
+  stats_.rebuilt_entries = done;
+  if (s.rebuild_cursor == s.rebuild_queue.size()) {
+    s.rebuilding = false;
+    s.round_done = true;
+    s.rebuild_queue.clear();
+    compact_nodes();
+  }
+  number_leaves();
+}
+
+std::uint64_t KdPartition::rebuild_subtree(std::uint32_t root) {
+  // The subtree's objects, once each, in (min x, id) order (each leaf is in
+  // that order; an object in several of its leaves has the same entry in
+  // each), built into a new subtree appended like a split leaf's. Objects
+  // homed in the old subtree get their home in the new one; every object in
+  // it descends on the next frame (margin 0: new planes) from a previous box
+  // equal to the one its current cells were made from.
+  State& s = *state_;
+  s.in_subtree.assign(nodes_.size(), 0);
+  s.gathered.clear();
+  std::vector<std::uint32_t> stack{root};
+  while (!stack.empty()) {
+    const std::uint32_t i = stack.back();
+    stack.pop_back();
+    s.in_subtree[i] = 1;
+    const KdTreeNode& nd = nodes_[i];
+    if (nd.axis < 0) {
+      const CellEntry* e = s.entries.data() + nd.first;
+      s.gathered.insert(s.gathered.end(), e, e + nd.size);
+    } else {
+      stack.push_back(nd.child + 1);
+      stack.push_back(nd.child);
+    }
+  }
+  std::sort(s.gathered.begin(), s.gathered.end(), kd::entry_less);
+  s.gathered.erase(std::unique(s.gathered.begin(), s.gathered.end(),
+                               [](const CellEntry& a, const CellEntry& b) { return a.id == b.id; }),
+                   s.gathered.end());
+  const kd::SplitRule rule{cell_limit_, x_split_weight_, &cell_cost_};
+  kd::SubtreeBuilder& b = s.splitter;
+  b.build(s.gathered.data(), static_cast<std::uint32_t>(s.gathered.size()), s.node_depth[root], rule, true,
+          s.split_scratch);
+  if (nodes_.size() + b.nodes.size() > kd::kMaxNodes) throw CapacityExceeded("k-d partition: too many tree nodes");
+  const auto base = static_cast<std::uint32_t>(nodes_.size());
+  const auto entry_base = static_cast<std::uint32_t>(s.entries.size());
+  const std::size_t old_nodes = s.in_subtree.size();
+  for (std::size_t k = 0; k < b.nodes.size(); ++k) {
+    KdTreeNode nd = b.nodes[k];
+    if (nd.axis >= 0) {
+      nd.child = base + nd.child - 1;
+    } else {
+      const std::uint32_t global = k == 0 ? root : base + static_cast<std::uint32_t>(k) - 1;
+      for (std::uint32_t i = nd.first; i < nd.first + nd.size; ++i) {
+        CellEntry& e = b.entries[i];
+        s.margin[e.id] = 0;
+        s.prev[e.id] = {{e.min[0], e.min[1], e.min[2]}, {e.max[0], e.max[1], e.max[2]}};
+        const std::uint32_t h = s.home[e.id];
+        if (!(e.build_tag & kd::kNotOwner) && h < old_nodes && s.in_subtree[h]) {
+          const bool forked = (e.build_tag & kd::kForkMask) != kd::kNoFork;
+          s.home[e.id] = forked ? kd::fork_node(e.build_tag, root, base) : global;
+        }
+        e.build_tag = 0;
+      }
+      nd.first += entry_base;
+    }
+    if (k == 0) nodes_[root] = nd;
+    else nodes_.push_back(nd);
+  }
+  s.entries.append(b.entries.data(), b.entries.size());
+  entries_ = s.entries.data();
+  return b.output_size();
+}
+
+void KdPartition::compact_nodes() {
+  // Reachable nodes only, breadth first (children stay adjacent), homes
+  // renumbered.
+  State& s = *state_;
+  std::vector<std::uint32_t> renumber(nodes_.size(), kNoHome);
+  std::vector<KdTreeNode> kept;
+  kept.reserve(s.live_nodes + 2);
+  kept.push_back(nodes_[0]);
+  renumber[0] = 0;
+  for (std::size_t i = 0; i < kept.size(); ++i) {
+    if (kept[i].axis < 0) continue;
+    const std::uint32_t c = kept[i].child;
+    const auto at = static_cast<std::uint32_t>(kept.size());
+    kept[i].child = at;
+    renumber[c] = at;
+    renumber[c + 1] = at + 1;
+    kept.push_back(nodes_[c]);
+    kept.push_back(nodes_[c + 1]);
+  }
+  std::uint32_t* home = s.home.data();
+  for (std::size_t i = 0; i < s.objects; ++i)
+    if (home[i] != kNoHome) home[i] = renumber[home[i]];
+  nodes_.swap(kept);
 }
 
 }  // namespace hbp
