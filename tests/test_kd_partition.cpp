@@ -483,8 +483,8 @@ TEST(KdPartitionSampledBuild, AdversarialScenesGiveExactCellsOnOneOrTwoThreads) 
 }
 
 // A rebuild mid-run (the boxes grow in y and z at frame 3: the duplication passes the
-// rebuild rule, the next frame rebuilds the tree's subtrees: 36,000 objects
-// are one subtree of the default budget, so all in that frame) and slow motion after
+// rebuild rule, the next frames rebuild the tree's subtrees, at most the
+// default budget's entries a frame) and slow motion after
 // it (objects in several cells keep them while they move less than the margin
 // the build gave them): every frame the oracle's pairs, the same order on
 // one thread or two, and exact cells.
@@ -523,7 +523,10 @@ TEST(KdPartitionSampledBuild, RebuildMidRunMatchesTheOracleEveryFrame) {
     hbp::canonicalize(sorted);
     ASSERT_EQ(sorted, sweep_oracle(boxes)) << where;
   }
-  EXPECT_EQ(rebuilds, 1);  // the frame after the growth, and only it
+  // The frames after the growth: about 45,000 entries, a few subtrees of at
+  // most the default budget's 32,768, at most one budget a frame.
+  EXPECT_GE(rebuilds, 2);
+  EXPECT_LE(rebuilds, 3);
 }
 
 // The spread rebuild: a small budget (1,024 entries a frame, cell limit 64)

@@ -115,8 +115,8 @@ class KdPartition {
   void reset();
 
   // Entries rebuilt per frame by a spread rebuild (and the size of its
-  // subtrees): 65,536 by default (about 8 ms on the paper scene's cells, a
-  // third of a steady frame). At least 2.
+  // subtrees): 32,768 by default (MEASURE on the paper scene's cells). At
+  // least 2.
   void set_rebuild_budget(std::uint32_t entries);
   std::uint32_t rebuild_budget() const { return rebuild_budget_; }
 
@@ -153,7 +153,7 @@ class KdPartition {
   // that is still over-full stays so and is processed in tiles; every
   // traversal is safe up to it.
   static constexpr std::uint32_t kMaxDepth = 64;
-  static constexpr std::uint32_t kDefaultRebuildBudget = 1u << 16;
+  static constexpr std::uint32_t kDefaultRebuildBudget = 1u << 15;
 
  private:
   struct State;  // maintenance state (kd_partition.cpp)

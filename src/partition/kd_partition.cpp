@@ -183,6 +183,7 @@ struct KdPartition::State {
   bool rebuilding = false;
   bool round_done = false;                     // the spread rebuild finished this frame
   std::vector<std::uint32_t> rebuild_queue;
+  std::vector<std::uint64_t> rebuild_sizes;    // their entries when planned
   std::size_t rebuild_cursor = 0;
   std::vector<std::uint32_t> node_seen;        // node -> number_leaves' stamp when it was last reachable
   std::vector<std::uint32_t> node_depth;       // node -> depth (reachable nodes)
@@ -715,6 +716,7 @@ void KdPartition::plan_rebuild() {
   subtree_entries(nodes_, 0, sizes);  // recursion depth <= kMaxDepth
   const std::uint64_t task = std::max<std::uint64_t>(rebuild_budget_, 2ull * cell_limit_);
   s.rebuild_queue.clear();
+  s.rebuild_sizes.clear();
   s.rebuild_cursor = 0;
   std::vector<std::uint32_t> stack{0};
   while (!stack.empty()) {
@@ -724,6 +726,7 @@ void KdPartition::plan_rebuild() {
     if (nd.axis < 0) continue;
     if (sizes[i] <= task) {
       s.rebuild_queue.push_back(i);
+      s.rebuild_sizes.push_back(sizes[i]);
       continue;
     }
     stack.push_back(nd.child + 1);
@@ -733,13 +736,16 @@ void KdPartition::plan_rebuild() {
 }
 
 void KdPartition::rebuild_step() {
-  // This frame's share: queued subtrees until the budget's entries are
-  // rebuilt (at least one). A queued node no longer reachable (merged away)
+  // This frame's share: queued subtrees while their entries (as planned)
+  // fit the budget (at least one). A queued node no longer reachable (merged away)
   // or now a leaf is skipped. After the last one the node array is
   // compacted (every rebuilt subtree left its old nodes behind).
   State& s = *state_;
   std::uint64_t done = 0;
-  while (s.rebuild_cursor < s.rebuild_queue.size() && done < rebuild_budget_) {
+  std::uint64_t planned = 0;
+  while (s.rebuild_cursor < s.rebuild_queue.size() &&
+         (planned == 0 || planned + s.rebuild_sizes[s.rebuild_cursor] <= rebuild_budget_)) {
+    planned += s.rebuild_sizes[s.rebuild_cursor];
     const std::uint32_t r = s.rebuild_queue[s.rebuild_cursor++];
     if (r >= s.node_seen.size() || s.node_seen[r] != s.seen_stamp || nodes_[r].axis < 0) continue;
     done += rebuild_subtree(r);
@@ -750,6 +756,7 @@ void KdPartition::rebuild_step() {
     s.rebuilding = false;
     s.round_done = true;
     s.rebuild_queue.clear();
+    s.rebuild_sizes.clear();
     compact_nodes();
   }
   number_leaves();
