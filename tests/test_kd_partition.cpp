@@ -529,7 +529,7 @@ TEST(KdPartitionSampledBuild, RebuildMidRunMatchesTheOracleEveryFrame) {
   EXPECT_LE(rebuilds, 3);
 }
 
-// The spread rebuild: a small budget (1,024 entries a frame, cell limit 64)
+// The spread rebuild: a small budget (at most 1,024 entries a frame, cell limit 64)
 // cuts the rebuild triggered by the growth at frame 2 into subtrees rebuilt
 // over many frames while the objects keep moving. Every frame: exact cells,
 // the oracle's pairs from them, the same cells on one thread or two, no
@@ -557,7 +557,7 @@ TEST(KdPartitionSpreadRebuild, SubtreesRebuiltOverFramesMatchTheOracleEveryFrame
   EXPECT_EQ(two.rebuild_budget(), 1024u);
   int rebuilding_frames = 0, last_rebuild = -1;
   double grown_duplication = 0;
-  for (int f = 0; f < 22; ++f) {
+  for (int f = 0; f < 30; ++f) {
     const BoxArray boxes = frame(f);
     const std::string where = "frame " + std::to_string(f);
     tbb::task_arena(1).execute([&] { one.update(boxes); });
@@ -592,7 +592,7 @@ TEST(KdPartitionSpreadRebuild, SubtreesRebuiltOverFramesMatchTheOracleEveryFrame
     }
   }
   EXPECT_GE(rebuilding_frames, 3);  // spread, not at once
-  EXPECT_LT(last_rebuild, 21);      // and over
+  EXPECT_LT(last_rebuild, 29);      // and over (about 16 shares)
   EXPECT_LT(two.stats().duplication, grown_duplication);
 }
 

@@ -45,6 +45,11 @@ constexpr std::size_t kCellGrowth = 2;
 constexpr std::size_t kCellSlack = 8;
 constexpr std::size_t kDeadNodeFactor = 2;
 constexpr std::size_t kDeadNodeSlack = 64;
+// A spread rebuild is cut into about this many frames' shares: a frame
+// rebuilds at most the entries / kRebuildFrames (at least two full cells,
+// at most rebuild_budget()), so a small world's rebuild frame costs as
+// little against its steady frame as a large world's.
+constexpr std::uint64_t kRebuildFrames = 16;
 // Sibling leaves merge (without a cell cost) when together they hold at most
 // the cell limit divided by this.
 constexpr std::uint32_t kMergeFraction = 4;
@@ -184,6 +189,7 @@ struct KdPartition::State {
   bool round_done = false;                     // the spread rebuild finished this frame
   std::vector<std::uint32_t> rebuild_queue;
   std::vector<std::uint64_t> rebuild_sizes;    // their entries when planned
+  std::uint64_t rebuild_share = 0;             // entries a frame (and the largest subtree)
   std::size_t rebuild_cursor = 0;
   std::vector<std::uint32_t> node_seen;        // node -> number_leaves' stamp when it was last reachable
   std::vector<std::uint32_t> node_depth;       // node -> depth (reachable nodes)
@@ -706,15 +712,17 @@ std::uint64_t subtree_entries(const std::vector<KdTreeNode>& nodes, std::uint32_
 
 void KdPartition::plan_rebuild() {
   // The subtrees of the spread rebuild: the highest inner nodes holding at
-  // most the budget's entries (or two full cells, for a cell limit above the
-  // budget), left to right. Their planes are rebuilt; the planes above them
+  // most a frame's share of entries (kRebuildFrames, the budget; two full
+  // cells at least), left to right. Their planes are rebuilt; the planes above them
   // (a few levels at most: the paper scene's 1.1 M entries make about 32
   // subtrees of 65,536 or fewer, five levels) are kept. A leaf above the
   // subtrees stays as it is (the maintenance splits it when over-full).
   State& s = *state_;
   std::vector<std::uint64_t> sizes(nodes_.size(), 0);
-  subtree_entries(nodes_, 0, sizes);  // recursion depth <= kMaxDepth
-  const std::uint64_t task = std::max<std::uint64_t>(rebuild_budget_, 2ull * cell_limit_);
+  const std::uint64_t total = subtree_entries(nodes_, 0, sizes);  // recursion depth <= kMaxDepth
+  const std::uint64_t task = std::max<std::uint64_t>(
+      std::min<std::uint64_t>(rebuild_budget_, total / kRebuildFrames), 2ull * cell_limit_);
+  s.rebuild_share = task;
   s.rebuild_queue.clear();
   s.rebuild_sizes.clear();
   s.rebuild_cursor = 0;
@@ -737,14 +745,14 @@ void KdPartition::plan_rebuild() {
 
 void KdPartition::rebuild_step() {
   // This frame's share: queued subtrees while their entries (as planned)
-  // fit the budget (at least one). A queued node no longer reachable (merged away)
+  // fit the share (at least one). A queued node no longer reachable (merged away)
   // or now a leaf is skipped. After the last one the node array is
   // compacted (every rebuilt subtree left its old nodes behind).
   State& s = *state_;
   std::uint64_t done = 0;
   std::uint64_t planned = 0;
   while (s.rebuild_cursor < s.rebuild_queue.size() &&
-         (planned == 0 || planned + s.rebuild_sizes[s.rebuild_cursor] <= rebuild_budget_)) {
+         (planned == 0 || planned + s.rebuild_sizes[s.rebuild_cursor] <= s.rebuild_share)) {
     planned += s.rebuild_sizes[s.rebuild_cursor];
     const std::uint32_t r = s.rebuild_queue[s.rebuild_cursor++];
     if (r >= s.node_seen.size() || s.node_seen[r] != s.seen_stamp || nodes_[r].axis < 0) continue;
