@@ -174,7 +174,8 @@ class KdPartition {
   bool degraded() const;
   void plan_rebuild();
   void rebuild_step();
-  std::uint64_t rebuild_subtree(std::uint32_t root);
+  void build_subtree(std::uint32_t k);
+  std::uint64_t splice_subtree(std::uint32_t k);
   void compact_nodes();
 
   std::uint32_t cell_limit_;

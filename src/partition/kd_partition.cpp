@@ -194,8 +194,14 @@ struct KdPartition::State {
   std::vector<std::uint32_t> node_seen;        // node -> number_leaves' stamp when it was last reachable
   std::vector<std::uint32_t> node_depth;       // node -> depth (reachable nodes)
   std::uint32_t seen_stamp = 0;
-  std::vector<std::uint8_t> in_subtree;        // rebuild_subtree: the old subtree's nodes
-  std::vector<CellEntry> gathered;             // rebuild_subtree: the subtree's objects, once each
+  std::vector<std::uint32_t> batch;            // this frame's subtree roots, in queue order
+  std::vector<std::uint32_t> node_task;        // old node -> its batch index (kNoHome: none)
+  struct SubtreeTask {
+    std::vector<CellEntry> gathered;           // the subtree's objects, once each
+    kd::SubtreeBuilder builder;
+    kd::BuildScratch scratch;
+  };
+  std::vector<SubtreeTask> subtree_tasks;
   double rebuild_duplication = 0;
   std::size_t rebuild_cells = 0;
 };
@@ -720,9 +726,11 @@ void KdPartition::plan_rebuild() {
   State& s = *state_;
   std::vector<std::uint64_t> sizes(nodes_.size(), 0);
   const std::uint64_t total = subtree_entries(nodes_, 0, sizes);  // recursion depth <= kMaxDepth
-  const std::uint64_t task = std::max<std::uint64_t>(
-      std::min<std::uint64_t>(rebuild_budget_, total / kRebuildFrames), 2ull * cell_limit_);
-  s.rebuild_share = task;
+  const std::uint64_t share = std::min<std::uint64_t>(rebuild_budget_, total / kRebuildFrames);
+  // Subtrees of half a share: a frame's share is usually two or more of
+  // them, built in parallel.
+  const std::uint64_t task = std::max<std::uint64_t>(share / 2, 2ull * cell_limit_);
+  s.rebuild_share = std::max(share, task);
   s.rebuild_queue.clear();
   s.rebuild_sizes.clear();
   s.rebuild_cursor = 0;
@@ -745,21 +753,48 @@ void KdPartition::plan_rebuild() {
 
 void KdPartition::rebuild_step() {
   // This frame's share: queued subtrees while their entries (as planned)
-  // fit the share (at least one). A queued node no longer reachable (merged away)
-  // or now a leaf is skipped. After the last one the node array is
-  // compacted (every rebuilt subtree left its old nodes behind).
+  // fit the share (at least one). A queued node no longer reachable (merged
+  // away) or now a leaf is skipped. The subtrees are built in parallel, each
+  // by itself (gather, sort, serial build: the same result on any thread),
+  // then spliced into the tree one after the other in queue order. After
+  // the last one the node array is compacted (every rebuilt subtree left its
+  // old nodes behind).
   State& s = *state_;
-  std::uint64_t done = 0;
   std::uint64_t planned = 0;
+  s.batch.clear();
   while (s.rebuild_cursor < s.rebuild_queue.size() &&
          (planned == 0 || planned + s.rebuild_sizes[s.rebuild_cursor] <= s.rebuild_share)) {
     planned += s.rebuild_sizes[s.rebuild_cursor];
     const std::uint32_t r = s.rebuild_queue[s.rebuild_cursor++];
     if (r >= s.node_seen.size() || s.node_seen[r] != s.seen_stamp || nodes_[r].axis < 0) continue;
-    done += rebuild_subtree(r);
-    ++stats_.rebuilt_subtrees;
+    s.batch.push_back(r);
   }
-  stats_.rebuilt_entries = done;
+  if (!s.batch.empty()) {
+    // Which old node belongs to which subtree (homes in it are renewed).
+    s.node_task.assign(nodes_.size(), kNoHome);
+    std::vector<std::uint32_t> stack;
+    for (std::uint32_t k = 0; k < s.batch.size(); ++k) {
+      stack.assign(1, s.batch[k]);
+      while (!stack.empty()) {
+        const std::uint32_t i = stack.back();
+        stack.pop_back();
+        s.node_task[i] = k;
+        if (nodes_[i].axis >= 0) {
+          stack.push_back(nodes_[i].child + 1);
+          stack.push_back(nodes_[i].child);
+        }
+      }
+    }
+    if (s.subtree_tasks.size() < s.batch.size()) s.subtree_tasks.resize(s.batch.size());
+    const auto count = static_cast<std::uint32_t>(s.batch.size());
+    auto build = [&](std::uint32_t k) { build_subtree(k); };
+    if (count == 1) build(0);
+    else tbb::parallel_for(std::uint32_t{0}, count, build);
+    std::uint64_t done = 0;
+    for (std::uint32_t k = 0; k < count; ++k) done += splice_subtree(k);
+    stats_.rebuilt_subtrees = count;
+    stats_.rebuilt_entries = done;
+  }
   if (s.rebuild_cursor == s.rebuild_queue.size()) {
     s.rebuilding = false;
     s.round_done = true;
@@ -770,54 +805,62 @@ void KdPartition::rebuild_step() {
   number_leaves();
 }
 
-std::uint64_t KdPartition::rebuild_subtree(std::uint32_t root) {
-  // The subtree's objects, once each, in (min x, id) order (each leaf is in
+void KdPartition::build_subtree(std::uint32_t k) {
+  // Subtree k's objects, once each, in (min x, id) order (each leaf is in
   // that order; an object in several of its leaves has the same entry in
-  // each), built into a new subtree appended like a split leaf's. Objects
-  // homed in the old subtree get their home in the new one; every object in
-  // it descends on the next frame (margin 0: new planes) from a previous box
-  // equal to the one its current cells were made from.
+  // each), built by a serial SubtreeBuilder. Reads the tree, writes only
+  // task k's buffers.
   State& s = *state_;
-  s.in_subtree.assign(nodes_.size(), 0);
-  s.gathered.clear();
-  std::vector<std::uint32_t> stack{root};
-  while (!stack.empty()) {
-    const std::uint32_t i = stack.back();
-    stack.pop_back();
-    s.in_subtree[i] = 1;
-    const KdTreeNode& nd = nodes_[i];
+  State::SubtreeTask& t = s.subtree_tasks[k];
+  const std::uint32_t root = s.batch[k];
+  t.gathered.clear();
+  std::array<std::uint32_t, 2 * kMaxDepth + 2> stack;  // a DFS holds at most one sibling per level
+  std::uint32_t top = 0;
+  stack[top++] = root;
+  while (top > 0) {
+    const KdTreeNode& nd = nodes_[stack[--top]];
     if (nd.axis < 0) {
       const CellEntry* e = s.entries.data() + nd.first;
-      s.gathered.insert(s.gathered.end(), e, e + nd.size);
+      t.gathered.insert(t.gathered.end(), e, e + nd.size);
     } else {
-      stack.push_back(nd.child + 1);
-      stack.push_back(nd.child);
+      stack[top++] = nd.child + 1;
+      stack[top++] = nd.child;
     }
   }
-  std::sort(s.gathered.begin(), s.gathered.end(), kd::entry_less);
-  s.gathered.erase(std::unique(s.gathered.begin(), s.gathered.end(),
+  std::sort(t.gathered.begin(), t.gathered.end(), kd::entry_less);
+  t.gathered.erase(std::unique(t.gathered.begin(), t.gathered.end(),
                                [](const CellEntry& a, const CellEntry& b) { return a.id == b.id; }),
-                   s.gathered.end());
+                   t.gathered.end());
+  if (t.gathered.capacity() > 2 * t.gathered.size() + 4096) t.gathered.shrink_to_fit();
   const kd::SplitRule rule{cell_limit_, x_split_weight_, &cell_cost_};
-  kd::SubtreeBuilder& b = s.splitter;
-  b.build(s.gathered.data(), static_cast<std::uint32_t>(s.gathered.size()), s.node_depth[root], rule, true,
-          s.split_scratch);
+  t.builder.build(t.gathered.data(), static_cast<std::uint32_t>(t.gathered.size()), s.node_depth[root], rule, true,
+                  t.scratch);
+}
+
+std::uint64_t KdPartition::splice_subtree(std::uint32_t k) {
+  // Subtree k, built, replaces the old one (appended like a split leaf's).
+  // Objects homed in the old subtree get their home in the new one; every
+  // object in it descends on the next frame (margin 0: new planes) from a
+  // previous box equal to the one its current cells were made from.
+  State& s = *state_;
+  const std::uint32_t root = s.batch[k];
+  kd::SubtreeBuilder& b = s.subtree_tasks[k].builder;
   if (nodes_.size() + b.nodes.size() > kd::kMaxNodes) throw CapacityExceeded("k-d partition: too many tree nodes");
   const auto base = static_cast<std::uint32_t>(nodes_.size());
   const auto entry_base = static_cast<std::uint32_t>(s.entries.size());
-  const std::size_t old_nodes = s.in_subtree.size();
-  for (std::size_t k = 0; k < b.nodes.size(); ++k) {
-    KdTreeNode nd = b.nodes[k];
+  const std::size_t old_nodes = s.node_task.size();
+  for (std::size_t j = 0; j < b.nodes.size(); ++j) {
+    KdTreeNode nd = b.nodes[j];
     if (nd.axis >= 0) {
       nd.child = base + nd.child - 1;
     } else {
-      const std::uint32_t global = k == 0 ? root : base + static_cast<std::uint32_t>(k) - 1;
+      const std::uint32_t global = j == 0 ? root : base + static_cast<std::uint32_t>(j) - 1;
       for (std::uint32_t i = nd.first; i < nd.first + nd.size; ++i) {
         CellEntry& e = b.entries[i];
         s.margin[e.id] = 0;
         s.prev[e.id] = {{e.min[0], e.min[1], e.min[2]}, {e.max[0], e.max[1], e.max[2]}};
         const std::uint32_t h = s.home[e.id];
-        if (!(e.build_tag & kd::kNotOwner) && h < old_nodes && s.in_subtree[h]) {
+        if (!(e.build_tag & kd::kNotOwner) && h < old_nodes && s.node_task[h] == k) {
           const bool forked = (e.build_tag & kd::kForkMask) != kd::kNoFork;
           s.home[e.id] = forked ? kd::fork_node(e.build_tag, root, base) : global;
         }
@@ -825,7 +868,7 @@ std::uint64_t KdPartition::rebuild_subtree(std::uint32_t root) {
       }
       nd.first += entry_base;
     }
-    if (k == 0) nodes_[root] = nd;
+    if (j == 0) nodes_[root] = nd;
     else nodes_.push_back(nd);
   }
   s.entries.append(b.entries.data(), b.entries.size());
