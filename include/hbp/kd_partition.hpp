@@ -13,9 +13,10 @@
 // process it in tiles.
 //
 // Rebuilds triggered by quality loss (see degraded() in kd_partition.cpp) do
-// not stall a frame: the tree is cut into subtrees of at most
-// rebuild_budget() entries and one frame rebuilds subtrees until it has
-// rebuilt that many entries, each from its own current members (a subtree
+// not stall a frame: the tree is cut into subtrees of at most half a
+// frame's share of entries (a sixteenth of the tree's entries, at most
+// rebuild_budget()) and each following frame rebuilds a share's worth, in
+// parallel, each subtree from its own current members (a subtree
 // rebuilt from the objects in its leaves replaces the old one at the frame
 // boundary: the planes above it and every other cell stay valid; the planes
 // above the subtrees are not re-chosen). Only the

@@ -720,8 +720,8 @@ void KdPartition::plan_rebuild() {
   // The subtrees of the spread rebuild: the highest inner nodes holding at
   // most a frame's share of entries (kRebuildFrames, the budget; two full
   // cells at least), left to right. Their planes are rebuilt; the planes above them
-  // (a few levels at most: the paper scene's 1.1 M entries make about 32
-  // subtrees of 65,536 or fewer, five levels) are kept. A leaf above the
+  // (a few levels: the paper scene's 1.3 M entries make subtrees of at most
+  // 16,384, six or seven levels down) are kept. A leaf above the
   // subtrees stays as it is (the maintenance splits it when over-full).
   State& s = *state_;
   std::vector<std::uint64_t> sizes(nodes_.size(), 0);
