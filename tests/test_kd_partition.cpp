@@ -483,7 +483,8 @@ TEST(KdPartitionSampledBuild, AdversarialScenesGiveExactCellsOnOneOrTwoThreads) 
 }
 
 // A rebuild mid-run (the boxes grow in y and z at frame 3: the duplication passes the
-// rebuild rule, the next frame rebuilds from a sample) and slow motion after
+// rebuild rule, the next frames rebuild the tree's subtrees, at most the
+// default budget's entries a frame) and slow motion after
 // it (objects in several cells keep them while they move less than the margin
 // the build gave them): every frame the oracle's pairs, the same order on
 // one thread or two, and exact cells.
@@ -514,12 +515,85 @@ TEST(KdPartitionSampledBuild, RebuildMidRunMatchesTheOracleEveryFrame) {
     const std::vector<Pair> a = one.update(boxes);
     const std::vector<Pair>& b = two.update(boxes);
     ASSERT_TRUE(a == b) << where;
-    if (f > 0) rebuilds += two.stats().rebuilt;
+    if (f > 0) {
+      rebuilds += p.stats().rebuilt_subtrees > 0;
+      EXPECT_FALSE(p.stats().rebuilt) << where;  // never from scratch after the first frame
+    }
     std::vector<Pair> sorted = a;
     hbp::canonicalize(sorted);
     ASSERT_EQ(sorted, sweep_oracle(boxes)) << where;
   }
-  EXPECT_EQ(rebuilds, 1);  // the frame after the growth, and only it
+  // The frames after the growth: about 45,000 entries, a few subtrees of at
+  // most the default budget's 32,768, at most one budget a frame.
+  EXPECT_GE(rebuilds, 2);
+  EXPECT_LE(rebuilds, 3);
+}
+
+// The spread rebuild: a small budget (at most 1,024 entries a frame, cell limit 64)
+// cuts the rebuild triggered by the growth at frame 2 into subtrees rebuilt
+// over many frames while the objects keep moving. Every frame: exact cells,
+// the oracle's pairs from them, the same cells on one thread or two, no
+// frame rebuilding more than one subtree past the budget; the round ends
+// and brings the duplication back down.
+TEST(KdPartitionSpreadRebuild, SubtreesRebuiltOverFramesMatchTheOracleEveryFrame) {
+  const std::uint32_t n = 6000;
+  const BoxArray base = sampled_build_scene(0, n);
+  auto frame = [&](int f) {
+    BoxArray b;
+    b.reserve(n);
+    const float grow = f >= 2 ? 50.0f : 0.0f;
+    for (std::uint32_t i = 0; i < n; ++i) {
+      Aabb a = base.get(i);
+      const float d = 0.7f * static_cast<float>(f) * (i % 3 == 0 ? 1.0f : -0.5f);
+      for (int k = 0; k < 3; ++k) a.min[k] += d, a.max[k] += d + (k > 0 ? grow : 0.0f);
+      b.push_back(a);
+    }
+    return b;
+  };
+  KdPartition one(64, 0.5f), two(64, 0.5f);
+  EXPECT_THROW(one.set_rebuild_budget(1), hbp::InvalidInput);
+  one.set_rebuild_budget(1024);
+  two.set_rebuild_budget(1024);
+  EXPECT_EQ(two.rebuild_budget(), 1024u);
+  int rebuilding_frames = 0, last_rebuild = -1;
+  double grown_duplication = 0;
+  for (int f = 0; f < 30; ++f) {
+    const BoxArray boxes = frame(f);
+    const std::string where = "frame " + std::to_string(f);
+    tbb::task_arena(1).execute([&] { one.update(boxes); });
+    tbb::task_arena(2).execute([&] { two.update(boxes); });
+    expect_valid_cells(two, boxes, where);
+    ASSERT_EQ(one.cell_count(), two.cell_count()) << where;
+    for (std::uint32_t c = 0; c < two.cell_count(); ++c) {
+      const auto a = one.cell(c), b = two.cell(c);
+      ASSERT_EQ(a.size(), b.size()) << where << " cell " << c;
+      for (std::size_t k = 0; k < a.size(); ++k) ASSERT_EQ(a[k].id, b[k].id) << where << " cell " << c;
+    }
+    std::vector<Pair> pairs;
+    for (std::uint32_t c = 0; c < two.cell_count(); ++c) {
+      const auto cell = two.cell(c);
+      for (std::size_t i = 0; i < cell.size(); ++i)
+        for (std::size_t j = i + 1; j < cell.size(); ++j)
+          if (hbp::overlaps(boxes.get(cell[i].id), boxes.get(cell[j].id)))
+            pairs.push_back(hbp::make_pair(cell[i].id, cell[j].id));
+    }
+    std::sort(pairs.begin(), pairs.end());
+    pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+    ASSERT_EQ(pairs, sweep_oracle(boxes)) << where;
+    const hbp::PartitionStats& st = two.stats();
+    EXPECT_EQ(st.rebuilt, f == 0) << where;
+    ASSERT_EQ(one.stats().rebuilt_subtrees, st.rebuilt_subtrees) << where;
+    if (f == 2) grown_duplication = st.duplication;
+    if (st.rebuilt_subtrees > 0) {
+      EXPECT_GE(f, 3) << where;  // decided at the end of the growth frame, done after it
+      ++rebuilding_frames;
+      last_rebuild = f;
+      EXPECT_LE(st.rebuilt_entries, 2u * 1024u) << where;  // under the budget, then one subtree of at most the budget
+    }
+  }
+  EXPECT_GE(rebuilding_frames, 3);  // spread, not at once
+  EXPECT_LT(last_rebuild, 29);      // and over (about 16 shares)
+  EXPECT_LT(two.stats().duplication, grown_duplication);
 }
 
 // A cell limit above the subtree task size: the sampled top levels must not

@@ -12,6 +12,16 @@
 // does (identical or nested boxes), the leaf stays over-full and the engines
 // process it in tiles.
 //
+// Rebuilds triggered by quality loss (see degraded() in kd_partition.cpp) do
+// not stall a frame: the tree is cut into subtrees of at most half a
+// frame's share of entries (a sixteenth of the tree's entries, at most
+// rebuild_budget()) and each following frame rebuilds a share's worth, in
+// parallel, each subtree from its own current members (a subtree
+// rebuilt from the objects in its leaves replaces the old one at the frame
+// boundary: the planes above it and every other cell stay valid; the planes
+// above the subtrees are not re-chosen). Only the
+// first frame (and the one after reset()) builds the whole tree at once.
+//
 // Routing uses half-open cell regions: a box goes left when min < split and
 // right when max >= split.
 #include <cstddef>
@@ -34,6 +44,8 @@ struct PartitionStats {
   std::uint32_t depth = 0;
   double duplication = 1.0;  // entries / objects
   bool rebuilt = false;      // full rebuild this frame
+  std::uint32_t rebuilt_subtrees = 0;  // subtrees rebuilt this frame (a spread rebuild)
+  std::uint64_t rebuilt_entries = 0;   // their entries
   std::uint32_t splits = 0, merges = 0;
 };
 
@@ -104,6 +116,13 @@ class KdPartition {
   // Drops the tree; the next update builds from scratch.
   void reset();
 
+  // The most entries a frame of a spread rebuild rebuilds (and the largest
+  // subtree it cuts; a frame's share is otherwise a sixteenth of the tree's
+  // entries, at least two full cells): 32,768 by default, about +5 ms of
+  // partition on two threads at 1,024,000 paper objects. At least 2.
+  void set_rebuild_budget(std::uint32_t entries);
+  std::uint32_t rebuild_budget() const { return rebuild_budget_; }
+
   std::uint32_t cell_limit() const { return cell_limit_; }
   float x_split_weight() const { return x_split_weight_; }
   std::uint32_t cell_count() const { return static_cast<std::uint32_t>(regions_.size()); }
@@ -137,6 +156,7 @@ class KdPartition {
   // that is still over-full stays so and is processed in tiles; every
   // traversal is safe up to it.
   static constexpr std::uint32_t kMaxDepth = 64;
+  static constexpr std::uint32_t kDefaultRebuildBudget = 1u << 15;
 
  private:
   struct State;  // maintenance state (kd_partition.cpp)
@@ -153,8 +173,14 @@ class KdPartition {
   bool split_oversized();
   void compute_stats(std::size_t objects);
   bool degraded() const;
+  void plan_rebuild();
+  void rebuild_step();
+  void build_subtree(std::uint32_t k);
+  std::uint64_t splice_subtree(std::uint32_t k);
+  void compact_nodes();
 
   std::uint32_t cell_limit_;
+  std::uint32_t rebuild_budget_ = kDefaultRebuildBudget;
   float x_split_weight_;
   CellCost cell_cost_;
   std::vector<KdTreeNode> nodes_;

@@ -32,7 +32,8 @@ using kd::StoredBox;
 // 100,000, 15.6-15.8 -> 15.1 ms at 1,024,000 (two threads, A/B).
 constexpr std::uint32_t kChunkObjects = 1u << 12;
 
-// The rebuild rule: the tree is rebuilt (on the next frame) when the frame's
+// The rebuild rule: the tree is rebuilt (spread over the next frames, see
+// rebuild_step) when the frame's
 // duplication ratio exceeds kDuplicationGrowth times its value after the last
 // rebuild plus kDuplicationSlack, when the cell count exceeds kCellGrowth
 // times its value then plus kCellSlack, or when merged-away nodes make the
@@ -44,6 +45,11 @@ constexpr std::size_t kCellGrowth = 2;
 constexpr std::size_t kCellSlack = 8;
 constexpr std::size_t kDeadNodeFactor = 2;
 constexpr std::size_t kDeadNodeSlack = 64;
+// A spread rebuild is cut into about this many frames' shares: a frame
+// rebuilds at most the entries / kRebuildFrames (at least two full cells,
+// at most rebuild_budget()), so a small world's rebuild frame costs as
+// little against its steady frame as a large world's.
+constexpr std::uint64_t kRebuildFrames = 16;
 // Sibling leaves merge (without a cell cost) when together they hold at most
 // the cell limit divided by this.
 constexpr std::uint32_t kMergeFraction = 4;
@@ -178,7 +184,24 @@ struct KdPartition::State {
   kd::SubtreeBuilder splitter;
   kd::BuildScratch split_scratch;
   kd::BuildBuffers build;
-  bool rebuild_next = false;
+  // The spread rebuild: subtree roots still to rebuild, in tree order.
+  bool rebuilding = false;
+  bool round_done = false;                     // the spread rebuild finished this frame
+  std::vector<std::uint32_t> rebuild_queue;
+  std::vector<std::uint64_t> rebuild_sizes;    // their entries when planned
+  std::uint64_t rebuild_share = 0;             // entries a frame (and the largest subtree)
+  std::size_t rebuild_cursor = 0;
+  std::vector<std::uint32_t> node_seen;        // node -> number_leaves' stamp when it was last reachable
+  std::vector<std::uint32_t> node_depth;       // node -> depth (reachable nodes)
+  std::uint32_t seen_stamp = 0;
+  std::vector<std::uint32_t> batch;            // this frame's subtree roots, in queue order
+  std::vector<std::uint32_t> node_task;        // old node -> its batch index (kNoHome: none)
+  struct SubtreeTask {
+    std::vector<CellEntry> gathered;           // the subtree's objects, once each
+    kd::SubtreeBuilder builder;
+    kd::BuildScratch scratch;
+  };
+  std::vector<SubtreeTask> subtree_tasks;
   double rebuild_duplication = 0;
   std::size_t rebuild_cells = 0;
 };
@@ -196,8 +219,15 @@ KdPartition::~KdPartition() = default;
 KdPartition::KdPartition(KdPartition&&) noexcept = default;
 KdPartition& KdPartition::operator=(KdPartition&&) noexcept = default;
 
+void KdPartition::set_rebuild_budget(std::uint32_t entries) {
+  if (entries < 2) throw InvalidInput("rebuild budget must be >= 2 entries (got " + std::to_string(entries) + ")");
+  rebuild_budget_ = entries;
+}
+
 void KdPartition::reset() {
   nodes_.clear();
+  state_->rebuilding = false;
+  state_->rebuild_queue.clear();
   state_->deferred = false;
   state_->split_pending = false;
 }
@@ -216,8 +246,10 @@ bool KdPartition::begin_update(const BoxArray& boxes, bool allow_oversized) {
   stats_.rebuilt = false;
   stats_.merges = 0;
   stats_.splits = 0;
+  stats_.rebuilt_subtrees = 0;
+  stats_.rebuilt_entries = 0;
   s.frame_objects = static_cast<std::uint32_t>(boxes.size());
-  if (nodes_.empty() || s.rebuild_next) {
+  if (nodes_.empty()) {
     rebuild(boxes);
     end_frame();
     return false;
@@ -254,15 +286,14 @@ void KdPartition::finish_update() {
 void KdPartition::end_frame() {
   compute_stats(state_->frame_objects);
   State& s = *state_;
-  if (stats_.rebuilt) {
+  if (stats_.rebuilt || s.round_done) {
     s.rebuild_duplication = stats_.duplication;
     s.rebuild_cells = leaf_nodes_.size();
-    s.rebuild_next = false;
-    s.split_pending = false;
-  } else {
-    // Decided now, done at the start of the next frame: no frame pays for
-    // both maintenance and a rebuild.
-    s.rebuild_next = degraded();
+    if (stats_.rebuilt) s.split_pending = false;
+    s.round_done = false;
+  } else if (!s.rebuilding && degraded()) {
+    // Decided now, done over the next frames (rebuild_step).
+    plan_rebuild();
   }
 }
 
@@ -280,6 +311,8 @@ void KdPartition::rebuild(const BoxArray& boxes) {
   s.build.a = &s.next_entries;
   s.build.b = &s.latest;
   kd::build_tree(boxes, rule, s.build, nodes_, s.entries, s.home.data(), s.prev.data());
+  s.rebuilding = false;
+  s.rebuild_queue.clear();
   if (nodes_.capacity() > 2 * nodes_.size() + 4096) nodes_.shrink_to_fit();  // a past peak of splits
   entries_ = s.entries.data();
   number_leaves();
@@ -295,6 +328,9 @@ void KdPartition::maintain(const BoxArray& boxes) {
     s.split_pending = false;
     if (split_oversized()) number_leaves();
   }
+  // A spread rebuild's share of this frame, over last frame's cells (before
+  // objects are appended or removed: every id in a cell has a home).
+  if (s.rebuilding) rebuild_step();
   if (n != s.objects) {  // objects appended (no home yet) or removed at the end
     s.home.resize(n);
     s.prev.resize(n);
@@ -370,6 +406,9 @@ void KdPartition::number_leaves() {
   regions_.clear();
   s.leaf_depth.clear();
   s.node_regions.resize(nodes_.size());
+  s.node_seen.resize(nodes_.size());
+  s.node_depth.resize(nodes_.size());
+  ++s.seen_stamp;
   s.live_nodes = 0;
   struct Item {
     std::uint32_t node;
@@ -386,6 +425,8 @@ void KdPartition::number_leaves() {
     ++s.live_nodes;
     stats_.depth = std::max(stats_.depth, it.depth);
     s.node_regions[it.node] = it.region;
+    s.node_seen[it.node] = s.seen_stamp;
+    s.node_depth[it.node] = it.depth;
     if (nd.axis < 0) {
       nd.leaf = static_cast<std::uint32_t>(leaf_nodes_.size());
       leaf_nodes_.push_back(it.node);
@@ -663,6 +704,201 @@ bool KdPartition::degraded() const {
   return stats_.duplication > kDuplicationGrowth * s.rebuild_duplication + kDuplicationSlack ||
          leaf_nodes_.size() > kCellGrowth * s.rebuild_cells + kCellSlack ||
          nodes_.size() > kDeadNodeFactor * s.live_nodes + kDeadNodeSlack;
+}
+
+namespace {
+// Entries in the leaves under node i (sizes[k] for every node k under it).
+std::uint64_t subtree_entries(const std::vector<KdTreeNode>& nodes, std::uint32_t i, std::vector<std::uint64_t>& sizes) {
+  const KdTreeNode& nd = nodes[i];
+  sizes[i] = nd.axis < 0 ? nd.size
+                         : subtree_entries(nodes, nd.child, sizes) + subtree_entries(nodes, nd.child + 1, sizes);
+  return sizes[i];
+}
+}  // namespace
+
+void KdPartition::plan_rebuild() {
+  // The subtrees of the spread rebuild: the highest inner nodes holding at
+  // most a frame's share of entries (kRebuildFrames, the budget; two full
+  // cells at least), left to right. Their planes are rebuilt; the planes above them
+  // (a few levels: the paper scene's 1.3 M entries make subtrees of at most
+  // 16,384, six or seven levels down) are kept. A leaf above the
+  // subtrees stays as it is (the maintenance splits it when over-full).
+  State& s = *state_;
+  std::vector<std::uint64_t> sizes(nodes_.size(), 0);
+  const std::uint64_t total = subtree_entries(nodes_, 0, sizes);  // recursion depth <= kMaxDepth
+  const std::uint64_t share = std::min<std::uint64_t>(rebuild_budget_, total / kRebuildFrames);
+  // Subtrees of half a share: a frame's share is usually two or more of
+  // them, built in parallel.
+  const std::uint64_t task = std::max<std::uint64_t>(share / 2, 2ull * cell_limit_);
+  s.rebuild_share = std::max(share, task);
+  s.rebuild_queue.clear();
+  s.rebuild_sizes.clear();
+  s.rebuild_cursor = 0;
+  std::vector<std::uint32_t> stack{0};
+  while (!stack.empty()) {
+    const std::uint32_t i = stack.back();
+    stack.pop_back();
+    const KdTreeNode& nd = nodes_[i];
+    if (nd.axis < 0) continue;
+    if (sizes[i] <= task) {
+      s.rebuild_queue.push_back(i);
+      s.rebuild_sizes.push_back(sizes[i]);
+      continue;
+    }
+    stack.push_back(nd.child + 1);
+    stack.push_back(nd.child);
+  }
+  s.rebuilding = true;
+}
+
+void KdPartition::rebuild_step() {
+  // This frame's share: queued subtrees while their entries (as planned)
+  // fit the share (at least one). A queued node no longer reachable (merged
+  // away) or now a leaf is skipped. The subtrees are built in parallel, each
+  // by itself (gather, sort, serial build: the same result on any thread),
+  // then spliced into the tree one after the other in queue order. After
+  // the last one the node array is compacted (every rebuilt subtree left its
+  // old nodes behind).
+  State& s = *state_;
+  std::uint64_t planned = 0;
+  s.batch.clear();
+  while (s.rebuild_cursor < s.rebuild_queue.size() &&
+         (planned == 0 || planned + s.rebuild_sizes[s.rebuild_cursor] <= s.rebuild_share)) {
+    planned += s.rebuild_sizes[s.rebuild_cursor];
+    const std::uint32_t r = s.rebuild_queue[s.rebuild_cursor++];
+    if (r >= s.node_seen.size() || s.node_seen[r] != s.seen_stamp || nodes_[r].axis < 0) continue;
+    s.batch.push_back(r);
+  }
+  if (!s.batch.empty()) {
+    // Which old node belongs to which subtree (homes in it are renewed).
+    s.node_task.assign(nodes_.size(), kNoHome);
+    std::vector<std::uint32_t> stack;
+    for (std::uint32_t k = 0; k < s.batch.size(); ++k) {
+      stack.assign(1, s.batch[k]);
+      while (!stack.empty()) {
+        const std::uint32_t i = stack.back();
+        stack.pop_back();
+        s.node_task[i] = k;
+        if (nodes_[i].axis >= 0) {
+          stack.push_back(nodes_[i].child + 1);
+          stack.push_back(nodes_[i].child);
+        }
+      }
+    }
+    if (s.subtree_tasks.size() < s.batch.size()) s.subtree_tasks.resize(s.batch.size());
+    const auto count = static_cast<std::uint32_t>(s.batch.size());
+    auto build = [&](std::uint32_t k) { build_subtree(k); };
+    if (count == 1) build(0);
+    else tbb::parallel_for(std::uint32_t{0}, count, build);
+    std::uint64_t done = 0;
+    for (std::uint32_t k = 0; k < count; ++k) done += splice_subtree(k);
+    stats_.rebuilt_subtrees = count;
+    stats_.rebuilt_entries = done;
+  }
+  if (s.rebuild_cursor == s.rebuild_queue.size()) {
+    s.rebuilding = false;
+    s.round_done = true;
+    s.rebuild_queue.clear();
+    s.rebuild_sizes.clear();
+    compact_nodes();
+  }
+  number_leaves();
+}
+
+void KdPartition::build_subtree(std::uint32_t k) {
+  // Subtree k's objects, once each, in (min x, id) order (each leaf is in
+  // that order; an object in several of its leaves has the same entry in
+  // each), built by a serial SubtreeBuilder. Reads the tree, writes only
+  // task k's buffers.
+  State& s = *state_;
+  State::SubtreeTask& t = s.subtree_tasks[k];
+  const std::uint32_t root = s.batch[k];
+  t.gathered.clear();
+  std::array<std::uint32_t, 2 * kMaxDepth + 2> stack;  // a DFS holds at most one sibling per level
+  std::uint32_t top = 0;
+  stack[top++] = root;
+  while (top > 0) {
+    const KdTreeNode& nd = nodes_[stack[--top]];
+    if (nd.axis < 0) {
+      const CellEntry* e = s.entries.data() + nd.first;
+      t.gathered.insert(t.gathered.end(), e, e + nd.size);
+    } else {
+      stack[top++] = nd.child + 1;
+      stack[top++] = nd.child;
+    }
+  }
+  std::sort(t.gathered.begin(), t.gathered.end(), kd::entry_less);
+  t.gathered.erase(std::unique(t.gathered.begin(), t.gathered.end(),
+                               [](const CellEntry& a, const CellEntry& b) { return a.id == b.id; }),
+                   t.gathered.end());
+  if (t.gathered.capacity() > 2 * t.gathered.size() + 4096) t.gathered.shrink_to_fit();
+  const kd::SplitRule rule{cell_limit_, x_split_weight_, &cell_cost_};
+  t.builder.build(t.gathered.data(), static_cast<std::uint32_t>(t.gathered.size()), s.node_depth[root], rule, true,
+                  t.scratch);
+}
+
+std::uint64_t KdPartition::splice_subtree(std::uint32_t k) {
+  // Subtree k, built, replaces the old one (appended like a split leaf's).
+  // Objects homed in the old subtree get their home in the new one; every
+  // object in it descends on the next frame (margin 0: new planes) from a
+  // previous box equal to the one its current cells were made from.
+  State& s = *state_;
+  const std::uint32_t root = s.batch[k];
+  kd::SubtreeBuilder& b = s.subtree_tasks[k].builder;
+  if (nodes_.size() + b.nodes.size() > kd::kMaxNodes) throw CapacityExceeded("k-d partition: too many tree nodes");
+  const auto base = static_cast<std::uint32_t>(nodes_.size());
+  const auto entry_base = static_cast<std::uint32_t>(s.entries.size());
+  const std::size_t old_nodes = s.node_task.size();
+  for (std::size_t j = 0; j < b.nodes.size(); ++j) {
+    KdTreeNode nd = b.nodes[j];
+    if (nd.axis >= 0) {
+      nd.child = base + nd.child - 1;
+    } else {
+      const std::uint32_t global = j == 0 ? root : base + static_cast<std::uint32_t>(j) - 1;
+      for (std::uint32_t i = nd.first; i < nd.first + nd.size; ++i) {
+        CellEntry& e = b.entries[i];
+        s.margin[e.id] = 0;
+        s.prev[e.id] = {{e.min[0], e.min[1], e.min[2]}, {e.max[0], e.max[1], e.max[2]}};
+        const std::uint32_t h = s.home[e.id];
+        if (!(e.build_tag & kd::kNotOwner) && h < old_nodes && s.node_task[h] == k) {
+          const bool forked = (e.build_tag & kd::kForkMask) != kd::kNoFork;
+          s.home[e.id] = forked ? kd::fork_node(e.build_tag, root, base) : global;
+        }
+        e.build_tag = 0;
+      }
+      nd.first += entry_base;
+    }
+    if (j == 0) nodes_[root] = nd;
+    else nodes_.push_back(nd);
+  }
+  s.entries.append(b.entries.data(), b.entries.size());
+  entries_ = s.entries.data();
+  return b.output_size();
+}
+
+void KdPartition::compact_nodes() {
+  // Reachable nodes only, breadth first (children stay adjacent), homes
+  // renumbered.
+  State& s = *state_;
+  std::vector<std::uint32_t> renumber(nodes_.size(), kNoHome);
+  std::vector<KdTreeNode> kept;
+  kept.reserve(s.live_nodes + 2);
+  kept.push_back(nodes_[0]);
+  renumber[0] = 0;
+  for (std::size_t i = 0; i < kept.size(); ++i) {
+    if (kept[i].axis < 0) continue;
+    const std::uint32_t c = kept[i].child;
+    const auto at = static_cast<std::uint32_t>(kept.size());
+    kept[i].child = at;
+    renumber[c] = at;
+    renumber[c + 1] = at + 1;
+    kept.push_back(nodes_[c]);
+    kept.push_back(nodes_[c + 1]);
+  }
+  std::uint32_t* home = s.home.data();
+  for (std::size_t i = 0; i < s.objects; ++i)
+    if (home[i] != kNoHome) home[i] = renumber[home[i]];
+  nodes_.swap(kept);
 }
 
 }  // namespace hbp
