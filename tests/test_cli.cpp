@@ -148,6 +148,20 @@ TEST_F(Cli, NothingToComputeIsAnError) {
   EXPECT_NE(pairs.output.find("0 1\n"), std::string::npos) << pairs.output;
 }
 
+// The keys outside programs read from `hbp run --json` (issue 14: first,
+// worst and p99 frame beside the median; the partition's maintenance,
+// spread rebuilds included). The first frame builds from scratch.
+TEST_F(Cli, RunJsonNamesFrameTimesAndMaintenance) {
+  const Result r = hbp({"run", "--n", "3000", "--frames", "3", "--threads", "2", "--json", "--quiet"});
+  ASSERT_EQ(r.status, 0) << r.output;
+  for (const char* key : {"\"first_wall_ms\"", "\"max_wall_ms\"", "\"p99_wall_ms\"", "\"median_wall_ms\"",
+                          "\"rebuilt\"", "\"rebuilt_subtrees\"", "\"rebuilt_entries\"", "\"splits\"",
+                          "\"merges\""})
+    EXPECT_NE(r.output.find(key), std::string::npos) << key << " missing from\n" << r.output;
+  EXPECT_NE(r.output.find("\"rebuilt\": true"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("\"rebuilt_subtrees\": 0"), std::string::npos) << r.output;
+}
+
 TEST_F(Cli, NativeLayoutFieldIsReportedAsSuch) {
   const std::string file = scene("layout.hbps", 10, 2);
   {

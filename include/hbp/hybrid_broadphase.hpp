@@ -45,6 +45,10 @@ struct FrameStats {
   double duplication = 1.0;  // cell entries / objects
   std::uint32_t oversized_cells = 0;  // could not be split: processed in tiles
   bool rebuilt = false;               // partition rebuilt from scratch this frame
+  // A rebuild on quality loss is spread over frames: the subtrees rebuilt
+  // from their own members this frame, and their entries.
+  std::uint32_t rebuilt_subtrees = 0;
+  std::uint64_t rebuilt_entries = 0;
   std::uint32_t splits = 0, merges = 0;  // incremental partition maintenance
   // Measured wall times (steady clock) of the frame's stages, which add up
   // to wall_ms:

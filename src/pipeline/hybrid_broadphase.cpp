@@ -824,6 +824,8 @@ struct HybridBroadPhase::Impl {
       stats.duplication = 1.0;
       stats.oversized_cells = 0;
       stats.rebuilt = false;
+      stats.rebuilt_subtrees = 0;
+      stats.rebuilt_entries = 0;
       stats.splits = stats.merges = 0;
       return;
     }
@@ -835,6 +837,8 @@ struct HybridBroadPhase::Impl {
     stats.duplication = ps.duplication;
     stats.oversized_cells = ps.oversized_cells;
     stats.rebuilt = ps.rebuilt;
+    stats.rebuilt_subtrees = ps.rebuilt_subtrees;
+    stats.rebuilt_entries = ps.rebuilt_entries;
     stats.splits = ps.splits;
     stats.merges = ps.merges;
   }

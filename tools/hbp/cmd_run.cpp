@@ -183,6 +183,8 @@ void run(const RunArgs& a) {
                         {"median_cell", s.median_cell},
                         {"max_cell", s.max_cell},
                         {"rebuilt", s.rebuilt},
+                        {"rebuilt_subtrees", s.rebuilt_subtrees},
+                        {"rebuilt_entries", s.rebuilt_entries},
                         {"splits", s.splits},
                         {"merges", s.merges},
                         {"duplication", s.duplication},
@@ -199,10 +201,10 @@ void run(const RunArgs& a) {
     if (!a.json && !a.quiet) {
       char model[32] = "-";
       if (modelled_engine) std::snprintf(model, sizeof model, "%.4f", s.modelled_ms);
-      std::printf("%6u %10llu %9.3f %9.3f %9.3f %9.3f %9.3f %12s %7u %6.3f %s+%us-%um\n", k,
+      std::printf("%6u %10llu %9.3f %9.3f %9.3f %9.3f %9.3f %12s %7u %6.3f %s+%us-%um+%ur\n", k,
                   static_cast<unsigned long long>(s.pairs), s.wall_ms, s.partition_ms, s.engine_ms, s.merge_ms,
                   s.sort_ms, model, s.cells, s.duplication,
-                  s.one_cell ? "one-cell" : (s.rebuilt ? "rebuild" : "keep"), s.splits, s.merges);
+                  s.one_cell ? "one-cell" : (s.rebuilt ? "rebuild" : "keep"), s.splits, s.merges, s.rebuilt_subtrees);
       if (a.narrow)
         std::printf("       narrow: %llu contacts of %llu candidates; pipelined %.3f ms (narrow CPU %.3f ms) vs "
                     "broad %.3f + narrow %.3f ms one after the other\n",
