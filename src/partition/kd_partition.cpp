@@ -157,6 +157,35 @@ std::uint32_t keep_members(const CellEntry* src, std::uint32_t size, const CellE
   return k;
 }
 
+// Puts builder b's subtree in place of node `root`: inner nodes' children
+// renumbered after the tree's current nodes, leaves' entries appended to
+// `entries`. on_entry(entry, its leaf's node, base) sees each entry while
+// its build tag (owner, fork) is still set; the tag is cleared after.
+template <class Entries, class OnEntry>
+void graft_subtree(std::vector<KdTreeNode>& nodes, Entries& entries, kd::SubtreeBuilder& b, std::uint32_t root,
+                   OnEntry&& on_entry) {
+  if (nodes.size() + b.nodes.size() > kd::kMaxNodes) throw CapacityExceeded("k-d partition: too many tree nodes");
+  const auto base = static_cast<std::uint32_t>(nodes.size());
+  const auto entry_base = static_cast<std::uint32_t>(entries.size());
+  for (std::size_t j = 0; j < b.nodes.size(); ++j) {
+    KdTreeNode nd = b.nodes[j];
+    if (nd.axis >= 0) {
+      nd.child = base + nd.child - 1;
+    } else {
+      const std::uint32_t global = j == 0 ? root : base + static_cast<std::uint32_t>(j) - 1;
+      for (std::uint32_t i = nd.first; i < nd.first + nd.size; ++i) {
+        CellEntry& e = b.entries[i];
+        on_entry(e, global, base);
+        e.build_tag = 0;
+      }
+      nd.first += entry_base;
+    }
+    if (j == 0) nodes[root] = nd;
+    else nodes.push_back(nd);
+  }
+  entries.append(b.entries.data(), b.entries.size());
+}
+
 }  // namespace
 
 struct KdPartition::State {
@@ -640,37 +669,18 @@ bool KdPartition::split_oversized() {
     b.build(s.entries.data() + nodes_[leaf].first, nodes_[leaf].size, s.leaf_depth[cell], rule, true,
             s.split_scratch);
     if (b.nodes.size() == 1) continue;  // could not split: entries stay in place
-    if (nodes_.size() + b.nodes.size() > kd::kMaxNodes)
-      throw CapacityExceeded("k-d partition: too many tree nodes");
-    ++stats_.splits;
-    const auto base = static_cast<std::uint32_t>(nodes_.size());
-    const auto entry_base = static_cast<std::uint32_t>(s.entries.size());
-    for (std::size_t k = 0; k < b.nodes.size(); ++k) {
-      KdTreeNode nd = b.nodes[k];
-      if (nd.axis >= 0) {
-        nd.child = base + nd.child - 1;
-      } else {
-        const std::uint32_t global = k == 0 ? leaf : base + static_cast<std::uint32_t>(k) - 1;
-        for (std::uint32_t i = nd.first; i < nd.first + nd.size; ++i) {
-          CellEntry& e = b.entries[i];
-          // New planes: the object's next frame descends, and its cells are
-          // now those of this frame's box (the one the split routed).
-          s.margin[e.id] = 0;
-          if (s.home[e.id] != leaf)
-            s.prev[e.id] = {{e.min[0], e.min[1], e.min[2]}, {e.max[0], e.max[1], e.max[2]}};
-          if (!(e.build_tag & kd::kNotOwner) && s.home[e.id] == leaf) {
-            const bool forked = (e.build_tag & kd::kForkMask) != kd::kNoFork;
-            s.home[e.id] = forked ? kd::fork_node(e.build_tag, leaf, base) : global;
-            if (forked) s.prev[e.id] = {{e.min[0], e.min[1], e.min[2]}, {e.max[0], e.max[1], e.max[2]}};
-          }
-          e.build_tag = 0;
-        }
-        nd.first += entry_base;
+    graft_subtree(nodes_, s.entries, b, leaf, [&](CellEntry& e, std::uint32_t global, std::uint32_t base) {
+      // New planes: the object's next frame descends, and its cells are
+      // now those of this frame's box (the one the split routed).
+      s.margin[e.id] = 0;
+      if (s.home[e.id] != leaf) s.prev[e.id] = {{e.min[0], e.min[1], e.min[2]}, {e.max[0], e.max[1], e.max[2]}};
+      if (!(e.build_tag & kd::kNotOwner) && s.home[e.id] == leaf) {
+        const bool forked = (e.build_tag & kd::kForkMask) != kd::kNoFork;
+        s.home[e.id] = forked ? kd::fork_node(e.build_tag, leaf, base) : global;
+        if (forked) s.prev[e.id] = {{e.min[0], e.min[1], e.min[2]}, {e.max[0], e.max[1], e.max[2]}};
       }
-      if (k == 0) nodes_[leaf] = nd;
-      else nodes_.push_back(nd);
-    }
-    s.entries.append(b.entries.data(), b.entries.size());
+    });
+    ++stats_.splits;
   }
   entries_ = s.entries.data();
   return stats_.splits > 0;
@@ -845,33 +855,16 @@ std::uint64_t KdPartition::splice_subtree(std::uint32_t k) {
   State& s = *state_;
   const std::uint32_t root = s.batch[k];
   kd::SubtreeBuilder& b = s.subtree_tasks[k].builder;
-  if (nodes_.size() + b.nodes.size() > kd::kMaxNodes) throw CapacityExceeded("k-d partition: too many tree nodes");
-  const auto base = static_cast<std::uint32_t>(nodes_.size());
-  const auto entry_base = static_cast<std::uint32_t>(s.entries.size());
   const std::size_t old_nodes = s.node_task.size();
-  for (std::size_t j = 0; j < b.nodes.size(); ++j) {
-    KdTreeNode nd = b.nodes[j];
-    if (nd.axis >= 0) {
-      nd.child = base + nd.child - 1;
-    } else {
-      const std::uint32_t global = j == 0 ? root : base + static_cast<std::uint32_t>(j) - 1;
-      for (std::uint32_t i = nd.first; i < nd.first + nd.size; ++i) {
-        CellEntry& e = b.entries[i];
-        s.margin[e.id] = 0;
-        s.prev[e.id] = {{e.min[0], e.min[1], e.min[2]}, {e.max[0], e.max[1], e.max[2]}};
-        const std::uint32_t h = s.home[e.id];
-        if (!(e.build_tag & kd::kNotOwner) && h < old_nodes && s.node_task[h] == k) {
-          const bool forked = (e.build_tag & kd::kForkMask) != kd::kNoFork;
-          s.home[e.id] = forked ? kd::fork_node(e.build_tag, root, base) : global;
-        }
-        e.build_tag = 0;
-      }
-      nd.first += entry_base;
+  graft_subtree(nodes_, s.entries, b, root, [&](CellEntry& e, std::uint32_t global, std::uint32_t base) {
+    s.margin[e.id] = 0;
+    s.prev[e.id] = {{e.min[0], e.min[1], e.min[2]}, {e.max[0], e.max[1], e.max[2]}};
+    const std::uint32_t h = s.home[e.id];
+    if (!(e.build_tag & kd::kNotOwner) && h < old_nodes && s.node_task[h] == k) {
+      const bool forked = (e.build_tag & kd::kForkMask) != kd::kNoFork;
+      s.home[e.id] = forked ? kd::fork_node(e.build_tag, root, base) : global;
     }
-    if (j == 0) nodes_[root] = nd;
-    else nodes_.push_back(nd);
-  }
-  s.entries.append(b.entries.data(), b.entries.size());
+  });
   entries_ = s.entries.data();
   return b.output_size();
 }
