@@ -454,6 +454,21 @@ BoxArray sampled_build_scene(int kind, std::uint32_t n) {
   return b;
 }
 
+// Frame f of `base`: every third object drifts by +step·f on each axis, the
+// others by −step·f/2, and every box is `grow` longer in y and z.
+BoxArray drifted_and_grown(const BoxArray& base, int f, float step, float grow) {
+  BoxArray b;
+  b.reserve(base.size());
+  for (std::uint32_t i = 0; i < base.size(); ++i) {
+    Aabb a = base.get(i);
+    const float d = step * static_cast<float>(f) * (i % 3 == 0 ? 1.0f : -0.5f);
+    for (int k = 0; k < 3; ++k) a.min[k] += d, a.max[k] += d + (k > 0 ? grow : 0.0f);
+    b.push_back(a);
+  }
+  return b;
+}
+
+
 TEST(KdPartitionSampledBuild, AdversarialScenesGiveExactCellsOnOneOrTwoThreads) {
   const std::uint32_t n = 40000;
   for (int kind = 0; kind < 5; ++kind) {
@@ -491,18 +506,8 @@ TEST(KdPartitionSampledBuild, AdversarialScenesGiveExactCellsOnOneOrTwoThreads) 
 TEST(KdPartitionSampledBuild, RebuildMidRunMatchesTheOracleEveryFrame) {
   const std::uint32_t n = 36000;
   const BoxArray base = sampled_build_scene(0, n);
-  auto frame = [&](int f) {
-    BoxArray b;
-    b.reserve(n);
-    const float grow = f >= 3 ? 60.0f : 0.0f;  // in y and z only: the sweep oracle stays cheap
-    for (std::uint32_t i = 0; i < n; ++i) {
-      Aabb a = base.get(i);
-      const float d = 0.2f * static_cast<float>(f) * (i % 3 == 0 ? 1.0f : -0.5f);
-      for (int k = 0; k < 3; ++k) a.min[k] += d, a.max[k] += d + (k > 0 ? grow : 0.0f);
-      b.push_back(a);
-    }
-    return b;
-  };
+  // Boxes grown in y and z only: the sweep oracle stays cheap.
+  auto frame = [&](int f) { return drifted_and_grown(base, f, 0.2f, f >= 3 ? 60.0f : 0.0f); };
   HybridBroadPhase one({.engine = "sw", .threads = 1, .sorted = false});
   HybridBroadPhase two({.engine = "sw", .threads = 2, .sorted = false});
   KdPartition p(1024, 0.5f);
@@ -538,18 +543,7 @@ TEST(KdPartitionSampledBuild, RebuildMidRunMatchesTheOracleEveryFrame) {
 TEST(KdPartitionSpreadRebuild, SubtreesRebuiltOverFramesMatchTheOracleEveryFrame) {
   const std::uint32_t n = 6000;
   const BoxArray base = sampled_build_scene(0, n);
-  auto frame = [&](int f) {
-    BoxArray b;
-    b.reserve(n);
-    const float grow = f >= 2 ? 50.0f : 0.0f;
-    for (std::uint32_t i = 0; i < n; ++i) {
-      Aabb a = base.get(i);
-      const float d = 0.7f * static_cast<float>(f) * (i % 3 == 0 ? 1.0f : -0.5f);
-      for (int k = 0; k < 3; ++k) a.min[k] += d, a.max[k] += d + (k > 0 ? grow : 0.0f);
-      b.push_back(a);
-    }
-    return b;
-  };
+  auto frame = [&](int f) { return drifted_and_grown(base, f, 0.7f, f >= 2 ? 50.0f : 0.0f); };
   KdPartition one(64, 0.5f), two(64, 0.5f);
   EXPECT_THROW(one.set_rebuild_budget(1), hbp::InvalidInput);
   one.set_rebuild_budget(1024);
