@@ -32,8 +32,10 @@ namespace {
 // calling thread: below it, handing cells to workers costs more than the
 // cells themselves.
 constexpr std::uint64_t kSerialEntries = 16384;
-// The kernel's output lands in a cache-resident stage before it moves on.
-constexpr std::size_t kStagePairs = 1 << 14;
+// The kernel's output lands in a cache-resident stage before it moves on
+// (4 K pairs: first + second fit L1 beside the cell; 16 K cost ~4 % more
+// CPU on clustered 1,000,000, see docs/hybrid-system.md "Pair-dense frames").
+constexpr std::size_t kStagePairs = 1 << 12;
 // Output: every cell's pairs go to its worker's store, then are copied to
 // their place in the frame's list; the stores are sized from the last
 // frame's pair count. A frame with no such count (the first, or the first
