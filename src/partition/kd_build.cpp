@@ -331,9 +331,8 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
                      frontier);
   } else {
     // 1-2. One task: the objects as entries, sorted by min x (ties by id).
-    // The sort keys and their scratch live in the output buffer, which the
-    // stitch overwrites at the end: pages touched here are not fresh there
-    // (16 bytes a key pair within a 32-byte entry).
+    // The sort keys and their scratch live in the output buffer (free until
+    // the end; 16 bytes a key pair within a 32-byte entry).
     static_assert(sizeof(CellEntry) >= 2 * sizeof(std::uint64_t));  // (RawBuffer memory is 64-byte aligned)
     entries.resize(n);
     auto* keys = reinterpret_cast<std::uint64_t*>(entries.data());
@@ -385,14 +384,17 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
     for (std::size_t k = 1; k < local.size(); ++k) nodes.push_back(remap(local[k]));
     entry_base[t + 1] = entry_base[t] + tasks[t].output_size();
   }
-  entries.clear();  // the keys: not kept if it must grow
-  entries.resize(entry_base.back());
+  // Stitched into buffer a (the tasks' inputs, read by now: its pages are
+  // touched), which then becomes `entries`: the first frame touches two
+  // buffers, not three (fresh pages are its largest cost).
+  a.clear();  // not kept if it must grow
+  a.resize(entry_base.back());
   tbb::parallel_for(std::size_t{0}, tasks.size(), [&](std::size_t t) {
     const std::uint32_t root = frontier[t].node;
     const std::vector<KdTreeNode>& local = tasks[t].nodes;
     const CellEntry* in_slot = b.data() + slot[t];
     const CellEntry* spilled = tasks[t].entries.data();
-    CellEntry* to = entries.data() + entry_base[t];
+    CellEntry* to = a.data() + entry_base[t];
     for (std::size_t k = 0; k < local.size(); ++k) {
       if (local[k].axis >= 0) continue;
       const std::uint32_t leaf = k == 0 ? root : node_base[t] + static_cast<std::uint32_t>(k) - 1;
@@ -411,6 +413,7 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
       }
     }
   });
+  entries.swap(a);
 }
 
 }  // namespace hbp::kd
