@@ -12,6 +12,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 #include <utility>
 
 #include "hbp/error.hpp"
@@ -54,10 +55,15 @@ constexpr double kWeightedDuplicationLimit = 1.05;
 
 float centre(const CellEntry& e, int a) { return 0.5f * e.min[a] + 0.5f * e.max[a]; }
 
+// Returns the entries written to each side.
+std::pair<std::uint32_t, std::uint32_t> partition_range(const CellEntry* e, std::uint32_t n, const Split& s,
+                                                        std::uint32_t fork_tag, CellEntry* left, CellEntry* right,
+                                                        std::uint32_t safe);
+
 }  // namespace
 
 bool choose_split(const CellEntry* e, std::uint32_t n, std::uint32_t depth, const SplitRule& rule,
-                  std::vector<float>& scratch, Split& out) {
+                  std::vector<float>& scratch, Split& out, const PartitionTarget* target) {
   const bool over_limit = n > rule.cell_limit;
   const bool by_cost = rule.cell_cost && *rule.cell_cost;
   if ((!over_limit && !by_cost) || n < 4 || depth >= KdPartition::kMaxDepth) return false;
@@ -102,7 +108,10 @@ bool choose_split(const CellEntry* e, std::uint32_t n, std::uint32_t depth, cons
 
   // The median split on axis a: false when it does not shrink both halves
   // (or, under the limit, does not lower the summed cost).
-  auto try_axis = [&](int a, Split& s) {
+  // With a target (over the limit, serial), the first axis tried is counted
+  // by partitioning into it; whether the target holds the split `out`.
+  bool partitioned = false;
+  auto try_axis = [&](int a, Split& s, bool into_target) {
     if (!(hi[a] > lo[a])) return false;
     scratch.resize(samples);
     for (std::uint32_t k = 0; k < samples; ++k) scratch[k] = centre(sample(k), a);
@@ -127,6 +136,11 @@ bool choose_split(const CellEntry* e, std::uint32_t n, std::uint32_t depth, cons
           [](Counts x, Counts y) { return Counts{x.first + y.first, x.second + y.second}; });
       left = c.first;
       right = c.second;
+    } else if (into_target) {
+      // Counted by the partition itself: each side has room for all n
+      // entries and the scratch slot.
+      std::tie(left, right) = partition_range(e, n, Split{a, split, 0, 0}, target->fork_tag, target->left,
+                                              target->right, n);
     } else {
       for (std::uint32_t i = 0; i < n; ++i) {
         left += e[i].min[a] < split;
@@ -144,7 +158,11 @@ bool choose_split(const CellEntry* e, std::uint32_t n, std::uint32_t depth, cons
   };
 
   for (int a : axes) {
-    if (!try_axis(a, out)) continue;
+    // Over the limit a split is accepted whenever both sides shrink (nearly
+    // always): partition while counting. Under it (the cost rule) most
+    // splits are refused: count only.
+    partitioned = target && over_limit && n < kParallelCountMin;
+    if (!try_axis(a, out, partitioned)) continue;
     // The x weight shapes cells for the sweep, but not at any price: when the
     // axis of widest unweighted spread duplicates clearly fewer objects, it
     // wins (scenes of huge boxes: duplication 38 instead of 4 otherwise).
@@ -158,10 +176,13 @@ bool choose_split(const CellEntry* e, std::uint32_t n, std::uint32_t depth, cons
       for (int b = 1; b < 3; ++b)
         if (hi[b] - lo[b] > hi[plain] - lo[plain]) plain = b;
       Split alt;
-      if (plain != a && try_axis(plain, alt) &&
-          kWeightedDuplicationLimit * (alt.left + alt.right) < double(out.left) + out.right)
+      if (plain != a && try_axis(plain, alt, false) &&
+          kWeightedDuplicationLimit * (alt.left + alt.right) < double(out.left) + out.right) {
         out = alt;
+        partitioned = false;
+      }
     }
+    if (target && !partitioned) partition_range(e, n, out, target->fork_tag, target->left, target->right, n);
     return true;
   }
   return false;  // no axis shrinks both halves: an over-full leaf, processed in tiles
@@ -174,8 +195,11 @@ namespace {
 // the output it does not advance; before `safe` (at most one past the last
 // entry going left and the last going right) a later entry overwrites that
 // slot, so nothing is written past either output.
-void partition_range(const CellEntry* e, std::uint32_t n, const Split& s, std::uint32_t fork_tag, CellEntry* left,
-                     CellEntry* right, std::uint32_t safe) {
+std::pair<std::uint32_t, std::uint32_t> partition_range(const CellEntry* e, std::uint32_t n, const Split& s,
+                                                        std::uint32_t fork_tag, CellEntry* left, CellEntry* right,
+                                                        std::uint32_t safe) {
+  CellEntry* const left_begin = left;
+  CellEntry* const right_begin = right;
   const int a = s.axis;
   const float split = s.split;
   for (std::uint32_t i = 0; i < n; ++i) {
@@ -200,6 +224,7 @@ void partition_range(const CellEntry* e, std::uint32_t n, const Split& s, std::u
       *right++ = c;  // min <= max: an entry not going left goes right
     }
   }
+  return {static_cast<std::uint32_t>(left - left_begin), static_cast<std::uint32_t>(right - right_begin)};
 }
 
 }  // namespace
@@ -218,7 +243,7 @@ void SubtreeBuilder::start(const CellEntry* items, std::uint32_t n, const SplitR
   scratch_ = &scratch;
   nodes.assign(1, KdTreeNode{});
   RawBuffer<CellEntry>& arena = scratch.arena;
-  arena.resize(4 * std::size_t{n});  // the deepest stack of segments, about; shrinks a past peak
+  arena.resize(6 * std::size_t{n});  // the deepest stack of segments (each side of a split has room for all n), about; shrinks a past peak
   arena.truncate(n);
   if (n) std::memcpy(arena.data(), items, std::size_t{n} * sizeof(CellEntry));
   if (reset_tags)
@@ -247,8 +272,15 @@ void SubtreeBuilder::build_into(const CellEntry* items, std::uint32_t n, std::ui
 
 void SubtreeBuilder::node(std::uint32_t at, std::size_t begin, std::uint32_t n, std::uint32_t depth) {
   RawBuffer<CellEntry>& arena_ = scratch_->arena;
+  // Children's segments go on top of the arena stack, dropped when done:
+  // room for every entry on each side (choose_split partitions into it),
+  // then cut to the sides' sizes.
+  const std::size_t children = arena_.size();
+  arena_.grow(children + 2 * std::size_t{n} + 2);
+  const PartitionTarget target{at | kLocalNode, arena_.data() + children, arena_.data() + children + n + 1};
   Split s;
-  if (!choose_split(arena_.data() + begin, n, depth, *rule_, scratch_->centres, s)) {
+  if (!choose_split(arena_.data() + begin, n, depth, *rule_, scratch_->centres, s, &target)) {
+    arena_.truncate(children);
     KdTreeNode& leaf = nodes[at];
     leaf.axis = -1;
     leaf.size = n;
@@ -268,13 +300,9 @@ void SubtreeBuilder::node(std::uint32_t at, std::size_t begin, std::uint32_t n, 
   nodes[at].child = child;
   nodes.emplace_back();
   nodes.emplace_back();
-  // Children's segments go on top of the arena stack, dropped when done.
-  const std::size_t children = arena_.size();
-  arena_.grow(children + s.left + s.right + 2);  // + partition_entries' scratch slots
-  partition_entries(arena_.data() + begin, n, s, at | kLocalNode, arena_.data() + children,
-                    arena_.data() + children + s.left + 1);
+  arena_.truncate(children + n + 1 + s.right + 1);
   node(child, children, s.left, depth + 1);
-  node(child + 1, children + s.left + 1, s.right, depth + 1);
+  node(child + 1, children + n + 1, s.right, depth + 1);
   arena_.truncate(children);
 }
 
@@ -303,9 +331,8 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
                      frontier);
   } else {
     // 1-2. One task: the objects as entries, sorted by min x (ties by id).
-    // The sort keys and their scratch live in the output buffer, which the
-    // stitch overwrites at the end: pages touched here are not fresh there
-    // (16 bytes a key pair within a 32-byte entry).
+    // The sort keys and their scratch live in the output buffer (free until
+    // the end; 16 bytes a key pair within a 32-byte entry).
     static_assert(sizeof(CellEntry) >= 2 * sizeof(std::uint64_t));  // (RawBuffer memory is 64-byte aligned)
     entries.resize(n);
     auto* keys = reinterpret_cast<std::uint64_t*>(entries.data());
@@ -357,14 +384,17 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
     for (std::size_t k = 1; k < local.size(); ++k) nodes.push_back(remap(local[k]));
     entry_base[t + 1] = entry_base[t] + tasks[t].output_size();
   }
-  entries.clear();  // the keys: not kept if it must grow
-  entries.resize(entry_base.back());
+  // Stitched into buffer a (the tasks' inputs, read by now: its pages are
+  // touched), which then becomes `entries`: the first frame touches two
+  // buffers, not three (fresh pages are its largest cost).
+  a.clear();  // not kept if it must grow
+  a.resize(entry_base.back());
   tbb::parallel_for(std::size_t{0}, tasks.size(), [&](std::size_t t) {
     const std::uint32_t root = frontier[t].node;
     const std::vector<KdTreeNode>& local = tasks[t].nodes;
     const CellEntry* in_slot = b.data() + slot[t];
     const CellEntry* spilled = tasks[t].entries.data();
-    CellEntry* to = entries.data() + entry_base[t];
+    CellEntry* to = a.data() + entry_base[t];
     for (std::size_t k = 0; k < local.size(); ++k) {
       if (local[k].axis >= 0) continue;
       const std::uint32_t leaf = k == 0 ? root : node_base[t] + static_cast<std::uint32_t>(k) - 1;
@@ -383,6 +413,7 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
       }
     }
   });
+  entries.swap(a);
 }
 
 }  // namespace hbp::kd

@@ -54,11 +54,22 @@ struct Split {
   std::uint32_t left = 0, right = 0;  // entries going to each child
 };
 
+// Where choose_split may put the chosen split's children: left[0..n] and
+// right[0..n] (room for every entry and partition_entries' scratch slot).
+struct PartitionTarget {
+  std::uint32_t fork_tag;
+  CellEntry* left;
+  CellEntry* right;
+};
+
 // The split of a node holding e[0..n) at `depth`, or false when the node
 // stays a leaf (at or under the limit, too deep, or no axis shrinks both
-// children).
+// children). With a target, a node over the limit counts its sides while
+// partitioning into it (one read of every entry less than counting first),
+// and on true the target holds partition_entries(e, n, out, fork_tag): the
+// same split and children either way.
 bool choose_split(const CellEntry* e, std::uint32_t n, std::uint32_t depth, const SplitRule& rule,
-                  std::vector<float>& scratch, Split& out);
+                  std::vector<float>& scratch, Split& out, const PartitionTarget* target = nullptr);
 
 // Stable partition of e[0..n) into left (min < split) and right
 // (max >= split); fork_tag is the node's tag for copies that go both ways.
