@@ -1,28 +1,12 @@
 #include "hbp/narrow/narrow_cache.hpp"
 
-#include <sys/mman.h>
-
 #include <cstdint>
 #include <string>
 
 #include "hbp/error.hpp"
+#include "support/huge_pages.hpp"
 
 namespace hbp {
-
-namespace {
-
-// The frame's lookups land all over the entries (pairs come in cell order,
-// rows by first object): with 4 KiB pages nearly every lookup also walks the
-// page table. Huge pages where the kernel grants them on advice; the range
-// must be advised before it is first touched.
-void advise_huge_pages(void* data, std::size_t bytes) {
-  constexpr std::uintptr_t kHuge = std::uintptr_t{2} << 20;
-  const auto begin = (reinterpret_cast<std::uintptr_t>(data) + kHuge - 1) & ~(kHuge - 1);
-  const auto end = (reinterpret_cast<std::uintptr_t>(data) + bytes) & ~(kHuge - 1);
-  if (end > begin) madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);  // advice only
-}
-
-}  // namespace
 
 void NarrowCache::commit(const std::vector<NarrowCacheEntry>* lists, std::size_t count, std::size_t objects) {
   commit_lists([lists](std::size_t l) -> const std::vector<NarrowCacheEntry>& { return lists[l]; }, count, objects);
@@ -52,7 +36,9 @@ void NarrowCache::commit_lists(const List& list_at, std::size_t count, std::size
   for (std::size_t i = 0; i < objects; ++i) row_[i + 1] += row_[i];
   if (entries_.capacity() < total) {
     // Fresh storage (with an eighth to spare, so a slowly growing frame does
-    // not reallocate every time), advised before resize() touches it.
+    // not reallocate every time), advised before resize() touches it: the
+    // frame's lookups land all over the entries, and with 4 KiB pages nearly
+    // every one would also walk the page table.
     entries_ = {};
     entries_.reserve(total + total / 8);
     advise_huge_pages(entries_.data(), entries_.capacity() * sizeof(NarrowCacheEntry));

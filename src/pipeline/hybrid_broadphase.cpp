@@ -1,6 +1,5 @@
 #include "hbp/hybrid_broadphase.hpp"
 
-#include <sys/mman.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_pipeline.h>
@@ -22,6 +21,7 @@
 #include "partition/raw_buffer.hpp"
 #include "pipeline/ordered_cell.hpp"
 #include "support/clock.hpp"
+#include "support/huge_pages.hpp"
 
 namespace hbp {
 
@@ -64,14 +64,6 @@ constexpr std::size_t kKeepCellPairs = 1 << 10;  // per cell: there are thousand
 constexpr std::size_t kPrefaultBytes = std::size_t{8} << 20;
 constexpr std::size_t kPrefaultChunk = std::size_t{2} << 20;
 
-void advise_huge_pages(void* data, std::size_t bytes) {
-  constexpr std::uintptr_t kHuge = std::uintptr_t{2} << 20;
-  if (bytes < 2 * kHuge) return;
-  const auto begin = (reinterpret_cast<std::uintptr_t>(data) + kHuge - 1) & ~(kHuge - 1);
-  const auto end = (reinterpret_cast<std::uintptr_t>(data) + bytes) & ~(kHuge - 1);
-  // Advice only: where the kernel declines, pages stay 4 KiB.
-  if (end > begin) madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);
-}
 
 template <class T>
 void release_if_oversized(std::vector<T>& v, std::size_t used, std::size_t keep) {
