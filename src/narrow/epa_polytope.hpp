@@ -178,7 +178,9 @@ class Polytope {
   // The same with vertex c's coordinates at hand (the new vertex of an
   // expansion: no reload of what was just stored).
   int new_face(int a, int b, int c, const V3& wc) {
-    if (nfree_ == 0 && nused_ == kMaxFaces) return -1;
+    // One branch, almost never taken (`nfree_ == 0 && ...` is two, and
+    // whether the free list is empty is unpredictable).
+    if ((nfree_ | (kMaxFaces - nused_)) == 0) return -1;
     // A free slot if there is one, else a fresh one; branch-free (whether
     // the free list is empty is unpredictable). free_ is 1-based.
     const bool reuse = nfree_ > 0;
