@@ -50,7 +50,6 @@ struct SampledTopBuffers {
   RawBuffer<std::uint32_t> task_of;  // per object: its one task, or that it reaches several
   std::vector<std::vector<std::uint32_t>> forked_tasks;  // per chunk: the tasks of its objects in several
   tbb::enumerable_thread_specific<std::vector<std::uint32_t>> forked;  // a chunk's objects in several tasks
-  tbb::enumerable_thread_specific<std::vector<std::uint64_t>> sort_keys;
 };
 
 // Whether a frame of n objects takes its top levels from a sample.
