@@ -55,6 +55,35 @@ constexpr double kWeightedDuplicationLimit = 1.05;
 
 float centre(const CellEntry& e, int a) { return 0.5f * e.min[a] + 0.5f * e.max[a]; }
 
+// The k-th smallest (from 0) of the float_order_keys keys[0..n) as a float
+// (keys[n..2n) scratch): a radix select, a byte at a time from the top,
+// keeping only the keys in the byte bucket that holds rank k. The same value
+// as std::nth_element over the floats (but -0 read as +0, the same plane),
+// without its mispredicted partition loops (most of choose_split's time).
+float select_key(std::uint32_t* keys, std::uint32_t n, std::uint32_t k) {
+  std::uint32_t* from = keys;
+  std::uint32_t* to = keys + n;
+  std::uint32_t m = n;
+  for (int shift = 24; shift >= 0 && m > 1; shift -= 8) {
+    std::uint32_t count[256] = {};
+    for (std::uint32_t i = 0; i < m; ++i) ++count[(from[i] >> shift) & 0xFFu];
+    std::uint32_t bucket = 0;
+    while (k >= count[bucket]) k -= count[bucket++];
+    if (count[bucket] == m) continue;  // every key has this byte
+    std::uint32_t kept = 0;
+    for (std::uint32_t i = 0; i < m; ++i) {  // branch-free
+      const std::uint32_t x = from[i];
+      to[kept] = x;
+      kept += ((x >> shift) & 0xFFu) == bucket;
+    }
+    std::swap(from, to);
+    m = kept;
+  }
+  // Every key left is the same (or one is left): the inverse of float_order_key.
+  const std::uint32_t key = from[0];
+  return std::bit_cast<float>(key & 0x80000000u ? key & 0x7FFFFFFFu : ~key);
+}
+
 // Returns the entries written to each side.
 std::pair<std::uint32_t, std::uint32_t> partition_range(const CellEntry* e, std::uint32_t n, const Split& s,
                                                         std::uint32_t fork_tag, CellEntry* left, CellEntry* right);
@@ -62,7 +91,7 @@ std::pair<std::uint32_t, std::uint32_t> partition_range(const CellEntry* e, std:
 }  // namespace
 
 bool choose_split(const CellEntry* e, std::uint32_t n, std::uint32_t depth, const SplitRule& rule,
-                  std::vector<float>& scratch, Split& out, const PartitionTarget* target) {
+                  std::vector<std::uint32_t>& scratch, Split& out, const PartitionTarget* target) {
   const bool over_limit = n > rule.cell_limit;
   const bool by_cost = rule.cell_cost && *rule.cell_cost;
   if ((!over_limit && !by_cost) || n < 4 || depth >= KdPartition::kMaxDepth) return false;
@@ -114,11 +143,9 @@ bool choose_split(const CellEntry* e, std::uint32_t n, std::uint32_t depth, cons
   bool partitioned = false;
   auto try_axis = [&](int a, Split& s, bool into_target) {
     if (!(hi[a] > lo[a])) return false;
-    scratch.resize(samples);
-    for (std::uint32_t k = 0; k < samples; ++k) scratch[k] = centre(sample(k), a);
-    auto mid = scratch.begin() + samples / 2;
-    std::nth_element(scratch.begin(), mid, scratch.end());
-    float split = *mid;
+    scratch.resize(2 * std::size_t{samples});
+    for (std::uint32_t k = 0; k < samples; ++k) scratch[k] = float_order_key(centre(sample(k), a));
+    float split = select_key(scratch.data(), samples, samples / 2);
     if (!(split > lo[a])) split = std::nextafter(lo[a], hi[a]);  // keep the left side non-empty
     std::uint32_t left = 0, right = 0;
     if (n >= kParallelCountMin) {

@@ -69,7 +69,7 @@ struct PartitionTarget {
 // and on true the target holds partition_entries(e, n, out, fork_tag): the
 // same split and children either way.
 bool choose_split(const CellEntry* e, std::uint32_t n, std::uint32_t depth, const SplitRule& rule,
-                  std::vector<float>& scratch, Split& out, const PartitionTarget* target = nullptr);
+                  std::vector<std::uint32_t>& scratch, Split& out, const PartitionTarget* target = nullptr);
 
 // Stable partition of e[0..n) into left (min < split) and right
 // (max >= split); fork_tag is the node's tag for copies that go both ways.
@@ -92,7 +92,7 @@ inline std::uint32_t fork_node(std::uint32_t tag, std::uint32_t root, std::uint3
 // pages cost more than the build itself on a virtual machine).
 struct BuildScratch {
   RawBuffer<CellEntry> arena;  // a stack of node segments, parent before children
-  std::vector<float> centres;
+  std::vector<std::uint32_t> centres;  // choose_split's keys of the centres
 };
 
 class SubtreeBuilder {
