@@ -397,6 +397,9 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
   // Leaves are laid out task after task, each task's in local node order.
   std::vector<std::uint32_t> node_base(tasks.size());
   std::vector<std::size_t> entry_base(tasks.size() + 1, 0);
+  std::size_t node_count = nodes.size();  // reserved at once: no copies while growing
+  for (const SubtreeBuilder& task : tasks) node_count += task.nodes.size() - 1;
+  nodes.reserve(node_count);
   for (std::size_t t = 0; t < tasks.size(); ++t) {
     node_base[t] = static_cast<std::uint32_t>(nodes.size());
     const std::uint32_t root = frontier[t].node;
