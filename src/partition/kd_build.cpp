@@ -276,10 +276,17 @@ void SubtreeBuilder::start(const CellEntry* items, std::uint32_t n, const SplitR
   nodes.assign(1, KdTreeNode{});
   RawBuffer<CellEntry>& arena = scratch.arena;
   arena.resize(6 * std::size_t{n});  // the deepest stack of segments (each side of a split has room for all n), about; shrinks a past peak
+  root_items_ = nullptr;
+  if (!reset_tags) {
+    // The root reads the items where they are (a copy into the arena was
+    // an extra read and write of every entry of the build).
+    arena.truncate(0);
+    root_items_ = items;
+    return;
+  }
   arena.truncate(n);
   if (n) std::memcpy(arena.data(), items, std::size_t{n} * sizeof(CellEntry));
-  if (reset_tags)
-    for (std::uint32_t i = 0; i < n; ++i) arena[i].build_tag = kNoFork;
+  for (std::uint32_t i = 0; i < n; ++i) arena[i].build_tag = kNoFork;
 }
 
 void SubtreeBuilder::build(const CellEntry* items, std::uint32_t n, std::uint32_t depth, const SplitRule& rule,
@@ -310,19 +317,20 @@ void SubtreeBuilder::node(std::uint32_t at, std::size_t begin, std::uint32_t n, 
   const std::size_t children = arena_.size();
   arena_.grow(children + 2 * std::size_t{n} + 2);
   const PartitionTarget target{at | kLocalNode, arena_.data() + children, arena_.data() + children + n + 1};
+  const CellEntry* const e = at == 0 && root_items_ ? root_items_ : arena_.data() + begin;
   Split s;
-  if (!choose_split(arena_.data() + begin, n, depth, *rule_, scratch_->centres, s, &target)) {
+  if (!choose_split(e, n, depth, *rule_, scratch_->centres, s, &target)) {
     arena_.truncate(children);
     KdTreeNode& leaf = nodes[at];
     leaf.axis = -1;
     leaf.size = n;
     if (out_ && out_size_ + n <= out_capacity_) {
       leaf.first = static_cast<std::uint32_t>(out_size_);
-      if (n) std::memcpy(out_ + out_size_, arena_.data() + begin, std::size_t{n} * sizeof(CellEntry));
+      if (n) std::memcpy(out_ + out_size_, e, std::size_t{n} * sizeof(CellEntry));
       out_size_ += n;
     } else {
       leaf.first = static_cast<std::uint32_t>(entries.size()) | (out_ ? kSpilled : 0u);
-      entries.append(arena_.data() + begin, n);
+      entries.append(e, n);
     }
     return;
   }

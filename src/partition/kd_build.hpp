@@ -125,6 +125,7 @@ class SubtreeBuilder {
   CellEntry* out_ = nullptr;
   std::size_t out_capacity_ = 0;
   std::size_t out_size_ = 0;
+  const CellEntry* root_items_ = nullptr;  // the root's entries when not copied into the arena
 };
 
 // Buffers of the from-scratch build, kept across frames for the same reason.
