@@ -3,8 +3,10 @@
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <atomic>
 #include <bit>
 #include <cmath>
 #include <cstddef>
@@ -347,7 +349,7 @@ void SubtreeBuilder::node(std::uint32_t at, std::size_t begin, std::uint32_t n, 
 }
 
 void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buffers, std::vector<KdTreeNode>& nodes,
-                RawBuffer<CellEntry>& entries, std::uint32_t* home, StoredBox* prev) {
+                RawBuffer<CellEntry>& entries, std::uint32_t* home, StoredBox* prev, float* margin) {
   const auto n = static_cast<std::uint32_t>(boxes.size());
   const float* src[6] = {boxes.min(0), boxes.min(1), boxes.min(2), boxes.max(0), boxes.max(1), boxes.max(2)};
   RawBuffer<CellEntry>& a = *buffers.a;
@@ -397,10 +399,23 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
     slot[t + 1] = slot[t] + frontier[t].n + frontier[t].n / kTaskSlotHeadroom + kTaskSlack;
   b.clear();
   b.resize(slot.back());
-  tbb::parallel_for(std::size_t{0}, frontier.size(), [&](std::size_t t) {
-    const BuildTask& it = frontier[t];
-    tasks[t].build_into(a.data() + it.begin, it.n, it.depth, rule, buffers.scratch.local(), b.data() + slot[t],
-                        slot[t + 1] - slot[t]);
+  // Largest first, each thread taking the next task when done (a task's
+  // result does not depend on who builds it or when): the last task to
+  // finish is a small one, where ranges of task indices could leave one
+  // thread idle for several tasks.
+  std::vector<std::uint32_t> order(frontier.size());
+  for (std::uint32_t t = 0; t < order.size(); ++t) order[t] = t;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::uint32_t x, std::uint32_t y) { return frontier[x].n > frontier[y].n; });
+  std::atomic<std::size_t> next{0};
+  const int workers = std::min<int>(tbb::this_task_arena::max_concurrency(), static_cast<int>(order.size()));
+  tbb::parallel_for(0, workers, [&](int) {
+    for (std::size_t k; (k = next.fetch_add(1, std::memory_order_relaxed)) < order.size();) {
+      const std::uint32_t t = order[k];
+      const BuildTask& it = frontier[t];
+      tasks[t].build_into(a.data() + it.begin, it.n, it.depth, rule, buffers.scratch.local(), b.data() + slot[t],
+                          slot[t + 1] - slot[t]);
+    }
   });
   // Leaves are laid out task after task, each task's in local node order.
   std::vector<std::uint32_t> node_base(tasks.size());
@@ -449,7 +464,10 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
         if (!(e.build_tag & kNotOwner)) {  // the object's one owner copy sets its home
           const std::uint32_t fork = (e.build_tag & kForkMask) == kNoFork ? kNoFork : fork_node(e.build_tag, root, node_base[t]);
           home[e.id] = fork == kNoFork ? leaf : fork;
-          if (fork != kNoFork) prev[e.id] = {{e.min[0], e.min[1], e.min[2]}, {e.max[0], e.max[1], e.max[2]}};
+          if (fork != kNoFork) {
+            prev[e.id] = {{e.min[0], e.min[1], e.min[2]}, {e.max[0], e.max[1], e.max[2]}};
+            margin[e.id] = 0;  // the first maintained frame descends once
+          }
         }
         e.build_tag = 0;
         *to++ = e;

@@ -141,10 +141,11 @@ struct BuildBuffers {
 };
 
 // Builds the whole tree from scratch: nodes (node 0 the root), every leaf's
-// entries in `entries`, home[i] (and prev[i] for objects in several cells)
-// for every object. Deterministic for any thread count.
+// entries in `entries`, home[i] (and for objects in several cells prev[i]
+// and margin[i] = 0; an object in one cell has neither) for every object.
+// Deterministic for any thread count.
 void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buffers, std::vector<KdTreeNode>& nodes,
-                RawBuffer<CellEntry>& entries, std::uint32_t* home, StoredBox* prev);
+                RawBuffer<CellEntry>& entries, std::uint32_t* home, StoredBox* prev, float* margin);
 
 // Entry order inside a cell: min x, then id.
 inline bool entry_less(const CellEntry& a, const CellEntry& b) {
