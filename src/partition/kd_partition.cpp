@@ -558,10 +558,13 @@ void KdPartition::find_crossings(const BoxArray& boxes) {
           const bool left = b[nd.axis] < nd.split;
           const bool right = b[3 + nd.axis] >= nd.split;
           m = std::min(m, std::min(std::abs(b[nd.axis] - nd.split), std::abs(b[3 + nd.axis] - nd.split)));
-          if (left && right) {
-            if (fork == kNoHome) fork = node;  // first fork: the new home
-            stack[top++] = nd.child + 1;
-          }
+          // Branch-free: a box straddling the plane pushes the right child
+          // (the stack's slot at `top` is always writable: top <= depth) and
+          // the first such node is the new home.
+          const bool both = left & right;
+          stack[top] = nd.child + 1;
+          top += both;
+          fork = both & (fork == kNoHome) ? node : fork;
           node = nd.child + (left ? 0u : 1u);
         }
         const bool was = h == kNoHome ? false : was_leaf ? node == h : overlaps(old, node_regions[node]);
