@@ -69,7 +69,7 @@ struct PartitionTarget {
 // and on true the target holds partition_entries(e, n, out, fork_tag): the
 // same split and children either way.
 bool choose_split(const CellEntry* e, std::uint32_t n, std::uint32_t depth, const SplitRule& rule,
-                  std::vector<float>& scratch, Split& out, const PartitionTarget* target = nullptr);
+                  std::vector<std::uint32_t>& scratch, Split& out, const PartitionTarget* target = nullptr);
 
 // Stable partition of e[0..n) into left (min < split) and right
 // (max >= split); fork_tag is the node's tag for copies that go both ways.
@@ -92,7 +92,7 @@ inline std::uint32_t fork_node(std::uint32_t tag, std::uint32_t root, std::uint3
 // pages cost more than the build itself on a virtual machine).
 struct BuildScratch {
   RawBuffer<CellEntry> arena;  // a stack of node segments, parent before children
-  std::vector<float> centres;
+  std::vector<std::uint32_t> centres;  // choose_split's keys of the centres
 };
 
 class SubtreeBuilder {
@@ -125,6 +125,7 @@ class SubtreeBuilder {
   CellEntry* out_ = nullptr;
   std::size_t out_capacity_ = 0;
   std::size_t out_size_ = 0;
+  const CellEntry* root_items_ = nullptr;  // the root's entries when not copied into the arena
 };
 
 // Buffers of the from-scratch build, kept across frames for the same reason.
@@ -140,10 +141,11 @@ struct BuildBuffers {
 };
 
 // Builds the whole tree from scratch: nodes (node 0 the root), every leaf's
-// entries in `entries`, home[i] (and prev[i] for objects in several cells)
-// for every object. Deterministic for any thread count.
+// entries in `entries`, home[i] (and for objects in several cells prev[i]
+// and margin[i] = 0; an object in one cell has neither) for every object.
+// Deterministic for any thread count.
 void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buffers, std::vector<KdTreeNode>& nodes,
-                RawBuffer<CellEntry>& entries, std::uint32_t* home, StoredBox* prev);
+                RawBuffer<CellEntry>& entries, std::uint32_t* home, StoredBox* prev, float* margin);
 
 // Entry order inside a cell: min x, then id.
 inline bool entry_less(const CellEntry& a, const CellEntry& b) {

@@ -331,15 +331,14 @@ void KdPartition::rebuild(const BoxArray& boxes) {
   const std::size_t n = boxes.size();
   s.home.resize(n);
   s.prev.resize(n);
-  s.margin.resize(n);
-  std::fill(s.margin.data(), s.margin.data() + n, 0.0f);  // the first maintained frame descends once
+  s.margin.resize(n);  // set by the build for objects in several cells (the others' is never read unmasked)
   s.objects = n;
   const kd::SplitRule rule{cell_limit_, x_split_weight_, &cell_cost_};
   // The next frame's entry buffer and the per-object entries serve as the
   // build's scratch: the pages the next frame needs are touched once.
   s.build.a = &s.next_entries;
   s.build.b = &s.latest;
-  kd::build_tree(boxes, rule, s.build, nodes_, s.entries, s.home.data(), s.prev.data());
+  kd::build_tree(boxes, rule, s.build, nodes_, s.entries, s.home.data(), s.prev.data(), s.margin.data());
   s.rebuilding = false;
   s.rebuild_queue.clear();
   if (nodes_.capacity() > 2 * nodes_.size() + 4096) nodes_.shrink_to_fit();  // a past peak of splits
@@ -559,10 +558,13 @@ void KdPartition::find_crossings(const BoxArray& boxes) {
           const bool left = b[nd.axis] < nd.split;
           const bool right = b[3 + nd.axis] >= nd.split;
           m = std::min(m, std::min(std::abs(b[nd.axis] - nd.split), std::abs(b[3 + nd.axis] - nd.split)));
-          if (left && right) {
-            if (fork == kNoHome) fork = node;  // first fork: the new home
-            stack[top++] = nd.child + 1;
-          }
+          // Branch-free: a box straddling the plane pushes the right child
+          // (the stack's slot at `top` is always writable: top <= depth) and
+          // the first such node is the new home.
+          const bool both = left & right;
+          stack[top] = nd.child + 1;
+          top += both;
+          fork = both & (fork == kNoHome) ? node : fork;
           node = nd.child + (left ? 0u : 1u);
         }
         const bool was = h == kNoHome ? false : was_leaf ? node == h : overlaps(old, node_regions[node]);

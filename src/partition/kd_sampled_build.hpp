@@ -47,10 +47,8 @@ struct SampledTopBuffers {
   RawBuffer<CellEntry> sample;
   std::vector<RouteNode> route;
   RawBuffer<std::uint32_t> counts;  // entries per (chunk of ids, task), then each chunk's cursor per task
-  RawBuffer<std::uint32_t> task_of;  // per object: its one task, or that it reaches several
   std::vector<std::vector<std::uint32_t>> forked_tasks;  // per chunk: the tasks of its objects in several
   tbb::enumerable_thread_specific<std::vector<std::uint32_t>> forked;  // a chunk's objects in several tasks
-  tbb::enumerable_thread_specific<std::vector<std::uint64_t>> sort_keys;
 };
 
 // Whether a frame of n objects takes its top levels from a sample.
