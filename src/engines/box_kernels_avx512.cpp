@@ -69,8 +69,9 @@ struct StepRecord {
   std::uint32_t j;
   std::uint16_t m0, m1;
 };
-// Records a pair of rows may need: one per vector scanned, at most
-// (n + 16) / 16 + kSweepVectors of them. Cells of more boxes store at once.
+// Records a pair of rows may need: one per vector scanned, at most n / 16 + 1
+// of them (a vector at j is read only while j <= n). Cells of more boxes
+// store during the scan, as before.
 constexpr std::uint32_t kDeferredRecords = 1040;
 constexpr std::uint32_t kDeferredMaxBoxes = 16 * (kDeferredRecords - 8);
 struct Deferred {
@@ -259,9 +260,7 @@ struct PairedRows {
       }
     }
     if (i + 1 == in.n && out.capacity - s.count >= std::size_t{1} + kOutputSlack) {
-      Store one{s.first, s.second, s.count};
-      Rows::sweep_row(in, in.region, i, one);
-      s.count = one.count;
+      Rows::sweep_row(in, in.region, i, s);
       i += 1;
     }
     out.count = s.count;
@@ -272,9 +271,8 @@ struct PairedRows {
     PairCount c;
     std::uint32_t i = row;
     for (; i + 1 < in.n; i += 2) sweep_rows(in, i, below, c);
-    Count rest{c.count};
-    if (i < in.n) Rows::sweep_row(in, in.region, i, rest);
-    return rest.count;
+    if (i < in.n) Rows::sweep_row(in, in.region, i, c);
+    return c.count;
   }
 };
 
