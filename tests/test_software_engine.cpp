@@ -294,6 +294,43 @@ TEST(SoftwareKernels, HitOrderDoesNotDependOnTheRoom) {
   }
 }
 
+// The AVX-512 sweep stores a pair of rows' hits after scanning them
+// (deferred) in cells of up to 16,512 boxes and during the scan in larger
+// ones: the same hits in the same order either way. A cell of 16,000 boxes
+// (deferred) and the same cell with 1,000 more far beyond it in x (17,000,
+// stored at once) must begin with the same list; the far boxes' own pairs
+// come after it.
+TEST(SoftwareKernels, LargeCellsStoreInTheSameOrderAsDeferredOnes) {
+  std::mt19937 rng(21);
+  const BoxArray near = random_boxes(16000, 100, 12, rng, true);
+  BoxArray all = near;
+  const BoxArray far = random_boxes(1000, 20, 6, rng, true);
+  for (std::uint32_t i = 0; i < far.size(); ++i) {
+    hbp::Aabb b = far.get(i);
+    b.min[0] += 1000;
+    b.max[0] += 1000;
+    all.push_back(b);
+  }
+  const std::vector<std::uint32_t> all_ids = scrambled_ids(17000);
+  std::vector<std::uint32_t> near_ids(all_ids.begin(), all_ids.begin() + 16000);
+  near_ids.resize(16000 + 16, 0xFFFFFFFFu);
+  const CellRegion r{{-80, -90, -100}, {2000, 90, 100}};
+  for (k::Isa isa : available_isas()) {
+    const std::vector<Pair> near_pairs =
+        run_kernel_in_order(k::sweep_kernel(isa), k::sweep_count_kernel(isa), near, near_ids, r, 1 << 20);
+    const std::vector<Pair> all_pairs =
+        run_kernel_in_order(k::sweep_kernel(isa), k::sweep_count_kernel(isa), all, all_ids, r, 1 << 20);
+    ASSERT_GT(near_pairs.size(), 10000u) << k::isa_name(isa);
+    ASSERT_GT(all_pairs.size(), near_pairs.size() + 100) << k::isa_name(isa);
+    EXPECT_TRUE(std::equal(near_pairs.begin(), near_pairs.end(), all_pairs.begin())) << k::isa_name(isa);
+    std::vector<Pair> sorted = all_pairs;
+    hbp::canonicalize(sorted);
+    EXPECT_EQ(sorted, run_kernel(k::sweep_kernel(k::Isa::Scalar), k::sweep_count_kernel(k::Isa::Scalar), all,
+                                 all_ids, r, 1 << 20))
+        << k::isa_name(isa);
+  }
+}
+
 TEST(SoftwareEngine, UnsortedInputThroughTheCellEngineInterface) {
   std::mt19937 rng(2);
   const BoxArray boxes = random_boxes(500, 40, 15, rng, false);
