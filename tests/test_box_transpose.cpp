@@ -96,10 +96,10 @@ TEST(BoxTranspose, LanesAndVerdictMatchScalarRule) {
   EXPECT_GT(verdicts_false, 1000u);
 }
 
-// Large batches take the streamed stores when the lanes are 16-byte aligned
-// at `begin` (BoxArray lanes, begin a multiple of 4) and the plain stores
-// otherwise: both write the same lanes and give the same verdict, with a bad
-// row early, in the middle and in the scalar tail.
+// With `stream`, batches take the streamed stores when the lanes are 16-byte
+// aligned at `begin` (BoxArray lanes, begin a multiple of 4) and the plain
+// stores otherwise: both write the same lanes and give the same verdict as
+// without, with a bad row early, in the middle and in the scalar tail.
 TEST(BoxTranspose, LargeBatchesStreamedOrNotMatchScalarRule) {
   std::mt19937 rng(5);
   const float nan = std::numeric_limits<float>::quiet_NaN();
@@ -114,21 +114,24 @@ TEST(BoxTranspose, LargeBatchesStreamedOrNotMatchScalarRule) {
           std::vector<std::uint32_t> id = ids;
           if (bad >= 0 && wrong_id) id[static_cast<std::size_t>(bad)] += 7;
           if (bad >= 0 && !wrong_id) boxes[static_cast<std::size_t>(bad)].max[1] = nan;
-          hbp::BoxArray out(n);
-          float* lane[6];
-          for (int k = 0; k < 3; ++k) {
-            lane[k] = out.min(k);
-            lane[3 + k] = out.max(k);
-          }
-          const bool got = hbp::detail::check_and_transpose(boxes.data(), id.data(), nullptr, begin, n, lane);
-          ASSERT_EQ(got, expected_verdict(boxes, id, nullptr, begin, n)) << n << " " << begin << " " << bad;
-          ASSERT_EQ(got, bad < 0);
-          if (!got) continue;
-          for (std::size_t i = begin; i < n; ++i)
+          for (const bool stream : {true, false}) {
+            hbp::BoxArray out(n);
+            float* lane[6];
             for (int k = 0; k < 3; ++k) {
-              ASSERT_EQ(lane[k][i], boxes[i].min[k]) << "row " << i;
-              ASSERT_EQ(lane[3 + k][i], boxes[i].max[k]) << "row " << i;
+              lane[k] = out.min(k);
+              lane[3 + k] = out.max(k);
             }
+            const bool got =
+                hbp::detail::check_and_transpose(boxes.data(), id.data(), nullptr, begin, n, lane, stream);
+            ASSERT_EQ(got, expected_verdict(boxes, id, nullptr, begin, n)) << n << " " << begin << " " << bad;
+            ASSERT_EQ(got, bad < 0);
+            if (!got) continue;
+            for (std::size_t i = begin; i < n; ++i)
+              for (int k = 0; k < 3; ++k) {
+                ASSERT_EQ(lane[k][i], boxes[i].min[k]) << "row " << i;
+                ASSERT_EQ(lane[3 + k][i], boxes[i].max[k]) << "row " << i;
+              }
+          }
         }
       }
     }

@@ -8,9 +8,6 @@ namespace hbp::detail {
 
 namespace {
 
-// Ranges of at least this many boxes are written with non-temporal stores.
-constexpr std::size_t kStreamFrom = 4096;
-
 // x - x == 0 exactly when x is finite; NaN fails every comparison.
 bool check_and_transpose_scalar(const Aabb* boxes, const std::uint32_t* ids, const std::uint32_t* expected,
                                 std::size_t begin, std::size_t end, float* const lane[6]) {
@@ -99,14 +96,15 @@ bool check_and_transpose_sse2(const Aabb* boxes, const std::uint32_t* ids, const
 }  // namespace
 
 bool check_and_transpose(const Aabb* boxes, const std::uint32_t* ids, const std::uint32_t* expected,
-                         std::size_t begin, std::size_t end, float* const lane[6]) {
+                         std::size_t begin, std::size_t end, float* const lane[6], bool stream) {
 #if defined(__SSE2__)
   bool aligned = true;
   for (int l = 0; l < 6; ++l) aligned &= reinterpret_cast<std::uintptr_t>(lane[l] + begin) % 16 == 0;
-  if (aligned && end - begin >= kStreamFrom)
+  if (stream && aligned)
     return check_and_transpose_sse2<true>(boxes, ids, expected, begin, end, lane);
   return check_and_transpose_sse2<false>(boxes, ids, expected, begin, end, lane);
 #else
+  (void)stream;
   return check_and_transpose_scalar(boxes, ids, expected, begin, end, lane);
 #endif
 }

@@ -13,12 +13,13 @@ namespace hbp::detail {
 // boxes[i].max[0..2]. Returns true when every box is finite with min <= max
 // (box_defect would find nothing) and every ids[i] equals expected[i], or i
 // itself when expected is nullptr. The lanes are written either way (the
-// caller discards them on false). SSE2 four boxes at a time where available;
-// a range of at least 4,096 boxes whose lanes are 16-byte aligned at begin
-// (BoxArray's lanes, begin a multiple of 4) is written with non-temporal
-// stores, fenced before returning (a whole-world batch does not fit the
-// caches, and a plain store reads each line before writing it).
+// caller discards them on false). SSE2 four boxes at a time where available.
+// `stream`: the caller's whole batch is far larger than the caches, so the
+// lanes, when 16-byte aligned at begin (BoxArray's lanes, begin a multiple
+// of 4), are written with non-temporal stores, fenced before returning (a
+// plain store reads each line before writing it, and the lines would not
+// stay in cache for the reader anyway).
 bool check_and_transpose(const Aabb* boxes, const std::uint32_t* ids, const std::uint32_t* expected,
-                         std::size_t begin, std::size_t end, float* const lane[6]);
+                         std::size_t begin, std::size_t end, float* const lane[6], bool stream = false);
 
 }  // namespace hbp::detail
