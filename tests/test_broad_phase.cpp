@@ -917,20 +917,19 @@ TEST(BroadPhase, LargeWholeBatchMoveStreamsAndMatchesWholeFrame) {
   const std::vector<Handle> h = bp.add(boxes);
   std::vector<Pair> previous = whole_frame(whole, boxes);
   ASSERT_EQ(bp.update().pairs, previous);
-  std::size_t events = 0;
-  for (int frame = 1; frame <= 2; ++frame) {
-    boxes = frame_boxes();
-    bp.move(h, boxes);
+  boxes = frame_boxes();
+  bp.move(h, boxes);
+  {
     const std::vector<Pair> want = whole_frame(whole, boxes);
     const hbp::BroadPhaseUpdate& u = bp.update();
-    ASSERT_EQ(u.pairs, want) << "frame " << frame;
+    ASSERT_EQ(u.pairs, want);
     EXPECT_EQ(u.created, minus(want, previous));
     EXPECT_EQ(u.removed, minus(previous, want));
-    events += u.created.size() + u.removed.size();
+    EXPECT_GT(want.size(), 1000u);
+    EXPECT_GT(u.created.size(), 1000u);
+    EXPECT_GT(u.removed.size(), 1000u);
     previous = want;
   }
-  EXPECT_GT(previous.size(), 1000u);
-  EXPECT_GT(events, 1000u);
   // A bad last row: refused with the row checks' message, nothing changed.
   std::vector<Aabb> bad = frame_boxes();
   bad[n - 1].max[2] = std::numeric_limits<float>::quiet_NaN();
