@@ -13,7 +13,8 @@
 //     move() + update(), beside HybridBroadPhase::update(BoxArray) on the
 //     same frames (same pairs checked each frame). With 1 thread the
 //     calling thread's CPU time is all the work of each side: the
-//     *_cpu_* counters, a ratio that holds on a loaded machine.
+//     *_cpu_* counters (not another process's time slices; memory-bound stages
+//     still take longer when the other cores load the memory bus).
 //   BoxQueries/<n>, RayQueries/<n>: one thread, the paper frame of n objects
 //     as static objects; boxes of the objects' sizes, rays of 500 m; beside
 //     btDbvtBroadphase::aabbTest / rayTest on the same boxes (answers checked
@@ -245,7 +246,7 @@ void AllMoving(benchmark::State& state) {
   state.counters["whole_frame_median_ms"] = median(whole_ms);
   state.counters["whole_frame_worst_ms"] = worst(whole_ms);
   state.counters["ours_over_whole_frame"] = median(ours_ms) / median(whole_ms);
-  if (threads == 1) {  // the calling thread does all the work: CPU time, steady on a loaded machine
+  if (threads == 1) {  // the calling thread does all the work: its CPU time is all of it
     state.counters["ours_cpu_median_ms"] = median(ours_cpu_ms);
     state.counters["whole_frame_cpu_median_ms"] = median(whole_cpu_ms);
     state.counters["ours_cpu_over_whole_frame"] = median(ours_cpu_ms) / median(whole_cpu_ms);
