@@ -103,12 +103,12 @@ bool gjk_epa(const Convex& a, const Convex& b, Hit* hit, const V3* start, const 
 // there, without GJK's iterations; otherwise GJK goes on from that
 // tetrahedron's closest feature.
 bool warm_tetrahedron(const Convex& a, const Convex& b, const Coherence& warm, Hit* hit, Coherence* learned) {
-  Simplex s;
-  s.n = 4;
-  for (int i = 0; i < 4; ++i) {
-    s.dir[i] = {warm.tetra[i][0], warm.tetra[i][1], warm.tetra[i][2]};
-    s.v[i] = support_difference(a, b, s.dir[i]);
-  }
+  const V3 d0{warm.tetra[0][0], warm.tetra[0][1], warm.tetra[0][2]};
+  const V3 d1{warm.tetra[1][0], warm.tetra[1][1], warm.tetra[1][2]};
+  const V3 d2{warm.tetra[2][0], warm.tetra[2][1], warm.tetra[2][2]};
+  const V3 d3{warm.tetra[3][0], warm.tetra[3][1], warm.tetra[3][2]};
+  const Simplex s(support_difference(a, b, d0), support_difference(a, b, d1), support_difference(a, b, d2),
+                  support_difference(a, b, d3), d0, d1, d2, d3);
   const bool used = tetrahedron_encloses_origin(s);
   if (used) {
     const bool r = epa_contact(a, b, s, hit, learned);
