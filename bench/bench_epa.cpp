@@ -136,5 +136,4 @@ void BM_GjkEpaWarm(benchmark::State& state) {
 BENCHMARK(BM_EpaCold)->Arg(20000)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_GjkEpaWarm)->Arg(20000)->Unit(benchmark::kMillisecond);
 
-
 }  // namespace
