@@ -121,9 +121,13 @@ Simplex cone_tetrahedron(const Convex& a, const Convex& b, const V3& n) {
   const V3 d0 = ct * n + st * e1;
   const V3 d1 = ct * n + st * (-0.5 * e1 + kSin120 * e2);
   const V3 d2 = ct * n + st * (-0.5 * e1 - kSin120 * e2);
-  const V3 d3 = -1.0 * n;
-  return Simplex(support_difference(a, b, d0), support_difference(a, b, d1), support_difference(a, b, d2),
-                 support_difference(a, b, d3), d0, d1, d2, d3);
+  const SupportVertex w0 = support_difference(a, b, d0), w1 = support_difference(a, b, d1),
+                      w2 = support_difference(a, b, d2);
+  // The fourth: away from the three points' centroid, so the origin (a
+  // little inside their face) lies between (along -n: on half of the
+  // paper scene's pairs the origin was outside a side face, 2/3 with this).
+  const V3 d3 = -1.0 * (w0.w + w1.w + w2.w);
+  return Simplex(w0, w1, w2, support_difference(a, b, d3), d0, d1, d2, d3);
 }
 
 bool warm_tetrahedron(const Convex& a, const Convex& b, const Coherence& warm, Hit* hit, Coherence* learned) {
