@@ -5,6 +5,7 @@
 //
 //   bench_epa --benchmark_filter=Epa --benchmark_min_time=1
 //   valgrind --tool=callgrind --toggle-collect='*run_epa*' bench_epa --benchmark_filter=EpaCold --benchmark_min_time=0.01
+//   valgrind --tool=callgrind --toggle-collect='*run_warm*' bench_epa --benchmark_filter=GjkEpaWarm --benchmark_min_time=0.01
 //
 // Arg: number of objects.
 #include <benchmark/benchmark.h>
@@ -113,18 +114,21 @@ void BM_EpaCold(benchmark::State& state) {
 
 // GJK + EPA through intersect(), with last frame's normal (the path
 // NarrowPhase takes for these pairs in steady state).
+// Not inlined: callgrind's --toggle-collect='*run_warm*' counts only this.
+[[gnu::noinline]] void run_warm(const std::vector<EpaCase>& cs) {
+  for (const EpaCase& c : cs) {
+    hbp::narrow::Hit hit;
+    hbp::narrow::Coherence learned;
+    const bool r =
+        hbp::narrow::intersect(c.a, c.b, &hit, hbp::NarrowMethod::Auto, c.warm.contact ? &c.warm : nullptr, &learned);
+    benchmark::DoNotOptimize(r);
+    benchmark::DoNotOptimize(hit.depth);
+  }
+}
+
 void BM_GjkEpaWarm(benchmark::State& state) {
   const auto& cs = cases(static_cast<std::uint32_t>(state.range(0)));
-  for (auto _ : state) {
-    for (const EpaCase& c : cs) {
-      hbp::narrow::Hit hit;
-      hbp::narrow::Coherence learned;
-      const bool r = hbp::narrow::intersect(c.a, c.b, &hit, hbp::NarrowMethod::Auto,
-                                            c.warm.contact ? &c.warm : nullptr, &learned);
-      benchmark::DoNotOptimize(r);
-      benchmark::DoNotOptimize(hit.depth);
-    }
-  }
+  for (auto _ : state) run_warm(cs);
   state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(cs.size()));
   state.counters["pairs"] = static_cast<double>(cs.size());
 }

@@ -314,7 +314,10 @@ TEST(NarrowWarmTetrahedron, FallsBackWhenItDoesNotEnclose) {
     const ShapePair p = gen.next(ShapeKind::Sphere, ShapeKind::Cone);
     const narrow::Convex a = narrow::make_convex(p.a), b = narrow::make_convex(p.b);
     narrow::Coherence warm;
-    warm.dir = {0, 0, 1};
+    // No usable normal: the cone tetrahedron around it is skipped and the
+    // cached tetrahedron below is tried (the cone is tested in
+    // ConeTetrahedronAroundTheNormal).
+    warm.dir = {0, 0, 0};
     warm.contact = true;
     warm.has_tetra = true;
     const double dirs[4][3] = {{0, 0, 1}, {1e-3, 0, 1}, {0, 1e-3, 1}, {1e-3, 1e-3, 1}};
@@ -341,6 +344,51 @@ TEST(NarrowWarmTetrahedron, FallsBackWhenItDoesNotEnclose) {
   }
   EXPECT_GT(hits, 100);
   EXPECT_GT(misses, 50);
+  EXPECT_LE(band, 4);
+}
+
+// Last frame's contact normal: the cone tetrahedron around it serves most
+// colliding pairs (the cached tetrahedron, four nearly equal directions that
+// never enclose, is then kept for the next frame), with the cold path's
+// verdict and depth; where the cone does not enclose either, GJK goes on as
+// before.
+TEST(NarrowWarmTetrahedron, ConeTetrahedronAroundTheNormal) {
+  ShapePairGenerator gen(5);
+  int hits = 0, cone = 0, band = 0;
+  for (int i = 0; i < 400; ++i) {
+    const ShapePair p = gen.next(ShapeKind::Cylinder, ShapeKind::Cone);
+    const narrow::Convex a = narrow::make_convex(p.a), b = narrow::make_convex(p.b);
+    narrow::Hit cold_hit, warm_hit;
+    const bool cold = narrow::intersect(a, b, &cold_hit, NarrowMethod::Auto);
+    if (!cold) continue;
+    narrow::Coherence warm;
+    warm.dir = cold_hit.normal;
+    warm.contact = true;
+    warm.has_tetra = true;
+    const double dirs[4][3] = {{0, 0, 1}, {1e-3, 0, 1}, {0, 1e-3, 1}, {1e-3, 1e-3, 1}};
+    for (int k = 0; k < 4; ++k)
+      for (int c = 0; c < 3; ++c) warm.tetra[k][c] = dirs[k][c];
+    narrow::Coherence now;
+    const bool hot = narrow::intersect(a, b, &warm_hit, NarrowMethod::Auto, &warm, &now);
+    if (!hot) {  // only inside the touching band
+      ++band;
+      EXPECT_LT(cold_hit.depth, 1e-7 * narrow::pair_scale(a, b)) << "pair " << i;
+      continue;
+    }
+    ++hits;
+    EXPECT_NEAR(cold_hit.depth, warm_hit.depth, 2 * narrow::kContactDepthTolerance * cold_hit.depth + 1e-7)
+        << "pair " << i;
+    if (now.tetra_unchanged) {
+      ++cone;
+      for (int k = 0; k < 4; ++k)
+        for (int c = 0; c < 3; ++c) EXPECT_EQ(now.tetra[k][c], dirs[k][c]) << "pair " << i;
+    }
+  }
+  EXPECT_GT(hits, 100);
+  // (32 % here: on shallow contacts of curved shapes the three tilted support
+  // points lie below the deepest one by more than the depth.)
+  EXPECT_GT(cone, hits / 5) << "the cone encloses on a good share of the pairs";
+  EXPECT_LT(cone, hits) << "and not on all";
   EXPECT_LE(band, 4);
 }
 

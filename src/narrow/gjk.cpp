@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <initializer_list>
+#include <optional>
 #include <utility>
 
 namespace hbp::narrow {
@@ -241,7 +242,8 @@ GjkResult gjk(const Convex& a, const Convex& b, const GjkOptions& options) {
   if (norm2(options.initial_direction) > 0) v = -options.initial_direction;
   if (norm2(v) == 0) v = {scale, 0, 0};
   double prev_vv = INFINITY;
-  Simplex before;
+  // Distance mode only; optional, so boolean queries do not zero 424 bytes.
+  std::optional<Simplex> before;
   if (options.initial_simplex && options.initial_simplex->n == 4) {
     // Last frame's tetrahedron, queried again: reduced to its closest
     // feature as if GJK had just built it.
@@ -276,7 +278,7 @@ GjkResult gjk(const Convex& a, const Convex& b, const GjkOptions& options) {
     }
     // Kept for a no-progress exit in distance mode only (its closest points
     // come from it); a boolean answer needs just v.
-    if (!options.boolean_only) before = s;
+    if (!options.boolean_only) before.emplace(s);
     const V3 v_before = v;
     s.dir[s.n] = -v;
     s.v[s.n++] = w;
@@ -307,7 +309,7 @@ GjkResult gjk(const Convex& a, const Convex& b, const GjkOptions& options) {
       return r;
     }
     if (nv >= prev_vv) {  // no progress: numerically converged; keep the last good simplex
-      if (!options.boolean_only) s = before;
+      if (!options.boolean_only) s = *before;
       v = v_before;
       break;
     }

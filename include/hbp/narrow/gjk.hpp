@@ -27,6 +27,14 @@ struct Simplex {
   // tetrahedron again without GJK's iterations.
   V3 dir[4];
   int n = 0;
+
+  Simplex() = default;
+  // A tetrahedron of four support points and their directions, built in
+  // place: the default constructor's zeroing of v and dir (424 bytes, a
+  // `rep stos`) is skipped, they are initialised from these.
+  Simplex(const SupportVertex& v0, const SupportVertex& v1, const SupportVertex& v2, const SupportVertex& v3,
+          const V3& d0, const V3& d1, const V3& d2, const V3& d3)
+      : v{v0, v1, v2, v3}, dir{d0, d1, d2, d3}, n(4) {}
 };
 
 // The origin strictly inside the tetrahedron s.v[0..3] (s.n == 4): the test
