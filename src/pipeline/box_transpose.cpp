@@ -25,6 +25,16 @@ bool check_and_transpose_scalar(const Aabb* boxes, const std::uint32_t* ids, con
 }
 
 #if defined(__SSE2__)
+// Four lane values; kStream: a non-temporal store (p is 16-byte aligned).
+template <bool kStream>
+inline void store_lane(float* p, __m128 v) {
+  if constexpr (kStream) {
+    _mm_stream_ps(p, v);
+  } else {
+    _mm_storeu_ps(p, v);
+  }
+}
+
 // The SSE2 body; kStream: the lanes are 16-byte aligned at begin and written
 // with non-temporal stores (a whole-world batch is far larger than the
 // caches: a normal store would first read each line it writes).
@@ -58,21 +68,12 @@ bool check_and_transpose_sse2(const Aabb* boxes, const std::uint32_t* ids, const
     const __m128 max_x = _mm_shuffle_ps(d, e, _MM_SHUFFLE(3, 1, 3, 1));
     const __m128 max_y = _mm_shuffle_ps(g, k, _MM_SHUFFLE(2, 0, 2, 0));
     const __m128 max_z = _mm_shuffle_ps(g, k, _MM_SHUFFLE(3, 1, 3, 1));
-    if constexpr (kStream) {
-      _mm_stream_ps(lane[0] + i, min_x);
-      _mm_stream_ps(lane[1] + i, min_y);
-      _mm_stream_ps(lane[2] + i, min_z);
-      _mm_stream_ps(lane[3] + i, max_x);
-      _mm_stream_ps(lane[4] + i, max_y);
-      _mm_stream_ps(lane[5] + i, max_z);
-    } else {
-      _mm_storeu_ps(lane[0] + i, min_x);
-      _mm_storeu_ps(lane[1] + i, min_y);
-      _mm_storeu_ps(lane[2] + i, min_z);
-      _mm_storeu_ps(lane[3] + i, max_x);
-      _mm_storeu_ps(lane[4] + i, max_y);
-      _mm_storeu_ps(lane[5] + i, max_z);
-    }
+    store_lane<kStream>(lane[0] + i, min_x);
+    store_lane<kStream>(lane[1] + i, min_y);
+    store_lane<kStream>(lane[2] + i, min_z);
+    store_lane<kStream>(lane[3] + i, max_x);
+    store_lane<kStream>(lane[4] + i, max_y);
+    store_lane<kStream>(lane[5] + i, max_z);
     // Finite: every coordinate of the six input vectors; ordered per axis.
     __m128 finite = _mm_and_ps(_mm_cmpeq_ps(_mm_sub_ps(v0, v0), zero), _mm_cmpeq_ps(_mm_sub_ps(v1, v1), zero));
     finite = _mm_and_ps(finite, _mm_cmpeq_ps(_mm_sub_ps(v2, v2), zero));
