@@ -63,6 +63,13 @@ constexpr std::size_t kKeepCellPairs = 1 << 10;  // per cell: there are thousand
 // workers at once, in chunks of a huge page (see prefault).
 constexpr std::size_t kPrefaultBytes = std::size_t{8} << 20;
 constexpr std::size_t kPrefaultChunk = std::size_t{2} << 20;
+// The back lane's block is moved on all workers from this many pairs (512 KiB),
+// in this many chunks a worker (for balance), each chunk at least this many
+// times the distance moved (what a chunk sets aside: at most an eighth of
+// the block).
+constexpr std::size_t kMoveParallelPairs = std::size_t{1} << 16;
+constexpr int kMoveChunksPerWorker = 4;
+constexpr std::size_t kMoveChunksPerShift = 8;
 
 
 template <class T>
@@ -253,6 +260,7 @@ struct HybridBroadPhase::Impl {
   std::vector<std::size_t> offsets;        // per cell: first pair in `pairs`
   std::vector<Pair> pairs;                 // the frame's output
   std::vector<Pair> sort_scratch;
+  RawBuffer<Pair> move_scratch;  // pairs set aside while the back lane's block moves
   FrameStats stats;
   std::atomic<std::uint64_t> running_pairs{0};
   std::size_t last_frame_pairs = 0;  // the pair count of the last frame through run_cells
@@ -729,10 +737,60 @@ struct HybridBroadPhase::Impl {
   }
 
   // Moves count pairs of the list from index `from` to index `to` (the
-  // ranges may overlap).
+  // ranges may overlap), on all workers: the back lane's block is half of a
+  // dense frame's list (~250 MB on clustered 1,000,000), moved by the change
+  // in pair count, which is small on a steady frame. Overlapping by a
+  // distance d, the block is cut into chunks of at least kMoveChunksPerShift
+  // d: each chunk first sets aside the d pairs that land in its neighbour's
+  // chunk (or the free gap) and moves the rest within itself; once all
+  // chunks have, the set-aside pairs go to their place. A large distance
+  // moves pieces of d one after another instead (each piece copied by all
+  // workers: it lands where the previous piece was).
   void move_pairs(std::size_t from, std::size_t to, std::size_t count) {
     if (from == to || count == 0) return;
-    std::memmove(pairs.data() + to, pairs.data() + from, count * sizeof(Pair));
+    Pair* base = pairs.data();
+    const bool down = to < from;
+    const std::size_t d = down ? from - to : to - from;
+    const std::size_t chunks = static_cast<std::size_t>(kMoveChunksPerWorker * std::max(1, arena.max_concurrency()));
+    if (count < kMoveParallelPairs || serial_engine_phase()) {
+      std::memmove(base + to, base + from, count * sizeof(Pair));
+      return;
+    }
+    auto copy = [&](std::size_t src, std::size_t dst, std::size_t n) {  // no overlap: in parallel
+      tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t j) {
+        const std::size_t lo = n * j / chunks, hi = n * (j + 1) / chunks;
+        std::memcpy(base + dst + lo, base + src + lo, (hi - lo) * sizeof(Pair));
+      });
+    };
+    if (d >= count) {
+      copy(from, to, count);
+      return;
+    }
+    if (d * kMoveChunksPerShift * chunks > count) {
+      // Pieces of d, the one nearest the destination first.
+      for (std::size_t done = 0; done < count; done += d) {
+        const std::size_t n = std::min(d, count - done);
+        const std::size_t src = down ? from + done : from + count - done - n;
+        copy(src, down ? src - d : src + d, n);
+      }
+      return;
+    }
+    move_scratch.resize(chunks * d);
+    tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t j) {
+      const std::size_t lo = from + count * j / chunks, hi = from + count * (j + 1) / chunks;
+      Pair* aside = move_scratch.data() + j * d;
+      if (down) {
+        std::memcpy(aside, base + lo, d * sizeof(Pair));
+        std::memmove(base + lo, base + lo + d, (hi - lo - d) * sizeof(Pair));
+      } else {
+        std::memcpy(aside, base + hi - d, d * sizeof(Pair));
+        std::memmove(base + lo + d, base + lo, (hi - lo - d) * sizeof(Pair));
+      }
+    });
+    tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t j) {
+      const std::size_t lo = from + count * j / chunks, hi = from + count * (j + 1) / chunks;
+      std::memcpy(down ? base + lo - d : base + hi, move_scratch.data() + j * d, d * sizeof(Pair));
+    });
   }
 
   // Room for this frame's pairs. Growing reallocates without copying (the
@@ -860,6 +918,8 @@ struct HybridBroadPhase::Impl {
   void sort_output() {
     if (options.sorted) sort_pairs(pairs, sort_scratch);
     release_if_oversized(sort_scratch, options.sorted ? pairs.size() : 0, kKeepPairs);
+    release_if_oversized(move_scratch, move_scratch.size(), kKeepPairs);
+    move_scratch.clear();
   }
 
   // Per-worker buffers follow this frame's needs.
