@@ -36,9 +36,10 @@ constexpr std::uint64_t kSerialEntries = 16384;
 // (4 K pairs: first + second fit L1 beside the cell; 16 K cost ~4 % more
 // CPU on clustered 1,000,000, see docs/hybrid-system.md "Pair-dense frames").
 constexpr std::size_t kStagePairs = 1 << 12;
-// Output: every cell's pairs go to its worker's store, then are copied to
-// their place in the frame's list; the stores are sized from the last
-// frame's pair count. A frame with no such count (the first, or the first
+// Output: a cell's pairs go to its worker's store, then are copied to
+// their place in the frame's list (unless a lane writes them in place, see
+// "The lanes writing in place"); the stores are sized from the last frame's
+// pair count. A frame with no such count (the first, or the first
 // after a one-cell or streamed frame) would grow stores of hundreds of
 // megabytes from nothing: there a cell with more than kStoredPairsPerBox
 // pairs per box is "dense", its pairs are only counted in the first pass
