@@ -2,7 +2,8 @@
 // every moving object): the lanes against a plain copy, and the verdict
 // against box_defect and the id comparison, for every batch length and start
 // up to a few vectors (the SSE2 body and the scalar tail), with one bad
-// coordinate or id at each row.
+// coordinate or id at each row; and batches large enough for the
+// non-temporal stores (aligned lanes), and the same lanes misaligned.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -11,6 +12,7 @@
 #include <vector>
 
 #include "hbp/aabb.hpp"
+#include "hbp/box_array.hpp"
 #include "pipeline/box_transpose.hpp"
 
 namespace {
@@ -92,6 +94,48 @@ TEST(BoxTranspose, LanesAndVerdictMatchScalarRule) {
   }
   EXPECT_GT(verdicts_true, 100u);
   EXPECT_GT(verdicts_false, 1000u);
+}
+
+// With `stream`, batches take the streamed stores when the lanes are 16-byte
+// aligned at `begin` (BoxArray lanes, begin a multiple of 4) and the plain
+// stores otherwise: both write the same lanes and give the same verdict as
+// without, with a bad row early, in the middle and in the scalar tail.
+TEST(BoxTranspose, LargeBatchesStreamedOrNotMatchScalarRule) {
+  std::mt19937 rng(5);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (const std::size_t n : {4096, 4099, 9003}) {
+    const std::vector<Aabb> good = random_boxes(n, rng);
+    std::vector<std::uint32_t> ids(n);
+    for (std::size_t i = 0; i < n; ++i) ids[i] = static_cast<std::uint32_t>(i);
+    for (const std::size_t begin : {std::size_t{0}, std::size_t{4}, std::size_t{1}, std::size_t{3}}) {
+      for (const long bad : {-1L, static_cast<long>(begin), static_cast<long>(n / 2), static_cast<long>(n - 1)}) {
+        for (const bool wrong_id : {false, true}) {
+          std::vector<Aabb> boxes = good;
+          std::vector<std::uint32_t> id = ids;
+          if (bad >= 0 && wrong_id) id[static_cast<std::size_t>(bad)] += 7;
+          if (bad >= 0 && !wrong_id) boxes[static_cast<std::size_t>(bad)].max[1] = nan;
+          for (const bool stream : {true, false}) {
+            hbp::BoxArray out(n);
+            float* lane[6];
+            for (int k = 0; k < 3; ++k) {
+              lane[k] = out.min(k);
+              lane[3 + k] = out.max(k);
+            }
+            const bool got =
+                hbp::detail::check_and_transpose(boxes.data(), id.data(), nullptr, begin, n, lane, stream);
+            ASSERT_EQ(got, expected_verdict(boxes, id, nullptr, begin, n)) << n << " " << begin << " " << bad;
+            ASSERT_EQ(got, bad < 0);
+            if (!got) continue;
+            for (std::size_t i = begin; i < n; ++i)
+              for (int k = 0; k < 3; ++k) {
+                ASSERT_EQ(lane[k][i], boxes[i].min[k]) << "row " << i;
+                ASSERT_EQ(lane[3 + k][i], boxes[i].max[k]) << "row " << i;
+              }
+          }
+        }
+      }
+    }
+  }
 }
 
 }  // namespace

@@ -884,6 +884,71 @@ TEST(BroadPhase, WholeBatchMoveErrorsChangeNothing) {
   EXPECT_EQ(h.size(), all.size());
 }
 
+// A whole batch of 2^18 or more boxes is written with non-temporal stores:
+// update() sees exactly the moved boxes (the pairs of the whole-frame path
+// on the same boxes, events as the set differences), and a bad last row
+// still changes nothing.
+TEST(BroadPhase, LargeWholeBatchMoveStreamsAndMatchesWholeFrame) {
+  constexpr std::size_t n = 270000;  // above move()'s streaming threshold (2^18)
+  std::mt19937 rng(41);
+  std::uniform_real_distribution<float> jitter(-0.4f, 0.4f);
+  // A sparse lattice of unit boxes (spacing 1.6): jitter makes a few pairs.
+  auto frame_boxes = [&] {
+    std::vector<Aabb> b(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      const float x = 1.6f * static_cast<float>(i % 100), y = 1.6f * static_cast<float>((i / 100) % 100),
+                  z = 1.6f * static_cast<float>(i / 10000);
+      const float c[3] = {x + jitter(rng), y + jitter(rng), z + jitter(rng)};
+      for (int k = 0; k < 3; ++k) {
+        b[i].min[k] = c[k];
+        b[i].max[k] = c[k] + 1.0f;
+      }
+    }
+    return b;
+  };
+  auto whole_frame = [&](hbp::HybridBroadPhase& whole, const std::vector<Aabb>& b) {
+    hbp::BoxArray arr(b.size());
+    for (std::size_t i = 0; i < b.size(); ++i) arr.set(i, b[i]);
+    return whole.update(arr);
+  };
+  BroadPhase bp({.threads = 2});
+  hbp::HybridBroadPhase whole({.threads = 2});
+  std::vector<Aabb> boxes = frame_boxes();
+  const std::vector<Handle> h = bp.add(boxes);
+  std::vector<Pair> previous = whole_frame(whole, boxes);
+  ASSERT_EQ(bp.update().pairs, previous);
+  boxes = frame_boxes();
+  bp.move(h, boxes);
+  {
+    const std::vector<Pair> want = whole_frame(whole, boxes);
+    const hbp::BroadPhaseUpdate& u = bp.update();
+    ASSERT_EQ(u.pairs, want);
+    EXPECT_EQ(u.created, minus(want, previous));
+    EXPECT_EQ(u.removed, minus(previous, want));
+    EXPECT_GT(want.size(), 1000u);
+    EXPECT_GT(u.created.size(), 1000u);
+    EXPECT_GT(u.removed.size(), 1000u);
+    previous = want;
+  }
+  // A bad last row: refused with the row checks' message, nothing changed.
+  std::vector<Aabb> bad = frame_boxes();
+  bad[n - 1].max[2] = std::numeric_limits<float>::quiet_NaN();
+  try {
+    bp.move(h, bad);
+    ADD_FAILURE() << "no throw";
+  } catch (const hbp::InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("row 269999: NaN"), std::string::npos) << e.what();
+  }
+  for (std::size_t i = 0; i < n; i += 997) {
+    const Aabb got = bp.box(h[i]);
+    ASSERT_EQ(std::memcmp(&got, &boxes[i], sizeof(Aabb)), 0) << "row " << i;
+  }
+  const hbp::BroadPhaseUpdate& u = bp.update();
+  EXPECT_EQ(u.pairs, previous);
+  EXPECT_TRUE(u.created.empty());
+  EXPECT_TRUE(u.removed.empty());
+}
+
 TEST(BroadPhase, EmptyAndSingle) {
   BroadPhase bp;
   EXPECT_TRUE(bp.update().pairs.empty());

@@ -24,11 +24,13 @@ bool check_and_transpose_scalar(const Aabb* boxes, const std::uint32_t* ids, con
   return ok;
 }
 
-}  // namespace
-
-bool check_and_transpose(const Aabb* boxes, const std::uint32_t* ids, const std::uint32_t* expected,
-                         std::size_t begin, std::size_t end, float* const lane[6]) {
 #if defined(__SSE2__)
+// The SSE2 body; kStream: the lanes are 16-byte aligned at begin and written
+// with non-temporal stores (a whole-world batch is far larger than the
+// caches: a normal store would first read each line it writes).
+template <bool kStream>
+bool check_and_transpose_sse2(const Aabb* boxes, const std::uint32_t* ids, const std::uint32_t* expected,
+                              std::size_t begin, std::size_t end, float* const lane[6]) {
   static_assert(sizeof(Aabb) == 6 * sizeof(float), "four boxes are six vectors of four floats");
   const __m128 zero = _mm_setzero_ps();
   __m128 good = _mm_castsi128_ps(_mm_set1_epi32(-1));
@@ -56,12 +58,21 @@ bool check_and_transpose(const Aabb* boxes, const std::uint32_t* ids, const std:
     const __m128 max_x = _mm_shuffle_ps(d, e, _MM_SHUFFLE(3, 1, 3, 1));
     const __m128 max_y = _mm_shuffle_ps(g, k, _MM_SHUFFLE(2, 0, 2, 0));
     const __m128 max_z = _mm_shuffle_ps(g, k, _MM_SHUFFLE(3, 1, 3, 1));
-    _mm_storeu_ps(lane[0] + i, min_x);
-    _mm_storeu_ps(lane[1] + i, min_y);
-    _mm_storeu_ps(lane[2] + i, min_z);
-    _mm_storeu_ps(lane[3] + i, max_x);
-    _mm_storeu_ps(lane[4] + i, max_y);
-    _mm_storeu_ps(lane[5] + i, max_z);
+    if constexpr (kStream) {
+      _mm_stream_ps(lane[0] + i, min_x);
+      _mm_stream_ps(lane[1] + i, min_y);
+      _mm_stream_ps(lane[2] + i, min_z);
+      _mm_stream_ps(lane[3] + i, max_x);
+      _mm_stream_ps(lane[4] + i, max_y);
+      _mm_stream_ps(lane[5] + i, max_z);
+    } else {
+      _mm_storeu_ps(lane[0] + i, min_x);
+      _mm_storeu_ps(lane[1] + i, min_y);
+      _mm_storeu_ps(lane[2] + i, min_z);
+      _mm_storeu_ps(lane[3] + i, max_x);
+      _mm_storeu_ps(lane[4] + i, max_y);
+      _mm_storeu_ps(lane[5] + i, max_z);
+    }
     // Finite: every coordinate of the six input vectors; ordered per axis.
     __m128 finite = _mm_and_ps(_mm_cmpeq_ps(_mm_sub_ps(v0, v0), zero), _mm_cmpeq_ps(_mm_sub_ps(v1, v1), zero));
     finite = _mm_and_ps(finite, _mm_cmpeq_ps(_mm_sub_ps(v2, v2), zero));
@@ -76,9 +87,24 @@ bool check_and_transpose(const Aabb* boxes, const std::uint32_t* ids, const std:
     same = _mm_and_si128(same, _mm_cmpeq_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(ids + i)), want));
     index = _mm_add_epi32(index, four);
   }
+  if constexpr (kStream) _mm_sfence();  // the streamed lanes are visible before the caller reads them
   const bool ok = _mm_movemask_ps(good) == 0xF && _mm_movemask_epi8(same) == 0xFFFF;
   return check_and_transpose_scalar(boxes, ids, expected, i, end, lane) && ok;
+}
+#endif
+
+}  // namespace
+
+bool check_and_transpose(const Aabb* boxes, const std::uint32_t* ids, const std::uint32_t* expected,
+                         std::size_t begin, std::size_t end, float* const lane[6], bool stream) {
+#if defined(__SSE2__)
+  bool aligned = true;
+  for (int l = 0; l < 6; ++l) aligned &= reinterpret_cast<std::uintptr_t>(lane[l] + begin) % 16 == 0;
+  if (stream && aligned)
+    return check_and_transpose_sse2<true>(boxes, ids, expected, begin, end, lane);
+  return check_and_transpose_sse2<false>(boxes, ids, expected, begin, end, lane);
 #else
+  (void)stream;
   return check_and_transpose_scalar(boxes, ids, expected, begin, end, lane);
 #endif
 }

@@ -14,7 +14,12 @@ namespace hbp::detail {
 // (box_defect would find nothing) and every ids[i] equals expected[i], or i
 // itself when expected is nullptr. The lanes are written either way (the
 // caller discards them on false). SSE2 four boxes at a time where available.
+// `stream`: the caller's whole batch is far larger than the caches, so the
+// lanes, when 16-byte aligned at begin (BoxArray's lanes, begin a multiple
+// of 4), are written with non-temporal stores, fenced before returning (a
+// plain store reads each line before writing it, and the lines would not
+// stay in cache for the reader anyway).
 bool check_and_transpose(const Aabb* boxes, const std::uint32_t* ids, const std::uint32_t* expected,
-                         std::size_t begin, std::size_t end, float* const lane[6]);
+                         std::size_t begin, std::size_t end, float* const lane[6], bool stream = false);
 
 }  // namespace hbp::detail

@@ -358,8 +358,15 @@ struct BroadPhase::Impl {
     // With handles equal to dense indices the expected handle is i itself
     // (no second handle array to read).
     const Handle* want = moving_identity ? nullptr : moving_handle.data();
+    // A batch this large (6 MB of boxes) does not stay in cache until
+    // update() reads it: non-temporal stores save reading every line first
+    // (1,024,000 objects, 1 thread, under load: 2.8-3.0 -> 2.1-2.4 ms CPU).
+    // A small batch keeps plain stores: its lines are still in L2 for
+    // update().
+    constexpr std::size_t kStreamBoxes = std::size_t{1} << 18;
+    const bool stream = n >= kStreamBoxes;
     const std::uint32_t failed = for_batch(n, [&](std::size_t begin, std::size_t end) {
-      return std::uint32_t(!detail::check_and_transpose(b, h, want, begin, end, lane));
+      return std::uint32_t(!detail::check_and_transpose(b, h, want, begin, end, lane, stream));
     });
     if (failed) return false;
     std::swap(moving_boxes, staged_boxes);
