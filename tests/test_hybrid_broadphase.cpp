@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <limits>
+#include <map>
 
 #include "hbp/brute_force.hpp"
 #include "hbp/error.hpp"
@@ -439,6 +440,55 @@ TEST(HybridBroadPhase, FrontLaneWritesInPlaceInCellOrder) {
       ASSERT_EQ(sorted, boxes == &dense ? want_dense : boxes == &denser ? want_denser : want_sparse)
           << threads << " threads, frame " << f;
     }
+  }
+}
+
+// With two lanes the back lane writes the last cells into the back of the
+// last frame's list and the merge moves that block to end where the frame's
+// list ends. Frames where the list stays, shrinks by a little (the block
+// moved down in chunks, each setting aside what lands in its neighbour),
+// shrinks by a lot (moved piece by piece, or copied clear of itself), grows
+// by a little (the lanes run out of room: the middle cells are stored, the
+// block moves up), grows past the list's capacity, and follows a sparse
+// frame (hardly any room). Every frame: the same list, in the same order,
+// as a streamed (per-cell) run, and the oracle's pairs.
+TEST(HybridBroadPhase, BackLaneBlockMovesToTheListsEnd) {
+  std::mt19937 rng(14);
+  std::uniform_real_distribution<float> pos(0, 60), ext(2, 14);
+  const int n = 7000;  // with cells of 64, over 16,384 entries: the cells run on two workers
+  BoxArray base;
+  for (int i = 0; i < n; ++i) {
+    const float x = pos(rng), y = pos(rng), z = pos(rng);
+    base.push_back({{x, y, z}, {x + ext(rng), y + ext(rng), z + ext(rng)}});
+  }
+  auto scaled = [&](float s) {
+    BoxArray b;
+    for (std::uint32_t i = 0; i < base.size(); ++i) {
+      hbp::Aabb a = base.get(i);
+      for (int k = 0; k < 3; ++k) a.max[k] = a.min[k] + s * (a.max[k] - a.min[k]);
+      b.push_back(a);
+    }
+    return b;
+  };
+  const float scales[] = {1.0f, 1.0f, 0.999f, 0.998f, 0.997f, 0.998f, 0.999f, 1.0f, 1.1f, 1.1f, 0.8f, 0.5f, 0.52f, 0.1f, 1.0f, 1.0f};
+  std::map<float, std::vector<Pair>> want;
+  HybridBroadPhase bp({.engine = "sw", .cell_limit = 64, .threads = 2, .sorted = false});
+  HybridBroadPhase streaming({.engine = "sw", .cell_limit = 64, .threads = 2, .sorted = false});
+  std::size_t last = 0;
+  for (std::size_t f = 0; f < std::size(scales); ++f) {
+    const BoxArray boxes = scaled(scales[f]);
+    const std::vector<Pair>& got = bp.update(boxes);
+    if (scales[f] > 0.5f) {
+      ASSERT_GT(bp.stats().duplication * n, 16384.0);
+    }
+    std::vector<Pair> streamed;
+    streaming.update(boxes, [&](std::uint32_t, const Pair* q, std::size_t k) { streamed.insert(streamed.end(), q, q + k); });
+    ASSERT_TRUE(got == streamed) << "frame " << f << " (" << last << " -> " << got.size() << " pairs)";
+    std::vector<Pair> sorted = got;
+    ASSERT_EQ(hbp::canonicalize(sorted), 0u) << "frame " << f;
+    if (!want.count(scales[f])) want[scales[f]] = hbp::brute_force_pairs(boxes);
+    ASSERT_TRUE(sorted == want[scales[f]]) << "frame " << f;
+    last = got.size();
   }
 }
 

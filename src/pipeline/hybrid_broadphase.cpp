@@ -36,9 +36,10 @@ constexpr std::uint64_t kSerialEntries = 16384;
 // (4 K pairs: first + second fit L1 beside the cell; 16 K cost ~4 % more
 // CPU on clustered 1,000,000, see docs/hybrid-system.md "Pair-dense frames").
 constexpr std::size_t kStagePairs = 1 << 12;
-// Output: every cell's pairs go to its worker's store, then are copied to
-// their place in the frame's list; the stores are sized from the last
-// frame's pair count. A frame with no such count (the first, or the first
+// Output: a cell's pairs go to its worker's store, then are copied to
+// their place in the frame's list (unless a lane writes them in place, see
+// "The lanes writing in place"); the stores are sized from the last frame's
+// pair count. A frame with no such count (the first, or the first
 // after a one-cell or streamed frame) would grow stores of hundreds of
 // megabytes from nothing: there a cell with more than kStoredPairsPerBox
 // pairs per box is "dense", its pairs are only counted in the first pass
@@ -63,6 +64,13 @@ constexpr std::size_t kKeepCellPairs = 1 << 10;  // per cell: there are thousand
 // workers at once, in chunks of a huge page (see prefault).
 constexpr std::size_t kPrefaultBytes = std::size_t{8} << 20;
 constexpr std::size_t kPrefaultChunk = std::size_t{2} << 20;
+// The back lane's block is moved on all workers from this many pairs (512 KiB),
+// in this many chunks a worker (for balance), each chunk at least this many
+// times the distance moved (what a chunk sets aside: at most an eighth of
+// the block).
+constexpr std::size_t kMoveParallelPairs = std::size_t{1} << 16;
+constexpr int kMoveChunksPerWorker = 4;
+constexpr std::size_t kMoveChunksPerShift = 8;
 
 
 template <class T>
@@ -134,12 +142,39 @@ struct CellOutcome {
   bool in_place = false;  // written straight into the frame's list by the front lane
 };
 
+// Room in the last frame's list for the lanes writing in place: pairs not
+// yet taken by the front lane (growing up from the list's start) or the back
+// lane (growing down from its end). One counter for both, so the two blocks
+// never overlap whatever order the lanes take their room in.
+struct ListRoom {
+  std::atomic<std::size_t> free;
+  bool take(std::size_t count) {
+    std::size_t r = free.load(std::memory_order_relaxed);
+    while (r >= count)
+      if (free.compare_exchange_weak(r, r - count, std::memory_order_relaxed)) return true;
+    return false;
+  }
+  void give_back(std::size_t count) { free.fetch_add(count, std::memory_order_relaxed); }
+};
+
 // The front of the last frame's list, which the front lane overwrites with
-// this frame's first cells (an output for emit_direct: never grows past it).
+// this frame's first cells (an output for emit_direct: never grows past its
+// room).
 struct ListFront {
   Pair* base;
   std::size_t used;
+  ListRoom* room;
   std::size_t size() const { return used; }
+};
+
+// The back of the last frame's list, which the back lane (two lanes)
+// overwrites with this frame's last cells, the last cell's pairs ending at
+// `end`, the cell before it ending where those start, and so on; the merge
+// moves the block to end where the frame's list ends.
+struct ListBack {
+  Pair* end;
+  std::size_t used;  // the block is [end - used, end)
+  ListRoom* room;
 };
 
 std::size_t stage_pairs(std::uint32_t n) {
@@ -189,8 +224,18 @@ Pair* extend(ListFront& out, std::size_t count) {
   return out.base + out.used - count;
 }
 void truncate(std::vector<Pair>& out, std::size_t n) { out.resize(n); }
-void truncate(ListFront& out, std::size_t n) { out.used = n; }
+void truncate(ListFront& out, std::size_t n) {
+  out.room->give_back(out.used - n);
+  out.used = n;
+}
 void truncate(RawBuffer<Pair>& out, std::size_t n) { out.truncate(n); }
+// Whether count more pairs fit in out below limit (the list's front: in
+// the room the back lane left, which they then take).
+template <class Out>
+bool fits(Out& out, std::size_t count, std::size_t limit) {
+  return out.size() + count <= limit;
+}
+bool fits(ListFront& out, std::size_t count, std::size_t) { return out.room->take(count); }
 
 // Appends the stage's first `count` hits to out as canonical pairs.
 template <class Out>
@@ -216,11 +261,14 @@ struct HybridBroadPhase::Impl {
   std::vector<std::size_t> offsets;        // per cell: first pair in `pairs`
   std::vector<Pair> pairs;                 // the frame's output
   std::vector<Pair> sort_scratch;
+  RawBuffer<Pair> move_scratch;  // pairs set aside while the back lane's block moves
   FrameStats stats;
   std::atomic<std::uint64_t> running_pairs{0};
   std::size_t last_frame_pairs = 0;  // the pair count of the last frame through run_cells
   bool count_dense_cells = false;    // this frame has no estimate: dense cells are counted, then written
   std::size_t in_place_pairs = 0;    // pairs the front lane wrote straight into `pairs` this frame
+  std::size_t back_pairs = 0;        // pairs the back lane wrote into `pairs`, ending at back_window
+  std::size_t back_window = 0;       // the list's length while the lanes ran
 
   static std::uint32_t choose_limit(const BroadPhaseOptions& o, const CellEngine& e) {
     const std::uint32_t limit = o.cell_limit ? o.cell_limit : e.default_cell_limit();
@@ -291,7 +339,7 @@ struct HybridBroadPhase::Impl {
       std::size_t count = 0;
       row = w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), w.codes.data(), region, row, w.first.data(), w.second.data(),
                                 w.first.size(), count);
-      if (out.size() + count > limit) {
+      if (!fits(out, count, limit)) {
         truncate(out, start);
         r.pairs = pairs_before;
         return false;
@@ -492,36 +540,54 @@ struct HybridBroadPhase::Impl {
     return false;
   }
 
-  // ---- The front lane -------------------------------------------------------
+  // ---- The lanes writing in place ------------------------------------------
   //
   // A steady frame's cells are claimed from both ends of the cell order: one
   // lane takes cells 0, 1, 2 ... and writes their pairs straight into the
   // front of the frame's list (the last frame's list, its pages warm),
-  // where they stay; the other lanes take cells from the back into their
-  // stores, copied into place afterwards as before. The lanes meet where
-  // their work balances, the front lane's cells need no copy and no store
-  // (one thread: no copy at all), and the list is the same, in the same
-  // order: cell c's pairs start at the sum of the pairs of cells before it
-  // either way. The front lane stops writing in place when the list's old
-  // size would be passed (that cell and its later ones are stored).
+  // where they stay. With two lanes the other one takes cells C-1, C-2 ...
+  // and writes each into the back of the same list, below the cell after it
+  // (the cell's pairs go through the worker's store, one cell at a time, so
+  // the store is as large as the largest cell and stays in cache); the merge
+  // then moves that block, one contiguous memmove, to end where this frame's
+  // list ends. With more lanes, the lanes from the back store their cells
+  // (several lanes finish cells out of claim order, so none can place them
+  // one below the other), copied into place at the merge. The lanes meet
+  // where their work balances, and the list is the same, in the same order:
+  // cell c's pairs start at the sum of the pairs of cells before it in any
+  // case. The two blocks share the old list's length (ListRoom); a lane that
+  // finds no room left for a cell stores that cell and its later ones (the
+  // middle cells, between the two blocks after the merge).
 
   bool front_lane_allowed() const {
     return dynamic_cast<const SoftwareEngine*>(prototype.get()) && !count_dense_cells && !options.max_pairs &&
            !pairs.empty();
   }
 
+  // Lanes of this frame when the front lane runs.
+  int lane_count() const { return serial_engine_phase() ? 1 : std::max(1, arena.max_concurrency()); }
+
   void run_lanes(std::uint32_t cells) {
     // The last frame's list is dead now; one much larger than this frame
-    // needs is released rather than kept as a window.
+    // needs is released rather than kept as room.
     release_if_oversized(pairs, last_frame_pairs, kKeepPairs);
     std::atomic<std::uint64_t> ends{std::uint64_t{cells}};  // (next front cell << 32) | end of the back
-    ListFront front{pairs.data(), 0};
     const std::size_t window = pairs.size();
-    const int lanes = serial_engine_phase() ? 1 : std::max(1, arena.max_concurrency());
+    ListRoom room{window};
+    ListFront front{pairs.data(), 0, &room};
+    ListBack back{pairs.data() + window, 0, &room};
+    const int lanes = lane_count();
     auto lane = [&](int k) {
       std::uint32_t c;
       if (k != 0) {
-        while (claim(ends, false, c)) first_pass(c);
+        bool in_place = lanes == 2 && window > 0;
+        while (claim(ends, false, c)) {
+          if (in_place) {
+            in_place = back_cell(c, back);  // a cell that finds no room is stored
+            continue;
+          }
+          first_pass(c);
+        }
         return;
       }
       bool in_place = window > 0;
@@ -530,7 +596,7 @@ struct HybridBroadPhase::Impl {
         // once a frame, on its first trip through the engine).
         bool loaded = false;
         if (in_place) {
-          in_place = front_cell(c, front, window);
+          in_place = front_cell(c, front);
           if (in_place) continue;
           loaded = true;
         }
@@ -542,6 +608,8 @@ struct HybridBroadPhase::Impl {
     else
       tbb::parallel_for(0, lanes, 1, lane);
     in_place_pairs = front.used;
+    back_pairs = back.used;
+    back_window = window;
   }
 
   // The next cell from the front (or the back); false when the lanes met.
@@ -560,13 +628,35 @@ struct HybridBroadPhase::Impl {
 
   // Cell c's pairs straight into the list after the front lane's earlier
   // cells; false (nothing kept, the cell stays loaded) when they would pass
-  // the window.
-  bool front_cell(std::uint32_t c, ListFront& front, std::size_t window) {
+  // the room left.
+  bool front_cell(std::uint32_t c, ListFront& front) {
     Worker& w = workers.local();
     CellOutcome& r = outcomes[c];
     const CellRegion& region = partition->region(c);
     load_cell(w, engine_cell(c), region);
-    if (!emit_direct(w, region, front, r, window)) return false;
+    if (!emit_direct(w, region, front, r)) return false;
+    r.in_place = true;
+    return true;
+  }
+
+  // Cell c's pairs into the worker's store, then, room permitting, copied
+  // into the list just below the back lane's earlier cells (and dropped from
+  // the store); false when there was no room: the cell stays stored.
+  bool back_cell(std::uint32_t c, ListBack& back) {
+    Worker& w = workers.local();
+    CellOutcome& r = outcomes[c];
+    const CellRegion& region = partition->region(c);
+    load_cell(w, engine_cell(c), region);
+    const std::size_t start = w.stored.size();
+    r.stored = &w.stored;
+    r.offset = start;
+    emit_direct(w, region, w.stored, r);
+    w.touched = std::max(w.touched, w.stored.size());
+    if (!back.room->take(r.pairs)) return false;
+    back.used += r.pairs;
+    if (r.pairs) std::memcpy(back.end - back.used, w.stored.data() + start, r.pairs * sizeof(Pair));
+    w.stored.truncate(start);
+    r.stored = nullptr;
     r.in_place = true;
     return true;
   }
@@ -628,13 +718,80 @@ struct HybridBroadPhase::Impl {
     if (options.max_pairs && total > options.max_pairs)
       throw CapacityExceeded("frame has " + std::to_string(total) + " overlapping pairs, above max_pairs = " +
                              std::to_string(options.max_pairs));
-    if (in_place_pairs) {
-      // The front lane's cells are in place: keep them (growing copies).
-      if (total > pairs.capacity()) pairs.reserve(total + total / 8);
+    if (in_place_pairs || back_pairs) {
+      // The lanes' cells are in place: keep them (growing copies), and move
+      // the back lane's block to end where the list ends (before the stored
+      // cells are copied in below it: growing, it leaves where they go).
+      const std::size_t from = back_window - back_pairs, to = total - back_pairs;
+      if (to <= from) {
+        move_pairs(from, to, back_pairs);
+        pairs.resize(total);
+      } else {
+        if (total > pairs.capacity()) pairs.reserve(total + total / 8);
+        pairs.resize(total);
+        move_pairs(from, to, back_pairs);
+      }
     } else {
       reserve_output(total);
+      pairs.resize(total);
     }
-    pairs.resize(total);
+  }
+
+  // Moves count pairs of the list from index `from` to index `to` (the
+  // ranges may overlap), on all workers: the back lane's block is half of a
+  // dense frame's list (~250 MB on clustered 1,000,000), moved by the change
+  // in pair count, which is small on a steady frame. Overlapping by a
+  // distance d, the block is cut into chunks of at least kMoveChunksPerShift
+  // d: each chunk first sets aside the d pairs that land in its neighbour's
+  // chunk (or the free gap) and moves the rest within itself; once all
+  // chunks have, the set-aside pairs go to their place. A large distance
+  // moves pieces of d one after another instead (each piece copied by all
+  // workers: it lands where the previous piece was).
+  void move_pairs(std::size_t from, std::size_t to, std::size_t count) {
+    if (from == to || count == 0) return;
+    Pair* base = pairs.data();
+    const bool down = to < from;
+    const std::size_t d = down ? from - to : to - from;
+    const std::size_t chunks = static_cast<std::size_t>(kMoveChunksPerWorker * std::max(1, arena.max_concurrency()));
+    if (count < kMoveParallelPairs || serial_engine_phase()) {
+      std::memmove(base + to, base + from, count * sizeof(Pair));
+      return;
+    }
+    auto copy = [&](std::size_t src, std::size_t dst, std::size_t n) {  // no overlap: in parallel
+      tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t j) {
+        const std::size_t lo = n * j / chunks, hi = n * (j + 1) / chunks;
+        std::memcpy(base + dst + lo, base + src + lo, (hi - lo) * sizeof(Pair));
+      });
+    };
+    if (d >= count) {
+      copy(from, to, count);
+      return;
+    }
+    if (d * kMoveChunksPerShift * chunks > count) {
+      // Pieces of d, the one nearest the destination first.
+      for (std::size_t done = 0; done < count; done += d) {
+        const std::size_t n = std::min(d, count - done);
+        const std::size_t src = down ? from + done : from + count - done - n;
+        copy(src, down ? src - d : src + d, n);
+      }
+      return;
+    }
+    move_scratch.resize(chunks * d);
+    tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t j) {
+      const std::size_t lo = from + count * j / chunks, hi = from + count * (j + 1) / chunks;
+      Pair* aside = move_scratch.data() + j * d;
+      if (down) {
+        std::memcpy(aside, base + lo, d * sizeof(Pair));
+        std::memmove(base + lo, base + lo + d, (hi - lo - d) * sizeof(Pair));
+      } else {
+        std::memcpy(aside, base + hi - d, d * sizeof(Pair));
+        std::memmove(base + lo + d, base + lo, (hi - lo - d) * sizeof(Pair));
+      }
+    });
+    tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t j) {
+      const std::size_t lo = from + count * j / chunks, hi = from + count * (j + 1) / chunks;
+      std::memcpy(down ? base + lo - d : base + hi, move_scratch.data() + j * d, d * sizeof(Pair));
+    });
   }
 
   // Room for this frame's pairs. Growing reallocates without copying (the
@@ -735,7 +892,10 @@ struct HybridBroadPhase::Impl {
     }
     count_dense_cells = last_frame_pairs == 0;
     in_place_pairs = 0;
-    if (!(sink || consumer)) size_stores();
+    back_pairs = 0;
+    // Two lanes in place store only the cells they find no room for: the
+    // stores are not sized for a share of the frame.
+    if (!(sink || consumer) && !(front_lane_allowed() && lane_count() == 2)) size_stores();
     if (sink || consumer) {
       stream_cells(sink, consumer);
       engine_ms = ms_since(t_engine);
@@ -759,6 +919,8 @@ struct HybridBroadPhase::Impl {
   void sort_output() {
     if (options.sorted) sort_pairs(pairs, sort_scratch);
     release_if_oversized(sort_scratch, options.sorted ? pairs.size() : 0, kKeepPairs);
+    release_if_oversized(move_scratch, move_scratch.size(), kKeepPairs);
+    move_scratch.clear();
   }
 
   // Per-worker buffers follow this frame's needs.
