@@ -42,18 +42,11 @@ constexpr std::uint32_t kSplitSamples = 1u << 10;
 // at nodes of about this many entries (about 1 MB: it fits the cache); each
 // such subtree is then built exactly as one serial task.
 constexpr std::uint32_t kTaskEntries = 1u << 15;
-// A task's output slot holds its input plus kTaskSlack entries plus its share
-// of the room left in the buffer, at least 1/kTaskSlotHeadroom of its input
-// (the copies its own planes add; paper scene: 1.15x, clustered: 1.85x).
+// A task's output slot holds its input plus 1/kTaskSlotHeadroom of it plus
+// kTaskSlack entries (the copies its own planes add; paper scene: 1.15x;
+// the pair-dense scenes' tasks 1.6-1.85x: the rest spills, see build_into).
 constexpr std::uint32_t kTaskSlotHeadroom = 4;
 constexpr std::uint32_t kTaskSlack = 256;
-// The entry buffers are reserved for kRoomPerObject entries an object: the
-// pair-dense scenes end at 1.8-2.3 copies an object (paper scene: 1.28), and
-// a buffer that must grow in the stitch or for the tasks' slots is mapped
-// afresh, all its pages first-touched again (untouched room costs nothing).
-// Not more: RawBuffer::resize shrinks a buffer more than twice the size
-// asked for, and every object has at least one entry.
-constexpr std::size_t kRoomPerObject = 2;
 // Nodes of at least this many entries count their split's sides in parallel.
 constexpr std::uint32_t kParallelCountMin = 1u << 18;
 // The engine-cost rule splits a node under the limit only when the children
@@ -314,8 +307,13 @@ void SubtreeBuilder::build_into(const CellEntry* items, std::uint32_t n, std::ui
   out_ = out;
   out_capacity_ = out_capacity;
   out_size_ = 0;
-  entries.resize(0);  // no room kept from a past build
-  entries.reserve(std::size_t{n} * 2);  // room for a dense task's spill without copies (untouched room costs nothing)
+  // No room kept from a past build, but room reserved for twice the input:
+  // a task of a pair-dense scene spills about a third of its output (clustered
+  // 1,000,000: 740,000 entries of 60 tasks), and growing by appends mapped
+  // fresh buffers and copied the spill again and again (untouched room
+  // costs nothing).
+  entries.resize(0);
+  entries.reserve(std::size_t{n} * 2);
   start(items, n, rule, false, scratch);
   node(0, 0, n, depth);
 }
@@ -366,7 +364,7 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
   // Room for the top levels' duplicates and the tasks' output slots, so the
   // buffers neither move nor copy while they grow (untouched room costs
   // nothing); their old contents are not needed.
-  const std::size_t room = kRoomPerObject * n + kTaskSlack;
+  const std::size_t room = std::size_t{n} + n / 2 + kTaskSlack;
   entries.clear();
   entries.reserve(room);
   a.clear();
@@ -404,15 +402,8 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
   std::vector<SubtreeBuilder>& tasks = buffers.tasks;
   tasks.resize(frontier.size());
   std::vector<std::size_t> slot(frontier.size() + 1, 0);
-  // Each task's slot holds its input, kTaskSlack entries and a share of the
-  // room left, in proportion to its input (a dense task adds more copies
-  // than the paper scene's 1.2x; what spills goes to fresh buffers).
-  std::size_t inputs = 0;
-  for (const BuildTask& it : frontier) inputs += it.n;
-  const std::size_t fixed = inputs + frontier.size() * kTaskSlack;
-  const std::size_t spare = std::max(room > fixed ? room - fixed : 0, inputs / kTaskSlotHeadroom);
   for (std::size_t t = 0; t < frontier.size(); ++t)
-    slot[t + 1] = slot[t] + frontier[t].n + kTaskSlack + (inputs ? std::size_t{frontier[t].n} * spare / inputs : 0);
+    slot[t + 1] = slot[t] + frontier[t].n + frontier[t].n / kTaskSlotHeadroom + kTaskSlack;
   b.clear();
   b.resize(slot.back());
   // Largest first, each thread taking the next task when done (a task's
