@@ -254,6 +254,10 @@ void drain_stage(const Worker& w, std::size_t count, Out& out) {
 struct HybridBroadPhase::Impl {
   BroadPhaseOptions options;
   std::unique_ptr<CellEngine> prototype;
+  // The engine is the software kernel, whose count and emit calls the
+  // frame loop drives itself (the lanes in place, the sampled first frame);
+  // the hardware and RTL engines take whole cells through CellEngine.
+  bool direct_kernel;
   std::uint32_t cell_limit;
   tbb::task_arena arena;
   KdPartition own_partition;
@@ -293,6 +297,7 @@ struct HybridBroadPhase::Impl {
   explicit Impl(const BroadPhaseOptions& o)
       : options(o),
         prototype(make_cell_engine(o.engine)),
+        direct_kernel(dynamic_cast<const SoftwareEngine*>(prototype.get()) != nullptr),
         cell_limit(choose_limit(o, *prototype)),
         arena(o.threads ? static_cast<int>(o.threads) : tbb::task_arena::automatic),
         own_partition(cell_limit, prototype->x_split_weight(), cell_cost(o, *prototype)),
@@ -567,7 +572,7 @@ struct HybridBroadPhase::Impl {
   // middle cells, between the two blocks after the merge).
 
   bool front_lane_allowed() const {
-    return dynamic_cast<const SoftwareEngine*>(prototype.get()) && !count_dense_cells && !options.max_pairs &&
+    return direct_kernel && !count_dense_cells && !options.max_pairs &&
            !pairs.empty();
   }
 
@@ -680,8 +685,8 @@ struct HybridBroadPhase::Impl {
   // the list's storage replaced if it is more than twice what the frame
   // needs). False when this frame keeps the old way.
   bool first_frame_list(std::uint32_t cells) {
-    if (refresh_in_engine || options.max_pairs || !dynamic_cast<const SoftwareEngine*>(prototype.get()) ||
-        lane_count() != 2 || cells < 2 * kFirstFrameSampleStride)
+    if (refresh_in_engine || options.max_pairs || !direct_kernel || lane_count() != 2 ||
+        cells < 2 * kFirstFrameSampleStride)
       return false;
     const std::uint32_t samples = cells / kFirstFrameSampleStride;
     std::atomic<std::uint64_t> sample_pairs{0}, sample_entries{0};
