@@ -496,18 +496,19 @@ TEST(HybridBroadPhase, BackLaneBlockMovesToTheListsEnd) {
 
 // A first frame (no last count) with two lanes sizes its list from a count
 // of every 8th cell (cells 4, 12, 20, ...) scaled by entries, and writes in
-// place. Scenes of 512 tight clusters of 64 objects, 100 apart along x: with
-// cells of 64 each median split falls between two clusters (each cluster's
+// place. Scenes of 1,024 tight clusters of 32 objects, 100 apart along x: with
+// cells of 32 each median split falls between two clusters (each cluster's
 // lowest centre is a box flat in x at the cluster's left edge, so no box
 // straddles the plane), one cluster per cell, cells in x order. The sampled
-// cells are the opposite of the rest: sparse (62 pairs) where the others are
-// dense (1,953 pairs: an estimate ~1/8 of the frame, the lanes run out of
+// cells are the opposite of the rest: sparse (30 pairs) where the others are
+// dense (465 pairs: an estimate ~1/8 of the frame, the lanes run out of
 // room, the middle cells are counted and written in a second pass), or dense
-// where the others are sparse (an estimate ~4x the frame, cut at the merge:
+// where the others are sparse (an estimate ~6x the frame, cut at the merge:
 // the list's storage must follow the frame, not the estimate). Every frame
 // exactly the oracle's pairs, in the same order as a streamed (per-cell) run
 // and as one thread, on the hybrid's own cells and on cells built outside.
-constexpr std::uint32_t kSampledClusters = 512;  // 32,768 entries: over 16,384, the cells run on the workers
+constexpr std::uint32_t kSampledClusters = 1024;  // 32,768 entries: over 16,384, the cells run on the workers
+constexpr std::uint32_t kClusterSize = 32;        // and the cell limit
 
 BoxArray sampled_cells_scene(bool sampled_dense) {
   BoxArray boxes;
@@ -515,8 +516,8 @@ BoxArray sampled_cells_scene(bool sampled_dense) {
     const bool dense = (k % 8 == 4) == sampled_dense;
     const float x0 = 100.0f * static_cast<float>(k);
     boxes.push_back({{x0, 0, 0}, {x0, 0.1f, 0.1f}});
-    for (int j = 1; j < 64; ++j) {
-      // Dense: boxes 1-63 overlap one another; sparse: each only its neighbours.
+    for (std::uint32_t j = 1; j < kClusterSize; ++j) {
+      // Dense: boxes 1-31 overlap one another; sparse: each only its neighbours.
       const float step = dense ? 0.01f : 0.08f, size = dense ? 5.0f : 0.1f;
       const float o = step * static_cast<float>(j);
       boxes.push_back({{x0 + o, o, o}, {x0 + o + size, o + size, o + size}});
@@ -528,24 +529,32 @@ BoxArray sampled_cells_scene(bool sampled_dense) {
 void check_estimated_first_frame(bool sampled_dense) {
   const std::uint32_t clusters = kSampledClusters;
   const BoxArray boxes = sampled_cells_scene(sampled_dense);
-  const std::vector<Pair> want = hbp::brute_force_pairs(boxes);
-  const std::size_t dense_pairs = 63 * 62 / 2, sparse_pairs = 62;
+  // The oracle cluster by cluster (no box is wider than 5.4, the clusters
+  // are 100 apart; the whole scene at once is 5e8 tests, seconds under ASan).
+  std::vector<Pair> want;
+  for (std::uint32_t k = 0; k < clusters; ++k) {
+    BoxArray cluster;
+    for (std::uint32_t j = 0; j < kClusterSize; ++j) cluster.push_back(boxes.get(k * kClusterSize + j));
+    for (const Pair& q : hbp::brute_force_pairs(cluster))
+      want.push_back({q.a + k * kClusterSize, q.b + k * kClusterSize});
+  }
+  const std::size_t dense_pairs = (kClusterSize - 1) * (kClusterSize - 2) / 2, sparse_pairs = kClusterSize - 2;
   const std::size_t sampled = clusters / 8, others = clusters - sampled;
   ASSERT_EQ(want.size(), sampled_dense ? sampled * dense_pairs + others * sparse_pairs
                                        : sampled * sparse_pairs + others * dense_pairs);
   const std::string what = sampled_dense ? "estimate too high" : "estimate too low";
-  hbp::KdPartition cells(64, hbp::SoftwareEngine().x_split_weight());
+  hbp::KdPartition cells(kClusterSize, hbp::SoftwareEngine().x_split_weight());
   cells.update(boxes);
   ASSERT_EQ(cells.cell_count(), clusters) << what << ": one cell per cluster";
   for (std::uint32_t c = 0; c < clusters; ++c) {
-    ASSERT_EQ(cells.cell(c).size(), 64u) << what << ", cell " << c;
-    for (const hbp::CellEntry& e : cells.cell(c)) ASSERT_EQ(e.id / 64, c) << what << ": cells in x order";
+    ASSERT_EQ(cells.cell(c).size(), kClusterSize) << what << ", cell " << c;
+    for (const hbp::CellEntry& e : cells.cell(c)) ASSERT_EQ(e.id / kClusterSize, c) << what << ": cells in x order";
   }
   std::vector<Pair> one_thread;
   for (unsigned threads : {1u, 2u}) {
     for (const bool own : {true, false}) {
-      HybridBroadPhase bp({.engine = "sw", .cell_limit = 64, .threads = threads, .sorted = false});
-      HybridBroadPhase streaming({.engine = "sw", .cell_limit = 64, .threads = threads, .sorted = false});
+      HybridBroadPhase bp({.engine = "sw", .cell_limit = kClusterSize, .threads = threads, .sorted = false});
+      HybridBroadPhase streaming({.engine = "sw", .cell_limit = kClusterSize, .threads = threads, .sorted = false});
       std::vector<Pair> streamed;
       const PairSink sink = [&](std::uint32_t, const Pair* q, std::size_t k) { streamed.insert(streamed.end(), q, q + k); };
       // Own cells: the estimated first frame, then a steady one sized from its count.
@@ -560,7 +569,7 @@ void check_estimated_first_frame(bool sampled_dense) {
                                (own ? "own" : "outside") + " partition, frame " + std::to_string(f);
         ASSERT_EQ(bp.stats().cells, clusters) << at;
         ASSERT_TRUE(got == streamed) << at << ": not in cell order";
-        // A list sized from the estimate and kept would hold ~4x the frame.
+        // A list sized from the estimate and kept would hold ~6x the frame.
         ASSERT_LE(got.capacity(), 2 * got.size() + (std::size_t{1} << 15)) << at;
         if (one_thread.empty()) one_thread = got;
         ASSERT_TRUE(got == one_thread) << at << ": not the one-thread order";
