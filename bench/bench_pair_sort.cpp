@@ -10,6 +10,8 @@
 //     forced whatever the size and thread count (to place the serial
 //     threshold, and to see the split on one thread). Manual time: the sort
 //     only (the copy of the input before each iteration is not timed).
+//   PairSortBuckets/<n>/<target>: the parallel sort on 2 threads with
+//     buckets of about `target` pairs (the default is 8,192).
 //   SortedFrame/<n>/<threads>: HybridBroadPhase with its defaults (sorted
 //     output), frames of the paper scene; counters: mean sort_ms and
 //     wall_ms of the frames (the stats of HybridBroadPhase).
@@ -87,6 +89,28 @@ void PairSort(benchmark::State& state) {
 BENCHMARK(PairSort)
     ->ArgsProduct({{10000, 20000, 50000, 100000, 1024000}, {1, 2}, {0, 1, 2}})
     ->ArgNames({"n", "threads", "method"})
+    ->Unit(benchmark::kMillisecond)
+    ->UseManualTime();
+
+// The parallel path on 2 threads with buckets of about `target` pairs (the
+// default: PairSortLimits::bucket_target).
+void PairSortBuckets(benchmark::State& state) {
+  const std::vector<Pair>& input = paper_pairs(static_cast<std::uint32_t>(state.range(0)));
+  tbb::task_arena arena(2);
+  hbp::detail::PairSortLimits limits;
+  limits.bucket_target = static_cast<std::size_t>(state.range(1));
+  std::vector<Pair> pairs, scratch;
+  for (auto _ : state) {
+    pairs = input;
+    const auto t0 = std::chrono::steady_clock::now();
+    hbp::detail::parallel_sort_pairs(pairs, scratch, arena, limits);
+    state.SetIterationTime(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    benchmark::DoNotOptimize(pairs.data());
+  }
+}
+BENCHMARK(PairSortBuckets)
+    ->ArgsProduct({{1024000}, {2048, 4096, 8192, 16384, 32768}})
+    ->ArgNames({"n", "target"})
     ->Unit(benchmark::kMillisecond)
     ->UseManualTime();
 
