@@ -1,5 +1,6 @@
 // The parallel sort of the frame's pair list (src/pipeline/parallel_pair_sort)
-// against std::sort on 1 and 2 threads: random, sorted, reversed,
+// against std::sort on 1 and 2 threads: random (20-bit, 16-bit and 32-bit
+// ids), sorted, reversed,
 // all-same-a, skewed (one bucket holding most pairs, split again), duplicate
 // and full-width ids, empty and one-pair lists, at sizes crossing the serial
 // threshold; small limits drive every path (deep re-splits, tiny buckets)
@@ -45,6 +46,7 @@ std::vector<Pair> make_list(const std::string& kind, std::size_t n, unsigned see
   std::mt19937 rng(seed);
   if (kind == "random") return random_pairs(n, 1 << 20, rng);
   if (kind == "full-width") return random_pairs(n, 0xFFFFFFFFu, rng);  // 64-bit keys: every pass
+  if (kind == "small-ids") return random_pairs(n, (1 << 16) - 1, rng);  // 32-bit keys: buckets in three passes
   if (kind == "sorted" || kind == "reversed") {
     auto v = random_pairs(n, 1 << 20, rng);
     std::sort(v.begin(), v.end());
@@ -81,7 +83,7 @@ std::vector<Pair> make_list(const std::string& kind, std::size_t n, unsigned see
   return v;
 }
 
-const char* const kKinds[] = {"random", "full-width", "sorted", "reversed", "same-a", "skewed", "duplicates", "all-equal"};
+const char* const kKinds[] = {"random", "full-width", "small-ids", "sorted", "reversed", "same-a", "skewed", "duplicates", "all-equal"};
 
 void expect_sorted_like_std(std::vector<Pair> pairs, tbb::task_arena& arena, const PairSortLimits& limits,
                             const std::string& what) {

@@ -149,11 +149,50 @@ class Sorter {
     const Pair* sorted = first;
     if (len <= kComparisonSortUpTo) {
       std::sort(first, first + len);
+    } else if (bits <= 3 * kMaxSplitBits) {
+      sorted = three_passes(first, second, len, bits, key_, low);
     } else {
       const Key key = key_;
       sorted = radix_sort<11, 6>(first, second, len, bits, [key, low](const Pair& p) { return key(p) & low; });
     }
     if (sorted != target) std::copy(sorted, sorted + len, target);
+  }
+
+  // The common bucket (the paper scene's: 32 key bits) by an LSD radix sort
+  // of exactly three passes, digits fixed for the bucket, the three
+  // histograms from one read with the loop unrolled (support's radix_sort
+  // loops over a run-time pass count: ~25 % more time here). Returns the
+  // buffer holding the result (second: three passes from first).
+  static const Pair* three_passes(Pair* first, Pair* second, std::size_t len, int bits, Key key,
+                                  std::uint64_t low) {
+    const int digit = (bits + 2) / 3;
+    const std::uint64_t mask = (std::uint64_t{1} << digit) - 1;
+    const std::size_t size = std::size_t{1} << digit;
+    std::array<std::uint32_t, 3 * kMaxBuckets> count;
+    std::uint32_t* c0 = count.data();
+    std::uint32_t* c1 = c0 + size;
+    std::uint32_t* c2 = c1 + size;
+    std::fill(c0, c0 + 3 * size, 0u);
+    for (std::size_t i = 0; i < len; ++i) {
+      const std::uint64_t k = key(first[i]) & low;
+      ++c0[k & mask];
+      ++c1[(k >> digit) & mask];
+      ++c2[(k >> (2 * digit)) & mask];
+    }
+    std::uint32_t s0 = 0, s1 = 0, s2 = 0;
+    for (std::size_t d = 0; d < size; ++d) {
+      const std::uint32_t t0 = c0[d], t1 = c1[d], t2 = c2[d];
+      c0[d] = s0;
+      c1[d] = s1;
+      c2[d] = s2;
+      s0 += t0;
+      s1 += t1;
+      s2 += t2;
+    }
+    for (std::size_t i = 0; i < len; ++i) second[c0[key(first[i]) & mask]++] = first[i];
+    for (std::size_t i = 0; i < len; ++i) first[c1[(key(second[i]) >> digit) & mask]++] = second[i];
+    for (std::size_t i = 0; i < len; ++i) second[c2[((key(first[i]) & low) >> (2 * digit)) & mask]++] = first[i];
+    return second;
   }
 
   const detail::PairSortLimits& limits_;
