@@ -30,9 +30,10 @@
 
 namespace hbp {
 
-// The serial sort is as fast below this many pairs (measured on the paper
-// scene, 2 threads: see docs/hybrid-system.md, seventh session).
-inline constexpr std::size_t kParallelPairSortFrom = std::size_t{1} << 15;
+// The serial sort is faster below about this many pairs (paper scene, 2
+// threads, loaded machine: 0.189 vs 0.216 ms at 29,480 pairs, 0.484 vs
+// 0.393 ms at 74,150; see docs/hybrid-system.md, seventh session).
+inline constexpr std::size_t kParallelPairSortFrom = 40000;
 
 // Orders pairs by (a, b), exactly as sort_pairs, on the threads of `arena`
 // (entered if the caller is not in it already).
