@@ -101,7 +101,7 @@ TEST(ParallelPairSort, MatchesStdSortAcrossTheSerialThreshold) {
   const std::size_t from = hbp::kParallelPairSortFrom;
   tbb::task_arena one(1), two(2);
   for (const char* kind : kKinds)
-    for (std::size_t n : {std::size_t{0}, std::size_t{1}, std::size_t{2}, from - 1, from, from + 1, std::size_t{150000}}) {
+    for (std::size_t n : {std::size_t{0}, std::size_t{1}, std::size_t{2}, from - 1, from, from + 1, std::size_t{100000}}) {
       const std::vector<Pair> list = make_list(kind, n, static_cast<unsigned>(n) + 17);
       const std::string what = std::string(kind) + " n=" + std::to_string(n);
       expect_sorted_like_std(list, one, {}, what + " threads=1");
@@ -125,6 +125,22 @@ TEST(ParallelPairSort, EveryPathWithSmallLimits) {
                                std::string(kind) + " n=" + std::to_string(n) + " threads=" + std::to_string(threads) +
                                    " (small limits)");
   }
+}
+
+// Two buckets a split, never split again: buckets on both sides of the
+// comparison-sort limit (256 pairs), finished by std::sort, the three-pass
+// radix sort (keys of at most 33 bits) or the general one (full-width ids).
+TEST(ParallelPairSort, BucketsAcrossTheComparisonSortLimit) {
+  PairSortLimits two;
+  two.parallel_from = 2;
+  two.bucket_target = std::size_t{1} << 30;
+  two.split_again_above = std::size_t{1} << 30;
+  two.serial_on_one_thread = false;
+  tbb::task_arena arena(2);
+  for (const char* kind : kKinds)
+    for (std::size_t n : {200, 500, 512, 514, 600, 3000})
+      expect_sorted_like_std(make_list(kind, n, static_cast<unsigned>(n) * 5 + 2), arena, two,
+                             std::string(kind) + " n=" + std::to_string(n) + " (two buckets)");
 }
 
 // The parallel path keeps its histograms in scratch's tail: a few KiB, not a
