@@ -155,6 +155,18 @@ TEST(ParallelPairSort, ScratchHoldsTheListAndASmallTail) {
   EXPECT_GT(scratch.size(), n);  // the parallel path ran (its tail is there)
   EXPECT_LE(scratch.size(), n + 4096);
 
+  // Many chunks (16 threads: 64) and small buckets: the split takes fewer
+  // buckets so the tail stays within 16 K pairs (release_if_oversized's
+  // slack), not 64 x 2,048 counts.
+  tbb::task_arena many(16);
+  PairSortLimits fine;
+  fine.bucket_target = 16;
+  std::vector<Pair> more = random_pairs(200000, 1 << 20, rng), more_scratch;
+  expect_sorted_like_std(more, many, fine, "16 threads, buckets of 16");
+  hbp::detail::parallel_sort_pairs(more, more_scratch, many, fine);
+  EXPECT_GT(more_scratch.size(), more.size() + 8192);
+  EXPECT_LE(more_scratch.size(), more.size() + 16384);
+
   std::vector<Pair> small = random_pairs(hbp::kParallelPairSortFrom / 2, 1 << 20, rng), small_scratch;
   hbp::parallel_sort_pairs(small, small_scratch, arena);
   EXPECT_TRUE(std::is_sorted(small.begin(), small.end()));

@@ -24,6 +24,12 @@ constexpr std::size_t kMaxBuckets = std::size_t{1} << kMaxSplitBits;
 // holds up one small chunk, not a quarter of the list.
 constexpr std::size_t kChunksPerThread = 4;
 constexpr std::size_t kMaxChunks = 64;
+// At most this many histogram counts (chunks x buckets; 128 KiB, 16 K pairs
+// of scratch's tail): within release_if_oversized's slack of 32 K pairs, so
+// a list that grows a little does not make the caller drop and re-allocate
+// its scratch. Many threads get fewer buckets (64 chunks: 512), not fewer
+// chunks.
+constexpr std::size_t kMaxCounts = std::size_t{1} << 15;
 // A bucket this small is finished by a comparison sort (fewer instructions
 // than a radix sort's histograms).
 constexpr std::size_t kComparisonSortUpTo = 256;
@@ -61,8 +67,8 @@ Bits bits_of(const Pair* p, std::size_t begin, std::size_t end) {
 
 class Sorter {
  public:
-  Sorter(const detail::PairSortLimits& limits, std::size_t chunks, std::uint32_t* counts)
-      : limits_(limits), chunks_(chunks), counts_(counts) {}
+  Sorter(const detail::PairSortLimits& limits, std::size_t chunks, int max_split_bits, std::uint32_t* counts)
+      : limits_(limits), chunks_(chunks), max_split_bits_(max_split_bits), counts_(counts) {}
 
   // Sorts data[0, n) (spare[0, n) free); the result ends in data when
   // in_data, else in spare. The top call also fixes the key's b width.
@@ -93,7 +99,7 @@ class Sorter {
       return;
     }
     const auto want = static_cast<int>(std::bit_width((n - 1) / limits_.bucket_target));
-    const int d = std::clamp(want, 1, std::min(kMaxSplitBits, range_bits));
+    const int d = std::clamp(want, 1, std::min(max_split_bits_, range_bits));
     const int shift = range_bits - d;
     const std::size_t buckets = std::size_t{1} << d;
     const std::uint64_t mask = buckets - 1;
@@ -197,6 +203,7 @@ class Sorter {
 
   const detail::PairSortLimits& limits_;
   std::size_t chunks_;
+  int max_split_bits_;     // chunks_ << max_split_bits_ <= kMaxCounts
   std::uint32_t* counts_;  // chunks_ x buckets of the current split
   Key key_;
 };
@@ -220,8 +227,10 @@ void parallel_sort_pairs(std::vector<Pair>& pairs, std::vector<Pair>& scratch, t
   }
   const std::size_t chunks = std::min({kMaxChunks, kChunksPerThread * threads, n});
   // The first split has the most buckets (later ones split smaller blocks).
+  static_assert(kMaxCounts / kMaxChunks >= 2);
+  const int max_split_bits = std::min(kMaxSplitBits, static_cast<int>(std::bit_width(kMaxCounts / chunks)) - 1);
   const int top_bits = std::clamp(static_cast<int>(std::bit_width((n - 1) / std::max<std::size_t>(limits.bucket_target, 1))),
-                                  1, kMaxSplitBits);
+                                  1, max_split_bits);
   const std::size_t counts = chunks << top_bits;
   const std::size_t tail = (counts * sizeof(std::uint32_t) + sizeof(Pair) - 1) / sizeof(Pair);
   scratch.resize(n + tail);
@@ -230,7 +239,7 @@ void parallel_sort_pairs(std::vector<Pair>& pairs, std::vector<Pair>& scratch, t
   PairSortLimits used = limits;
   used.bucket_target = std::max<std::size_t>(limits.bucket_target, 1);
   arena.execute([&] {
-    Sorter sorter(used, chunks, count_storage);
+    Sorter sorter(used, chunks, max_split_bits, count_storage);
     sorter.sort_top(pairs.data(), scratch.data(), n, true);
   });
 }

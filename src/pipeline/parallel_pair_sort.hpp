@@ -20,7 +20,8 @@
 // Memory: `scratch` (the caller's, kept between frames) holds the pairs while
 // they are split, plus a tail for the per-chunk histograms (chunks x
 // buckets 32-bit counts: 8 x 256 of them on 2 threads at a million pairs,
-// at most 64 x 2048); nothing else is allocated.
+// at most 32 K, that is 16 K pairs of tail, inside the slack of the callers'
+// release_if_oversized rule); nothing else is allocated.
 #include <tbb/task_arena.h>
 
 #include <cstddef>
