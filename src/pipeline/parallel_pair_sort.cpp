@@ -166,9 +166,12 @@ class Sorter {
 
   // The common bucket (the paper scene's: 32 key bits) by an LSD radix sort
   // of exactly three passes, digits fixed for the bucket, the three
-  // histograms from one read with the loop unrolled (support's radix_sort
-  // loops over a run-time pass count: ~25 % more time here). Returns the
-  // buffer holding the result (second: three passes from first).
+  // histograms from one read with the loop unrolled (support's radix_sort,
+  // which loops over a run-time pass count, took 14.1 against 11.7 ms for
+  // the whole split on one thread at 1.54 M pairs, loaded machine). The
+  // bucket's keys agree above `bits`, so a digit reaching past them orders
+  // nothing wrongly. Returns the buffer holding the result (second: three
+  // passes from first).
   static const Pair* three_passes(Pair* first, Pair* second, std::size_t len, int bits, Key key,
                                   std::uint64_t low) {
     const int digit = (bits + 2) / 3;

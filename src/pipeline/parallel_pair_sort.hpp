@@ -7,8 +7,9 @@
 // keys; the top bits of that range split the list into buckets (per-chunk
 // histograms, then every chunk scatters its pairs into its own slots of each
 // bucket: one pass over memory, stable); each bucket, a few thousand pairs
-// that fit in L2, is then finished on its own by the serial LSD radix sort
-// (support/radix_sort.hpp) on the remaining low bits. The key is the serial
+// that fit in L2, is then finished on its own by an LSD radix sort on the
+// remaining low bits (three unrolled passes when they are at most 33, else
+// support/radix_sort.hpp), writing the bucket's final place. The key is the serial
 // sort's: (a << bits(b)) | b. A bucket too large to be finished by one
 // thread (a skewed list: one hot object, all pairs of one a) is split again
 // the same way on its own range, so no input degrades to one thread.
