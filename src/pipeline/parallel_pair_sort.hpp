@@ -11,7 +11,7 @@
 // remaining low bits (three unrolled passes when they are at most 33, else
 // support/radix_sort.hpp), writing the bucket's final place. The key is the serial
 // sort's: (a << bits(b)) | b. A bucket too large to be finished by one
-// thread (a skewed list: one hot object, all pairs of one a) is split again
+// thread (a skewed list: most pairs in a narrow range of a) is split again
 // the same way on its own range, so no input degrades to one thread.
 //
 // Below kParallelPairSortFrom pairs, or on a one-thread arena, the serial
