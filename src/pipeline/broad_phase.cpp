@@ -55,6 +55,7 @@
 #include "pipeline/handle_table.hpp"
 #include "pipeline/hybrid_access.hpp"
 #include "pipeline/pair_events.hpp"
+#include "pipeline/parallel_pair_sort.hpp"
 #include "support/clock.hpp"
 
 namespace hbp {
@@ -792,7 +793,7 @@ struct BroadPhase::Impl {
                          }
                        }
                      });
-    sort_pairs(static_pairs, sort_scratch);
+    parallel_sort_pairs(static_pairs, sort_scratch, arena);  // the whole moving/static list
     fit(sort_scratch);
     static_pairs_valid = all && !filter;
   }

@@ -20,6 +20,7 @@
 #include "pipeline/hybrid_access.hpp"
 #include "partition/raw_buffer.hpp"
 #include "pipeline/ordered_cell.hpp"
+#include "pipeline/parallel_pair_sort.hpp"
 #include "support/clock.hpp"
 #include "support/huge_pages.hpp"
 
@@ -992,7 +993,7 @@ struct HybridBroadPhase::Impl {
   }
 
   void sort_output() {
-    if (options.sorted) sort_pairs(pairs, sort_scratch);
+    if (options.sorted) parallel_sort_pairs(pairs, sort_scratch, arena);  // scratch: the list + a small tail
     release_if_oversized(sort_scratch, options.sorted ? pairs.size() : 0, kKeepPairs);
     release_if_oversized(move_scratch, move_scratch.size(), kKeepPairs);
     move_scratch.clear();
