@@ -85,8 +85,8 @@ TEST(NarrowFalseContacts, ContactsImplyIntersectionOnRandomPairs) {
 
 TEST(NarrowCacheTest, CommitAndFind) {
   NarrowCache cache;
-  std::vector<NarrowCacheEntry> l1 = {{{3, 7}, {1, 0, 0}, 0, 0, {}}, {{0, 2}, {0, 1, 0}, 1, 0, {}}};
-  std::vector<NarrowCacheEntry> l2 = {{{3, 4}, {0, 0, 1}, 0, 0, {}}};
+  std::vector<NarrowCacheEntry> l1 = {{{3, 7}, {1, 0, 0}, 0}, {{0, 2}, {0, 1, 0}, 1}};
+  std::vector<NarrowCacheEntry> l2 = {{{3, 4}, {0, 0, 1}, 0}};
   const std::vector<NarrowCacheEntry> lists[] = {l1, l2};
   cache.commit(lists, 2, 8);
   EXPECT_EQ(cache.size(), 3u);
@@ -102,7 +102,7 @@ TEST(NarrowCacheTest, CommitAndFind) {
   EXPECT_EQ(cache.find({0, 3}), nullptr);
   EXPECT_EQ(cache.find({7, 9}), nullptr);
   EXPECT_EQ(cache.find({100, 101}), nullptr);
-  const std::vector<NarrowCacheEntry> bad = {{{3, 9}, {1, 0, 0}, 0, 0, {}}};
+  const std::vector<NarrowCacheEntry> bad = {{{3, 9}, {1, 0, 0}, 0}};
   EXPECT_THROW(cache.commit(&bad, 1, 8), InvalidInput);
   cache.commit(&l2, 1, 8);  // the next frame forgets pairs it did not see
   EXPECT_EQ(cache.find({3, 7}), nullptr);
@@ -120,7 +120,7 @@ TEST(NarrowCacheTest, StorageGrowsAndShrinksWithTheFrame) {
     for (std::uint32_t k = 0; k < count; ++k) {
       // Unique pairs, several per first object, in no sorted order.
       const std::uint32_t j = (k * 7919u) % count;
-      list[k] = NarrowCacheEntry{{j % 100'000u, 100'000u + j / 100'000u}, {static_cast<float>(j), 0, 0}, 0, 0, {}};
+      list[k] = NarrowCacheEntry{{j % 100'000u, 100'000u + j / 100'000u}, {static_cast<float>(j), 0, 0}, 0};
     }
     cache.commit(&list, 1, kObjects);
     ASSERT_EQ(cache.size(), count);
@@ -217,29 +217,11 @@ TEST(NarrowWarmTetrahedron, EnclosingTest) {
   EXPECT_FALSE(narrow::tetrahedron_encloses_origin(three));
 }
 
-// Octahedron-coded directions come back within about 1e-4 rad, never zero.
-TEST(NarrowWarmTetrahedron, OctahedronCode) {
-  std::mt19937_64 rng(5);
-  std::normal_distribution<double> g;
-  for (int i = 0; i < 10000; ++i) {
-    double d[3] = {g(rng), g(rng), g(rng)};
-    if (i < 6) d[0] = d[1] = d[2] = 0, d[i / 2] = i % 2 ? -1 : 1;  // the axes
-    std::int16_t code[2];
-    oct_encode(d[0], d[1], d[2], code);
-    double back[3];
-    oct_decode(code, back);
-    const double nd = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-    const double nb = std::sqrt(back[0] * back[0] + back[1] * back[1] + back[2] * back[2]);
-    ASSERT_GT(nb, 0.5);
-    const double cosang = (d[0] * back[0] + d[1] * back[1] + d[2] * back[2]) / (nd * nb);
-    ASSERT_GT(cosang, std::cos(2e-4)) << "direction " << i;
-  }
-}
-
-// Random pairs moved over frames: the warm tetrahedron (last frame's
-// support directions queried again) never changes a verdict, and the depth
-// stays within the tolerance of the cold path's; it is used on most
-// colliding pairs, and where it does not enclose GJK takes over.
+// Random pairs moved over frames: the warm start of a colliding pair (the
+// cone tetrahedron around last frame's normal, GJK from it where it does
+// not enclose) never changes a verdict, and the depth stays within the
+// tolerance of the cold path's; the cone encloses on most colliding pairs,
+// and not on all.
 TEST(NarrowWarmTetrahedron, SameVerdictsAndDepthsAsColdOverFrames) {
   ShapePairGenerator gen(21);
   std::mt19937_64 rng(7);
@@ -266,7 +248,12 @@ TEST(NarrowWarmTetrahedron, SameVerdictsAndDepthsAsColdOverFrames) {
       const narrow::Convex a = narrow::make_convex(p.a), b = narrow::make_convex(p.b);
       narrow::Hit cold_hit, warm_hit;
       const bool cold = narrow::intersect(a, b, &cold_hit, NarrowMethod::Auto);
-      const bool tried = have_warm && warm.contact && warm.has_tetra;
+      // What the cache would hold: the direction as floats.
+      const narrow::V3 cached{static_cast<float>(warm.dir.x), static_cast<float>(warm.dir.y),
+                              static_cast<float>(warm.dir.z)};
+      warm.dir = cached;
+      // (A normal is learned only where EPA ran, never by a closed form.)
+      const bool tried = have_warm && warm.contact;
       const bool hot = narrow::intersect(a, b, &warm_hit, NarrowMethod::Auto, have_warm ? &warm : nullptr, &now);
       ASSERT_EQ(cold, hot) << "pair " << i << " frame " << f;
       if (hot) {
@@ -281,53 +268,52 @@ TEST(NarrowWarmTetrahedron, SameVerdictsAndDepthsAsColdOverFrames) {
       }
       if (tried) {
         ++warm_tries;
-        used += now.tetra_unchanged;
+        used += narrow::tetrahedron_encloses_origin(narrow::cone_tetrahedron(a, b, warm.dir));
       }
-      // What the cache would hold: directions through the 16-bit code.
       warm = now;
-      if (warm.has_tetra)
-        for (auto& d : warm.tetra) {
-          std::int16_t code[2];
-          oct_encode(d[0], d[1], d[2], code);
-          oct_decode(code, d);
-        }
       have_warm = narrow::norm2(now.dir) > 0;
     }
   }
   EXPECT_GT(contacts, 2000);
   EXPECT_GT(warm_tries, 1500);
-  EXPECT_GT(used, warm_tries / 2) << "the warm tetrahedron serves most colliding pairs";
-  EXPECT_LT(used, warm_tries) << "and some fall back to GJK";
+  EXPECT_GT(used, warm_tries / 2) << "the cone tetrahedron serves most colliding pairs";
+  EXPECT_LT(used, warm_tries) << "and some go on with GJK";
 }
 
-// A warm tetrahedron that does not enclose the origin (here: four nearly
-// equal directions) falls back to GJK, which goes on from it: same verdict
-// and depth as cold, and a pair now apart is reported apart. Near-touching
-// pairs (half of these, placed 1e-7 .. 1e-2 relative from touching) may come
-// out differently only within the touching band: GJK started elsewhere may
-// find an enclosing tetrahedron of real support points (a certified
-// contact) where the cold GJK stalled at a distance of 1e-6 m.
+// A cone tetrahedron that does not enclose the origin (here: around a
+// normal pointing elsewhere) hands over to GJK, which goes on from its
+// closest feature: same verdict and depth as cold, and a pair now apart is
+// reported apart. A zero normal (none learned) skips the cone: GJK as on a
+// cold pair. Near-touching pairs (half of these, placed 1e-7 .. 1e-2
+// relative from touching) may come out differently only within the
+// touching band: GJK started elsewhere may find an enclosing tetrahedron of
+// real support points (a certified contact) where the cold GJK stalled at a
+// distance of 1e-6 m.
 TEST(NarrowWarmTetrahedron, FallsBackWhenItDoesNotEnclose) {
   ShapePairGenerator gen(4);
-  int hits = 0, misses = 0, band = 0;
+  std::mt19937_64 rng(9);
+  std::normal_distribution<double> g;
+  int hits = 0, misses = 0, band = 0, fallbacks = 0;
   for (int i = 0; i < 400; ++i) {
     const ShapePair p = gen.next(ShapeKind::Sphere, ShapeKind::Cone);
     const narrow::Convex a = narrow::make_convex(p.a), b = narrow::make_convex(p.b);
     narrow::Coherence warm;
-    // No usable normal: the cone tetrahedron around it is skipped and the
-    // cached tetrahedron below is tried (the cone is tested in
-    // ConeTetrahedronAroundTheNormal).
+    // Every fifth pair: no usable normal. Else a random one.
     warm.dir = {0, 0, 0};
+    if (i % 5) {
+      warm.dir = {g(rng), g(rng), g(rng)};
+      warm.dir = warm.dir * (1 / narrow::norm(warm.dir));
+      fallbacks += !narrow::tetrahedron_encloses_origin(narrow::cone_tetrahedron(a, b, warm.dir));
+    }
     warm.contact = true;
-    warm.has_tetra = true;
-    const double dirs[4][3] = {{0, 0, 1}, {1e-3, 0, 1}, {0, 1e-3, 1}, {1e-3, 1e-3, 1}};
-    for (int k = 0; k < 4; ++k)
-      for (int c = 0; c < 3; ++c) warm.tetra[k][c] = dirs[k][c];
     narrow::Hit cold_hit, warm_hit;
     narrow::Coherence now;
     const bool cold = narrow::intersect(a, b, &cold_hit, NarrowMethod::Auto);
     const bool hot = narrow::intersect(a, b, &warm_hit, NarrowMethod::Auto, &warm, &now);
-    EXPECT_FALSE(now.tetra_unchanged) << "pair " << i;
+    EXPECT_EQ(now.contact, hot) << "pair " << i;
+    if (hot) {
+      EXPECT_NEAR(narrow::norm(now.dir), 1.0, 1e-9) << "pair " << i;
+    }
     if (cold != hot) {
       ++band;
       const double scale = narrow::pair_scale(a, b);
@@ -344,14 +330,13 @@ TEST(NarrowWarmTetrahedron, FallsBackWhenItDoesNotEnclose) {
   }
   EXPECT_GT(hits, 100);
   EXPECT_GT(misses, 50);
+  EXPECT_GT(fallbacks, 200) << "a cone around a random normal rarely encloses";
   EXPECT_LE(band, 4);
 }
 
-// Last frame's contact normal: the cone tetrahedron around it serves most
-// colliding pairs (the cached tetrahedron, four nearly equal directions that
-// never enclose, is then kept for the next frame), with the cold path's
-// verdict and depth; where the cone does not enclose either, GJK goes on as
-// before.
+// Last frame's contact normal: the cone tetrahedron around it serves a good
+// share of colliding pairs, with the cold path's verdict and depth; where
+// it does not enclose, GJK goes on from it.
 TEST(NarrowWarmTetrahedron, ConeTetrahedronAroundTheNormal) {
   ShapePairGenerator gen(5);
   int hits = 0, cone = 0, band = 0;
@@ -364,10 +349,6 @@ TEST(NarrowWarmTetrahedron, ConeTetrahedronAroundTheNormal) {
     narrow::Coherence warm;
     warm.dir = cold_hit.normal;
     warm.contact = true;
-    warm.has_tetra = true;
-    const double dirs[4][3] = {{0, 0, 1}, {1e-3, 0, 1}, {0, 1e-3, 1}, {1e-3, 1e-3, 1}};
-    for (int k = 0; k < 4; ++k)
-      for (int c = 0; c < 3; ++c) warm.tetra[k][c] = dirs[k][c];
     narrow::Coherence now;
     const bool hot = narrow::intersect(a, b, &warm_hit, NarrowMethod::Auto, &warm, &now);
     if (!hot) {  // only inside the touching band
@@ -378,21 +359,17 @@ TEST(NarrowWarmTetrahedron, ConeTetrahedronAroundTheNormal) {
     ++hits;
     EXPECT_NEAR(cold_hit.depth, warm_hit.depth, 2 * narrow::kContactDepthTolerance * cold_hit.depth + 1e-7)
         << "pair " << i;
-    if (now.tetra_unchanged) {
-      ++cone;
-      for (int k = 0; k < 4; ++k)
-        for (int c = 0; c < 3; ++c) EXPECT_EQ(now.tetra[k][c], dirs[k][c]) << "pair " << i;
-    }
+    cone += narrow::tetrahedron_encloses_origin(narrow::cone_tetrahedron(a, b, warm.dir));
   }
   EXPECT_GT(hits, 100);
-  // (32 % here: on shallow contacts of curved shapes the three tilted support
-  // points lie below the deepest one by more than the depth.)
+  // (about a third here: on shallow contacts of curved shapes the three
+  // tilted support points lie below the deepest one by more than the depth.)
   EXPECT_GT(cone, hits / 5) << "the cone encloses on a good share of the pairs";
   EXPECT_LT(cone, hits) << "and not on all";
   EXPECT_LE(band, 4);
 }
 
-// The pipeline with its cache (warm tetrahedra from the second frame on):
+// The pipeline with its cache (warm starts from the second frame on):
 // the same contacts, bit for bit, on one or two threads.
 TEST(NarrowWarmTetrahedron, PipelineSameContactsOnOneOrTwoThreads) {
   ScenarioParams p;

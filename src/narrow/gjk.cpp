@@ -245,7 +245,7 @@ GjkResult gjk(const Convex& a, const Convex& b, const GjkOptions& options) {
   // Distance mode only; optional, so boolean queries do not zero 424 bytes.
   std::optional<Simplex> before;
   if (options.initial_simplex && options.initial_simplex->n == 4) {
-    // Last frame's tetrahedron, queried again: reduced to its closest
+    // A tetrahedron from last frame's knowledge: reduced to its closest
     // feature as if GJK had just built it.
     s = *options.initial_simplex;
     bool sliver = false;

@@ -1,7 +1,6 @@
 #include "hbp/narrow/narrow_phase.hpp"
 
 #include <cstdint>
-#include <cstring>
 #include <string>
 
 #include "hbp/error.hpp"
@@ -63,10 +62,6 @@ std::size_t NarrowPhase::process(const std::vector<Shape>& shapes, const Pair* p
     if (cached) {
       warm.dir = {cached->dir[0], cached->dir[1], cached->dir[2]};
       warm.contact = cached->contact != 0;
-      warm.has_tetra = cached->has_tetra != 0;
-      if (warm.has_tetra) {
-        for (int i = 0; i < 4; ++i) oct_decode(cached->tetra[i], warm.tetra[i]);
-      }
     }
     const bool collide = narrow::intersect(a, b, options_.contacts ? &hit : nullptr, options_.method,
                                            cached ? &warm : nullptr, learned ? &now : nullptr);
@@ -77,12 +72,6 @@ std::size_t NarrowPhase::process(const std::vector<Shape>& shapes, const Pair* p
       e.dir[1] = static_cast<float>(now.dir.y);
       e.dir[2] = static_cast<float>(now.dir.z);
       e.contact = now.contact ? 1 : 0;
-      e.has_tetra = now.has_tetra ? 1 : 0;
-      if (now.tetra_unchanged) {
-        std::memcpy(e.tetra, cached->tetra, sizeof e.tetra);
-      } else if (now.has_tetra) {
-        for (int i = 0; i < 4; ++i) oct_encode(now.tetra[i][0], now.tetra[i][1], now.tetra[i][2], e.tetra[i]);
-      }
       learned->push_back(e);
     }
     if (!collide) continue;

@@ -61,8 +61,8 @@ struct GjkOptions {
   // First search direction (the cached one of the last frame: from a
   // towards b); zero: the centre line.
   V3 initial_direction;
-  // A tetrahedron of support points to start from (e.g. last frame's
-  // directions queried again; null or n != 4: none). GJK goes on from its
+  // A tetrahedron of support points to start from (e.g. the cone around
+  // last frame's contact normal; null or n != 4: none). GJK goes on from its
   // closest feature to the origin.
   const Simplex* initial_simplex = nullptr;
 };

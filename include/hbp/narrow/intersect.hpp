@@ -11,6 +11,7 @@
 
 #include "hbp/narrow/contact.hpp"
 #include "hbp/narrow/convex.hpp"
+#include "hbp/narrow/gjk.hpp"
 #include "hbp/narrow/hit.hpp"
 #include "hbp/shape.hpp"
 
@@ -49,26 +50,22 @@ bool intersect(const Convex& a, const Convex& b, Hit* hit, NarrowMethod method);
 struct Coherence {
   V3 dir;
   bool contact = false;
-  // Contact only: the support directions of the tetrahedron that enclosed
-  // the origin (EPA's start), when there was one.
-  bool has_tetra = false;
-  // Learned only: the tetrahedron is the warm one, unchanged (its cached
-  // code can be kept as it is).
-  bool tetra_unchanged = false;
-  // Left uninitialised unless has_tetra: a pair's Coherence is made and
-  // reset several times per pair, most pairs never have one.
-  double tetra[4][3];
 };
 // With frame-to-frame coherence: `warm` (may be null) is what the last frame
 // learned for this pair; *learned receives this frame's. The verdict never
 // depends on `warm`: a cached axis is used only where one support query
 // proves separation; a pair that collided last frame skips the quick
-// rejects (they would rarely reject it); with contacts, it queries last
-// frame's tetrahedron directions again and, if the new support points still
-// enclose the origin (GJK's own test, sliver rule included), EPA starts from
-// them without GJK; otherwise GJK runs as on a cold pair.
+// rejects (they would rarely reject it); with contacts, it queries a
+// tetrahedron around last frame's contact normal and, if the support points
+// enclose the origin (GJK's own test, sliver rule included), EPA starts
+// from it without GJK; otherwise GJK goes on from that tetrahedron.
 bool intersect(const Convex& a, const Convex& b, Hit* hit, NarrowMethod method, const Coherence* warm,
                Coherence* learned);
+// The warm start of a pair that collided last frame (n: last frame's unit
+// contact normal): support points along three directions tilted from n by
+// 0.15 rad, 120 degrees apart, and one away from their centroid. Where they
+// enclose the origin (tetrahedron_encloses_origin) EPA starts from them.
+Simplex cone_tetrahedron(const Convex& a, const Convex& b, const V3& n);
 }  // namespace narrow
 
 }  // namespace hbp

@@ -10,7 +10,6 @@
 // object. The frame's lookups only read it (threads share it); what a frame
 // learns is appended to per-thread (or per-cell) vectors and committed after
 // the frame. Memory: the frame's pairs and one offset per object.
-#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -21,47 +20,12 @@ namespace hbp {
 
 struct NarrowCacheEntry {
   Pair pair;
-  float dir[3];            // unit, from a towards b
-  std::uint16_t contact;   // 1: dir is a contact normal (the pair collided), 0: a separating axis
-  std::uint16_t has_tetra; // 1: tetra holds the tetrahedron that enclosed the origin (a colliding pair)
-  // The four support directions of that tetrahedron, octahedron-coded
-  // (oct_encode): next frame they are queried again and, if the new points
-  // still enclose the origin, EPA starts from them without GJK.
-  std::int16_t tetra[4][2];
+  float dir[3];           // unit, from a towards b
+  std::uint32_t contact;  // 1: dir is a contact normal (the pair collided), 0: a separating axis
 };
-static_assert(sizeof(NarrowCacheEntry) == 40,
-              "NarrowCacheEntry is packed: 2 ids + 3 floats + 2 flags + 4 directions of 2 x 16 bits");
-
-// A direction in 2 x 16 bits: projected on the octahedron |x|+|y|+|z| = 1,
-// its lower half folded over the upper, x and y kept (about 5e-5 rad).
-// Any code decodes to a non-zero direction (not unit).
-inline void oct_encode(double x, double y, double z, std::int16_t out[2]) {
-  const double s = std::fabs(x) + std::fabs(y) + std::fabs(z);
-  const double inv = s > 0 ? 1 / s : 0;
-  double u = x * inv, v = y * inv;
-  if (z < 0) {
-    const double fu = (1 - std::fabs(v)) * (u >= 0 ? 1 : -1);
-    const double fv = (1 - std::fabs(u)) * (v >= 0 ? 1 : -1);
-    u = fu;
-    v = fv;
-  }
-  // Rounded to nearest (|u|, |v| <= 1: no overflow).
-  out[0] = static_cast<std::int16_t>(u * 32767.0 + (u >= 0 ? 0.5 : -0.5));
-  out[1] = static_cast<std::int16_t>(v * 32767.0 + (v >= 0 ? 0.5 : -0.5));
-}
-inline void oct_decode(const std::int16_t in[2], double out[3]) {
-  double u = in[0] * (1.0 / 32767.0), v = in[1] * (1.0 / 32767.0);
-  const double z = 1 - std::fabs(u) - std::fabs(v);
-  if (z < 0) {
-    const double fu = (1 - std::fabs(v)) * (u >= 0 ? 1 : -1);
-    const double fv = (1 - std::fabs(u)) * (v >= 0 ? 1 : -1);
-    u = fu;
-    v = fv;
-  }
-  out[0] = u;
-  out[1] = v;
-  out[2] = z;
-}
+// Every candidate pair reads one entry per frame, on a random row: kept to
+// 24 bytes (a colliding pair's next start is rebuilt from dir alone).
+static_assert(sizeof(NarrowCacheEntry) == 24, "NarrowCacheEntry is packed: 2 ids + 3 floats + a flag");
 
 class NarrowCache {
  public:
