@@ -17,26 +17,12 @@
 #include "hbp/hybrid_broadphase.hpp"
 #include "hbp/kd_partition.hpp"
 #include "hbp/scenario.hpp"
+#include "paper_frames.hpp"
 #include "hbp/software_engine.hpp"
 
 namespace {
 
-// A few consecutive frames of the paper's scene, generated once per n.
-const std::vector<hbp::BoxArray>& paper_frames(std::uint32_t n) {
-  static std::map<std::uint32_t, std::vector<hbp::BoxArray>> cache;
-  auto& frames = cache[n];
-  if (frames.empty()) {
-    hbp::ScenarioParams p;
-    p.n = n;
-    hbp::Scenario scene(p);
-    for (int f = 0; f < 8; ++f) {
-      frames.emplace_back();
-      scene.compute_boxes(frames.back());
-      scene.step();
-    }
-  }
-  return frames;
-}
+const std::vector<hbp::BoxArray>& paper_frames(std::uint32_t n) { return hbp::bench::paper_frames(n, 8); }
 
 void PaperFrame(benchmark::State& state) {
   const auto n = static_cast<std::uint32_t>(state.range(0));

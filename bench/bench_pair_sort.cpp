@@ -27,28 +27,14 @@
 #include "hbp/hybrid_broadphase.hpp"
 #include "hbp/pair.hpp"
 #include "hbp/scenario.hpp"
+#include "paper_frames.hpp"
 #include "pipeline/parallel_pair_sort.hpp"
 
 namespace {
 
 using hbp::Pair;
 
-// A few consecutive frames of the paper's scene, generated once per n.
-const std::vector<hbp::BoxArray>& paper_frames(std::uint32_t n) {
-  static std::map<std::uint32_t, std::vector<hbp::BoxArray>> cache;
-  auto& frames = cache[n];
-  if (frames.empty()) {
-    hbp::ScenarioParams p;
-    p.n = n;
-    hbp::Scenario scene(p);
-    for (int f = 0; f < 4; ++f) {
-      frames.emplace_back();
-      scene.compute_boxes(frames.back());
-      scene.step();
-    }
-  }
-  return frames;
-}
+const std::vector<hbp::BoxArray>& paper_frames(std::uint32_t n) { return hbp::bench::paper_frames(n, 4); }
 
 // The unsorted pair list of the paper's frame at n objects (cell order).
 const std::vector<Pair>& paper_pairs(std::uint32_t n) {
