@@ -424,13 +424,7 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
                           slot[t + 1] - slot[t]);
     }
   });
-  // Leaves are laid out task after task, each task's in local node order:
-  // where they are, in the task slots of buffer b, when no task spilled
-  // (the cells then keep the slots' unused tails between tasks as gaps,
-  // never read: cells are reached through their leaves only); otherwise
-  // stitched into buffer a, densely.
-  bool spilled = false;
-  for (const SubtreeBuilder& task : tasks) spilled |= task.entries.size() != 0;
+  // Leaves are laid out task after task, each task's in local node order.
   std::vector<std::uint32_t> node_base(tasks.size());
   std::vector<std::size_t> entry_base(tasks.size() + 1, 0);
   std::size_t node_count = nodes.size();  // reserved at once: no copies while growing
@@ -445,9 +439,7 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
     auto remap = [&](KdTreeNode nd) {
       if (nd.axis >= 0) {
         nd.child = node_base[t] + nd.child - 1;
-      } else if (!spilled) {  // where the task wrote it (depth first)
-        nd.first = static_cast<std::uint32_t>(slot[t] + nd.first);
-      } else {  // stitched in local node order
+      } else {
         nd.first = static_cast<std::uint32_t>(at);
         at += nd.size;
       }
@@ -456,42 +448,6 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
     nodes[root] = remap(local[0]);
     for (std::size_t k = 1; k < local.size(); ++k) nodes.push_back(remap(local[k]));
     entry_base[t + 1] = entry_base[t] + tasks[t].output_size();
-  }
-  // An entry in its final place: the object's one owner copy sets its home
-  // (and, for an object in several cells, its box as last seen), the build's
-  // tag is cleared.
-  auto settle = [&](CellEntry& e, std::uint32_t leaf, std::uint32_t root, std::uint32_t base) {
-    if (!(e.build_tag & kNotOwner)) {
-      const std::uint32_t fork = (e.build_tag & kForkMask) == kNoFork ? kNoFork : fork_node(e.build_tag, root, base);
-      home[e.id] = fork == kNoFork ? leaf : fork;
-      if (fork != kNoFork) {
-        prev[e.id] = {{e.min[0], e.min[1], e.min[2]}, {e.max[0], e.max[1], e.max[2]}};
-        margin[e.id] = 0;  // the first maintained frame descends once
-      }
-    }
-    e.build_tag = 0;
-  };
-  auto leaf_of = [&](std::size_t t, std::size_t k) {
-    return k == 0 ? frontier[t].node : node_base[t] + static_cast<std::uint32_t>(k) - 1;
-  };
-  if (!spilled) {
-    // In place: no copy of every entry into a, and a's pages past the
-    // tasks' inputs stay untouched (the first frame's largest cost is fresh
-    // pages). Buffer b becomes `entries`, the old `entries` (room reserved,
-    // untouched on the first frame) becomes b.
-    tbb::parallel_for(std::size_t{0}, tasks.size(), [&](std::size_t t) {
-      const std::uint32_t root = frontier[t].node;
-      const std::vector<KdTreeNode>& local = tasks[t].nodes;
-      CellEntry* in_slot = b.data() + slot[t];
-      for (std::size_t k = 0; k < local.size(); ++k) {
-        if (local[k].axis >= 0) continue;
-        const std::uint32_t leaf = leaf_of(t, k);
-        CellEntry* e = in_slot + local[k].first;
-        for (std::uint32_t i = 0; i < local[k].size; ++i) settle(e[i], leaf, root, node_base[t]);
-      }
-    });
-    entries.swap(b);
-    return;
   }
   // Stitched into buffer a (the tasks' inputs, read by now: its pages are
   // touched), which then becomes `entries`: the first frame touches two
@@ -502,17 +458,25 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
     const std::uint32_t root = frontier[t].node;
     const std::vector<KdTreeNode>& local = tasks[t].nodes;
     const CellEntry* in_slot = b.data() + slot[t];
-    const CellEntry* spill = tasks[t].entries.data();
+    const CellEntry* spilled = tasks[t].entries.data();
     CellEntry* to = a.data() + entry_base[t];
     for (std::size_t k = 0; k < local.size(); ++k) {
       if (local[k].axis >= 0) continue;
-      const std::uint32_t leaf = leaf_of(t, k);
+      const std::uint32_t leaf = k == 0 ? root : node_base[t] + static_cast<std::uint32_t>(k) - 1;
       const std::uint32_t first = local[k].first;
-      const CellEntry* from = first & SubtreeBuilder::kSpilled ? spill + (first & ~SubtreeBuilder::kSpilled)
+      const CellEntry* from = first & SubtreeBuilder::kSpilled ? spilled + (first & ~SubtreeBuilder::kSpilled)
                                                                : in_slot + first;
       for (std::uint32_t i = 0; i < local[k].size; ++i) {
         CellEntry e = from[i];
-        settle(e, leaf, root, node_base[t]);
+        if (!(e.build_tag & kNotOwner)) {  // the object's one owner copy sets its home
+          const std::uint32_t fork = (e.build_tag & kForkMask) == kNoFork ? kNoFork : fork_node(e.build_tag, root, node_base[t]);
+          home[e.id] = fork == kNoFork ? leaf : fork;
+          if (fork != kNoFork) {
+            prev[e.id] = {{e.min[0], e.min[1], e.min[2]}, {e.max[0], e.max[1], e.max[2]}};
+            margin[e.id] = 0;  // the first maintained frame descends once
+          }
+        }
+        e.build_tag = 0;
         *to++ = e;
       }
     }

@@ -141,9 +141,7 @@ struct BuildBuffers {
 };
 
 // Builds the whole tree from scratch: nodes (node 0 the root), every leaf's
-// entries in `entries` (which may hold unused gaps between subtrees: cells
-// are read through their leaves only; the buffer that was `entries` may come
-// back as one of the ping-pong buffers), home[i] (and for objects in several cells prev[i]
+// entries in `entries`, home[i] (and for objects in several cells prev[i]
 // and margin[i] = 0; an object in one cell has neither) for every object.
 // Deterministic for any thread count.
 void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buffers, std::vector<KdTreeNode>& nodes,
