@@ -60,7 +60,13 @@ TEST(MemoryBound, JumpingClusterKeepsPeakResidentSetFlat) {
   const int frames = kSanitized ? 30 : 300;
   hbp::HybridBroadPhase bp({.engine = "sw", .threads = 2, .max_pairs = 600000});
   hbp::BoxArray boxes;
-  std::uint64_t peak_after_5 = 0;
+  // The peak after a warm-up of kWarmFrames: VmHWM is a running maximum, so
+  // it keeps rising while the cluster first meets its worst places (frames
+  // 5 -> 50: +20-40 % on main, a flaky 1.5x bound from frame 5), and is flat
+  // after that (frames 50 -> 300: +3-8 %). A buffer left behind in every
+  // cell the cluster visits grows linearly past it.
+  constexpr int kWarmFrames = 50;
+  std::uint64_t peak_after_warm_up = 0;
   std::uint32_t seed = 12345;
   for (int f = 0; f < frames; ++f) {
     seed = seed * 1664525u + 1013904223u;  // a new gap every frame, all over the world
@@ -75,16 +81,17 @@ TEST(MemoryBound, JumpingClusterKeepsPeakResidentSetFlat) {
     if (f % 2) {
       ASSERT_EQ(streamed, pairs.size()) << "frame " << f;
     }
-    if (f == 4) peak_after_5 = peak_rss_kib();
+    if (f == kWarmFrames - 1) peak_after_warm_up = peak_rss_kib();
   }
   const std::uint64_t peak = peak_rss_kib();
-  RecordProperty("peak_rss_after_5_frames_kib", std::to_string(peak_after_5));
+  RecordProperty("peak_rss_after_warm_up_kib", std::to_string(peak_after_warm_up));
   RecordProperty("peak_rss_kib", std::to_string(peak));
-  std::printf("peak RSS after 5 frames %llu KiB, after %d frames %llu KiB\n",
-              static_cast<unsigned long long>(peak_after_5), frames, static_cast<unsigned long long>(peak));
+  std::printf("peak RSS after %d frames %llu KiB, after %d frames %llu KiB\n", kWarmFrames,
+              static_cast<unsigned long long>(peak_after_warm_up), frames, static_cast<unsigned long long>(peak));
   if (kSanitized) GTEST_SKIP() << "peak RSS not meaningful under AddressSanitizer (quarantine); pairs checked";
-  ASSERT_GT(peak_after_5, 0u) << "no VmHWM in /proc/self/status";
-  EXPECT_LE(peak, peak_after_5 * 3 / 2) << "peak RSS grew from " << peak_after_5 << " KiB after 5 frames";
+  ASSERT_GT(peak_after_warm_up, 0u) << "no VmHWM in /proc/self/status";
+  EXPECT_LE(peak, peak_after_warm_up * 5 / 4)
+      << "peak RSS grew from " << peak_after_warm_up << " KiB after " << kWarmFrames << " frames";
 }
 
 }  // namespace
