@@ -79,7 +79,6 @@ constexpr std::size_t kMoveChunksPerShift = 8;
 constexpr std::uint32_t kFirstFrameSampleStride = 8;
 constexpr std::size_t kFirstFrameMargin = 32;
 
-
 template <class T>
 void release_if_oversized(std::vector<T>& v, std::size_t used, std::size_t keep) {
   if (v.capacity() > 2 * used + keep) std::vector<T>().swap(v);
@@ -87,6 +86,11 @@ void release_if_oversized(std::vector<T>& v, std::size_t used, std::size_t keep)
 template <class T>
 void release_if_oversized(RawBuffer<T>& v, std::size_t used, std::size_t keep) {
   if (v.capacity() > 2 * used + keep) RawBuffer<T>().swap(v);
+}
+// The same rule, keeping the contents: storage cut to the size.
+template <class T>
+void fit_if_oversized(std::vector<T>& v, std::size_t keep) {
+  if (v.capacity() > 2 * v.size() + keep) v.shrink_to_fit();
 }
 
 // True when a box of [begin, end) has a NaN or infinite coordinate or min >
@@ -786,13 +790,8 @@ struct HybridBroadPhase::Impl {
       if (to <= from) {
         move_pairs(from, to, back_pairs);
         pairs.resize(total);
-        if (estimated_list && pairs.capacity() > 2 * total + kKeepPairs) {
-          // A first frame's estimate far too high: the list's storage follows the frame.
-          std::vector<Pair> fitted;
-          fitted.reserve(total);
-          fitted.insert(fitted.end(), pairs.begin(), pairs.end());
-          pairs.swap(fitted);
-        }
+        // A first frame's estimate far too high: the list's storage follows the frame.
+        if (estimated_list) fit_if_oversized(pairs, kKeepPairs);
       } else {
         if (total > pairs.capacity()) pairs.reserve(total + total / 8);
         pairs.resize(total);
