@@ -71,7 +71,7 @@ bool intersect(const Convex& a, const Convex& b, Hit* hit, NarrowMethod method, 
                Coherence* learned, double depth_tolerance = kContactDepthTolerance);
 // The warm start of a pair that collided last frame (n: last frame's unit
 // contact normal): support points along three directions tilted from n by
-// 0.15 rad, 120 degrees apart, and one away from their centroid. Where they
+// 0.25 rad, 120 degrees apart, and one away from their centroid. Where they
 // enclose the origin (tetrahedron_encloses_origin) EPA starts from them.
 Simplex cone_tetrahedron(const Convex& a, const Convex& b, const V3& n);
 }  // namespace narrow
