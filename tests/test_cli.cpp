@@ -277,3 +277,21 @@ TEST_F(Cli, BenchPlotScriptRunsWithoutAShellAndItsFailuresAreErrors) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST_F(Cli, DepthToleranceIsCheckedAndReported) {
+  expect_refused({"run", "--n", "200", "--frames", "1", "--depth-tolerance", "1e-4"}, {"--depth-tolerance", "--narrow"});
+  for (const char* value : {"0", "-1", "nan", "0.5"}) {
+    expect_refused({"run", "--n", "200", "--frames", "1", "--narrow", "--depth-tolerance", value},
+                   {"depth_tolerance", "outside"});
+    expect_refused({"bench", "narrow", "--n", "200", "--frames", "2", "--runs", "1", "--no-bullet",
+                    "--depth-tolerance", value},
+                   {"depth_tolerance", "outside"});
+  }
+  const Result r = hbp({"run", "--n", "200", "--frames", "2", "--narrow", "--depth-tolerance", "1e-05", "--json"});
+  EXPECT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("\"depth_tolerance\": 1e-05"), std::string::npos) << r.output;
+}
+
+}  // namespace

@@ -22,8 +22,10 @@ const char* narrow_method_name(NarrowMethod method) {
 
 namespace narrow {
 
-// Half-angle of the cone tetrahedron (radians): see cone_tetrahedron.
-constexpr double kConeAngle = 0.15;
+// Half-angle of the cone tetrahedron (radians): see cone_tetrahedron. 0.15
+// was best at the 1e-4 depth tolerance; at the 1e-3 default 0.25 needs 1.3 %
+// fewer instructions on the warm path (docs/narrow-phase.md, eighth session).
+constexpr double kConeAngle = 0.25;
 
 // A tetrahedron around last frame's contact normal n: three directions
 // tilted from n by kConeAngle (120 degrees apart), and a fourth away from
@@ -79,9 +81,10 @@ V3 unit(const V3& v) {
 }
 
 // EPA from an enclosing simplex; what the frame learns for the pair.
-bool epa_contact(const Convex& a, const Convex& b, const Simplex& s, Hit* hit, Coherence* learned) {
+bool epa_contact(const Convex& a, const Convex& b, const Simplex& s, Hit* hit, Coherence* learned,
+                 double depth_tolerance) {
   EpaOptions eo;
-  eo.rel_tolerance = kContactDepthTolerance;
+  eo.rel_tolerance = depth_tolerance;
   const EpaResult e = epa(a, b, s, eo);
   if (e.separated) return false;  // a support value below zero: proved apart
   hit->normal = e.normal;
@@ -95,7 +98,7 @@ bool epa_contact(const Convex& a, const Convex& b, const Simplex& s, Hit* hit, C
 // last frame's direction, kept for a colliding pair when no normal is
 // computed (intersection only).
 bool gjk_epa(const Convex& a, const Convex& b, Hit* hit, const V3* start, const V3* warm, Coherence* learned,
-             const Simplex* initial = nullptr) {
+             double depth_tolerance, const Simplex* initial = nullptr) {
   // The verdict never needs the distance of a separated pair: GJK stops at
   // the first separating plane in both modes, so contacts and intersection
   // only give the same verdicts.
@@ -120,7 +123,7 @@ bool gjk_epa(const Convex& a, const Convex& b, Hit* hit, const V3* start, const 
     if (learned) learn(learned, warm ? *warm : V3{}, true);
     return true;
   }
-  return epa_contact(a, b, g.simplex, hit, learned);
+  return epa_contact(a, b, g.simplex, hit, learned, depth_tolerance);
 }
 
 // A pair that collided last frame, with contacts: the cone tetrahedron
@@ -130,10 +133,11 @@ bool gjk_epa(const Convex& a, const Convex& b, Hit* hit, const V3* start, const 
 // feature (its final tetrahedron from there is a better start for EPA than
 // any tetrahedron cached from last frame: docs/narrow-phase.md, seventh
 // session).
-bool warm_contact(const Convex& a, const Convex& b, const V3& normal, Hit* hit, Coherence* learned) {
+bool warm_contact(const Convex& a, const Convex& b, const V3& normal, Hit* hit, Coherence* learned,
+                  double depth_tolerance) {
   const Simplex cone = cone_tetrahedron(a, b, normal);
-  if (tetrahedron_encloses_origin(cone)) return epa_contact(a, b, cone, hit, learned);
-  return gjk_epa(a, b, hit, nullptr, &normal, learned, &cone);
+  if (tetrahedron_encloses_origin(cone)) return epa_contact(a, b, cone, hit, learned, depth_tolerance);
+  return gjk_epa(a, b, hit, nullptr, &normal, learned, depth_tolerance, &cone);
 }
 
 }  // namespace
@@ -143,7 +147,7 @@ bool intersect(const Convex& a, const Convex& b, Hit* hit, NarrowMethod method) 
 }
 
 bool intersect(const Convex& a, const Convex& b, Hit* hit, NarrowMethod method, const Coherence* warm,
-               Coherence* learned) {
+               Coherence* learned, double depth_tolerance) {
   if (learned) learn(learned, {}, false);
   // Bounding spheres apart: no further work (most broad-phase false positives).
   const double reach = a.radius + b.radius;
@@ -160,8 +164,8 @@ bool intersect(const Convex& a, const Convex& b, Hit* hit, NarrowMethod method, 
     // n = 20,000: 14.1 EPA iterations per pair instead of 14.8, 5-9 % less
     // CPU in all).
     if (warm && warm->contact) {
-      if (hit && norm2(warm->dir) > 0) return warm_contact(a, b, warm->dir, hit, learned);
-      return gjk_epa(a, b, hit, nullptr, &warm->dir, learned);
+      if (hit && norm2(warm->dir) > 0) return warm_contact(a, b, warm->dir, hit, learned, depth_tolerance);
+      return gjk_epa(a, b, hit, nullptr, &warm->dir, learned, depth_tolerance);
     }
     // Last frame's axis still separates: one support query (h_D(u) < 0).
     if (warm) {
@@ -177,7 +181,7 @@ bool intersect(const Convex& a, const Convex& b, Hit* hit, NarrowMethod method, 
       if (learned) learn(learned, axis, false);
       return false;
     }
-    return gjk_epa(a, b, hit, warm ? &warm->dir : nullptr, warm ? &warm->dir : nullptr, learned);
+    return gjk_epa(a, b, hit, warm ? &warm->dir : nullptr, warm ? &warm->dir : nullptr, learned, depth_tolerance);
   }
   switch (method) {
     case NarrowMethod::Auto:

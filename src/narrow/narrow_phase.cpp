@@ -1,11 +1,23 @@
 #include "hbp/narrow/narrow_phase.hpp"
 
 #include <cstdint>
+#include <cstdio>
 #include <string>
 
 #include "hbp/error.hpp"
 
 namespace hbp {
+
+NarrowPhase::NarrowPhase(const NarrowOptions& options) : options_(options) {
+  const double t = options.depth_tolerance;
+  // Written so that NaN fails too.
+  if (!(t >= narrow::kMinDepthTolerance && t <= narrow::kMaxDepthTolerance)) {
+    char message[160];
+    std::snprintf(message, sizeof message, "narrow phase: depth_tolerance %g is outside [%g, %g]", t,
+                  narrow::kMinDepthTolerance, narrow::kMaxDepthTolerance);
+    throw InvalidInput(message);
+  }
+}
 
 std::size_t NarrowPhase::process(const std::vector<Shape>& shapes, const Pair* pairs, std::size_t count,
                                  std::vector<Contact>& out) const {
@@ -64,7 +76,7 @@ std::size_t NarrowPhase::process(const std::vector<Shape>& shapes, const Pair* p
       warm.contact = cached->contact != 0;
     }
     const bool collide = narrow::intersect(a, b, options_.contacts ? &hit : nullptr, options_.method,
-                                           cached ? &warm : nullptr, learned ? &now : nullptr);
+                                           cached ? &warm : nullptr, learned ? &now : nullptr, options_.depth_tolerance);
     if (learned && narrow::norm2(now.dir) > 0) {
       NarrowCacheEntry e{};
       e.pair = p;

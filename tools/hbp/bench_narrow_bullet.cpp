@@ -41,6 +41,7 @@ struct NarrowBenchArgs {
   std::uint64_t seed = 0;
   std::uint64_t random_pairs = 0;
   bool no_bullet = false;
+  double depth_tolerance = narrow::kContactDepthTolerance;
 };
 
 double band(const Shape& a, const Shape& b) {
@@ -132,10 +133,12 @@ void run_bench_narrow(const NarrowBenchArgs& a) {
 #else
   const bool with_bullet = !a.no_bullet;
 #endif
+  // Checked before anything runs (InvalidInput names the value).
+  const NarrowPhase narrow(NarrowOptions{.depth_tolerance = a.depth_tolerance});
   std::printf("hbp bench narrow: paper scene, n = %u, seed %llu, %u frames x %u runs, one thread, CPU time\n", a.n,
               static_cast<unsigned long long>(a.seed), a.frames, a.runs);
-  std::printf("ours: NarrowPhase (contacts, %s) with its per-pair cache; Bullet: %s\n",
-              narrow_method_name(NarrowMethod::Auto),
+  std::printf("ours: NarrowPhase (contacts, %s, depth tolerance %g relative) with its per-pair cache; Bullet: %s\n",
+              narrow_method_name(NarrowMethod::Auto), a.depth_tolerance,
               with_bullet ? "btCollisionDispatcher, default configuration, margins 0, persistent manifolds"
                           : "not measured");
   std::vector<RunTimes> runs;
@@ -148,7 +151,6 @@ void run_bench_narrow(const NarrowBenchArgs& a) {
     sp.frames = a.frames;
     Scenario scene(sp);
     HybridBroadPhase bp(BroadPhaseOptions{.engine = "sw", .threads = 1, .sorted = true});
-    NarrowPhase narrow;
     NarrowCache cache;
     std::vector<NarrowCacheEntry> learned;
 #ifdef HBP_HAVE_BASELINES
@@ -232,10 +234,15 @@ void run_bench_narrow(const NarrowBenchArgs& a) {
   std::uint64_t random_false = 0, random_hits = 0;
   if (a.random_pairs > 0) {
     ShapePairGenerator gen(a.seed);
+    std::vector<Shape> two(2);
+    const Pair first_second{0, 1};
+    std::vector<Contact> contact;
     for (std::uint64_t k = 0; k < a.random_pairs; ++k) {
       const ShapePair p = gen.next();
-      Contact c;
-      const bool hit = intersect(p.a, p.b, &c);
+      two[0] = p.a;
+      two[1] = p.b;
+      contact.clear();
+      const bool hit = narrow.process(two, &first_second, 1, contact) == 1;  // at the run's tolerance
       random_hits += hit;
       if (hit && !intersect(p.a, p.b, nullptr)) {
         if (random_false < 5)
@@ -269,6 +276,9 @@ void add_bench_narrow(CLI::App* bench) {
                   "Also check this many random pairs (near-touching half) for false contacts")
       ->capture_default_str();
   cmd->add_flag("--no-bullet", a->no_bullet, "Ours only");
+  cmd->add_option("--depth-tolerance", a->depth_tolerance,
+                  "Relative tolerance of our contact depths (NarrowOptions::depth_tolerance)")
+      ->capture_default_str();
   cmd->callback([a] { run_bench_narrow(*a); });
 }
 

@@ -41,6 +41,8 @@ struct RunArgs {
   bool json = false;
   bool quiet = false;
   bool narrow = false;
+  double depth_tolerance = narrow::kContactDepthTolerance;
+  bool depth_tolerance_given = false;
   bool cost_splits = false;
   bool distributed = false;
 };
@@ -119,6 +121,7 @@ void run(const RunArgs& a) {
     if (a.narrow || a.cost_splits) throw InvalidInput("--distributed does not take --narrow or --cost-splits");
     return run_distributed({a.scene, a.in, a.n, a.frames, a.seed, a.engine, a.cell_limit, a.threads, a.json, a.quiet});
   }
+  if (a.depth_tolerance_given && !a.narrow) throw InvalidInput("--depth-tolerance needs --narrow");
   FrameSource source(a);
   if (a.narrow && !source.shapes())
     throw InvalidInput("--narrow needs shapes: use --scene (scene files hold boxes only)");
@@ -126,10 +129,11 @@ void run(const RunArgs& a) {
   if (a.threads) limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, a.threads);
   std::unique_ptr<CollisionPipeline> pipeline;
   std::unique_ptr<HybridBroadPhase> reference;
-  const NarrowPhase narrow;
+  const NarrowOptions narrow_options{.depth_tolerance = a.depth_tolerance};
+  const NarrowPhase narrow(narrow_options);
   if (a.narrow) {
     pipeline = std::make_unique<CollisionPipeline>(
-        BroadPhaseOptions{.engine = a.engine, .cell_limit = a.cell_limit, .threads = a.threads});
+        BroadPhaseOptions{.engine = a.engine, .cell_limit = a.cell_limit, .threads = a.threads}, narrow_options);
     reference = std::make_unique<HybridBroadPhase>(
         BroadPhaseOptions{.engine = a.engine, .cell_limit = a.cell_limit, .threads = a.threads, .sorted = false});
   }
@@ -227,6 +231,7 @@ void run(const RunArgs& a) {
                              {"threads", threads},
                              {"cost_splits", a.cost_splits},
                              {"simd", SoftwareEngine::isa()}};
+    if (a.narrow) params["depth_tolerance"] = a.depth_tolerance;
     nlohmann::json summary = {{"median_wall_ms", med},
                               {"p95_wall_ms", p95},
                               {"p99_wall_ms", p99},
@@ -280,7 +285,14 @@ const RegisterCommand reg([](CLI::App& app) {
                 "Over MPI ranks (start under mpirun; docs/distributed.md); JSON adds per-rank counts and times");
   cmd->add_flag("--narrow", args->narrow,
                 "Also run the narrow phase, overlapped with the broad phase (and, for comparison, after it)");
-  cmd->callback([args] { run(*args); });
+  CLI::Option* depth_tolerance =
+      cmd->add_option("--depth-tolerance", args->depth_tolerance,
+                      "With --narrow: relative tolerance of contact depths (NarrowOptions::depth_tolerance)")
+          ->capture_default_str();
+  cmd->callback([args, depth_tolerance] {
+    args->depth_tolerance_given = depth_tolerance->count() > 0;
+    run(*args);
+  });
 });
 
 }  // namespace
