@@ -491,9 +491,10 @@ void release_build_scratch(BuildBuffers& buffers) {
   // thread, 4-5 MB at 2^15 entries), the sample and its tree. Given back
   // now, their pages, which the process has touched already, serve the
   // frame's later allocations (the pair list, then the next frame's
-  // `latest`): on our VMs a fresh 2 MiB page costs the host's fault (~1.7 ms
-  // of wall time when the host has reclaimed free memory, docs/hybrid-system.md
-  // "First frame and rebuilds"), a page the process just freed does not.
+  // `latest`): on our VMs a fresh page costs the host's fault when the host
+  // has reclaimed free memory (2.3-2.45 ms a MB on one thread), a page the
+  // process just freed does not (0.09 ms a MB; docs/hybrid-system.md, "First
+  // frame and rebuilds").
   // Nor is memory held at the build's peak until the next rebuild (the
   // first frame's only, or one after reset()).
   std::vector<SubtreeBuilder>().swap(buffers.tasks);
