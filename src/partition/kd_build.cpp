@@ -482,6 +482,29 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
     }
   });
   entries.swap(a);
+  release_build_scratch(buffers);
+}
+
+void release_build_scratch(BuildBuffers& buffers) {
+  // Dead once the tree is stitched: the subtree tasks' nodes and spill
+  // buffers, the per-thread arenas (the largest: ~3 task inputs touched a
+  // thread, 4-5 MB at 2^15 entries), the sample and its tree. Given back
+  // now, their pages, which the process has touched already, serve the
+  // frame's later allocations (the pair list, then the next frame's
+  // `latest`): on our VMs a fresh page costs the host's fault when the host
+  // has reclaimed free memory (2.3-2.45 ms a MB on one thread), a page the
+  // process just freed does not (0.09 ms a MB; docs/hybrid-system.md, "First
+  // frame and rebuilds").
+  // Nor is memory held at the build's peak until the next rebuild (the
+  // first frame's only, or one after reset()).
+  std::vector<SubtreeBuilder>().swap(buffers.tasks);
+  buffers.scratch.clear();
+  RawBuffer<CellEntry>().swap(buffers.top.sample);
+  std::vector<RouteNode>().swap(buffers.top.route);
+  RawBuffer<std::uint32_t>().swap(buffers.top.counts);
+  std::vector<std::vector<std::uint32_t>>().swap(buffers.top.forked_tasks);
+  buffers.top.forked.clear();
+  buffers.sample_tree = SubtreeBuilder{};
 }
 
 }  // namespace hbp::kd

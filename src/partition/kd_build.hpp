@@ -128,7 +128,8 @@ class SubtreeBuilder {
   const CellEntry* root_items_ = nullptr;  // the root's entries when not copied into the arena
 };
 
-// Buffers of the from-scratch build, kept across frames for the same reason.
+// Buffers of the from-scratch build. Only a and b outlive it (they are the
+// caller's); the rest is freed when the tree is stitched (release_build_scratch).
 struct BuildBuffers {
   // The top levels' ping-pong: two buffers the caller uses for other things
   // between builds (fresh pages are the build's largest cost).
@@ -146,6 +147,9 @@ struct BuildBuffers {
 // Deterministic for any thread count.
 void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buffers, std::vector<KdTreeNode>& nodes,
                 RawBuffer<CellEntry>& entries, std::uint32_t* home, StoredBox* prev, float* margin);
+// Frees what build_tree used only while building (everything in buffers
+// but the ping-pong buffers a and b); build_tree calls it when done.
+void release_build_scratch(BuildBuffers& buffers);
 
 // Entry order inside a cell: min x, then id.
 inline bool entry_less(const CellEntry& a, const CellEntry& b) {
