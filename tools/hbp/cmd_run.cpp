@@ -117,11 +117,11 @@ NarrowFrame run_narrow(CollisionPipeline& cp, HybridBroadPhase& reference, const
 }
 
 void run(const RunArgs& a) {
+  if (a.depth_tolerance_given && !a.narrow) throw InvalidInput("--depth-tolerance needs --narrow");
   if (a.distributed) {
     if (a.narrow || a.cost_splits) throw InvalidInput("--distributed does not take --narrow or --cost-splits");
     return run_distributed({a.scene, a.in, a.n, a.frames, a.seed, a.engine, a.cell_limit, a.threads, a.json, a.quiet});
   }
-  if (a.depth_tolerance_given && !a.narrow) throw InvalidInput("--depth-tolerance needs --narrow");
   FrameSource source(a);
   if (a.narrow && !source.shapes())
     throw InvalidInput("--narrow needs shapes: use --scene (scene files hold boxes only)");
