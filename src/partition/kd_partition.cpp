@@ -16,6 +16,7 @@
 #include "hbp/error.hpp"
 #include "partition/kd_build.hpp"
 #include "partition/raw_buffer.hpp"
+#include "support/prefault.hpp"
 
 namespace hbp {
 
@@ -352,6 +353,14 @@ void KdPartition::rebuild(const BoxArray& boxes) {
   // 0-1 of clustered 1,000,000: 774 MB with b kept as latest, 757 MB so).
   s.latest.swap(s.next_entries);
   s.next_entries.clear();  // b's contents are dead: never copied should it have to grow
+  // The next frame writes latest for every object; its pages are faulted in
+  // here, by all workers, so that the first maintained frame touches no
+  // fresh memory at all: when the host has reclaimed free memory, 32 MB of
+  // fresh pages made that frame (paper 1,024,000) three times a steady one,
+  // where the build frame pays a few per cent more. On a later rebuild
+  // latest is last frame's and already resident: one write per page.
+  s.latest.resize(n);
+  prefault_pages(s.latest.data(), n * sizeof(CellEntry));
   s.rebuilding = false;
   s.rebuild_queue.clear();
   if (nodes_.capacity() > 2 * nodes_.size() + 4096) nodes_.shrink_to_fit();  // a past peak of splits

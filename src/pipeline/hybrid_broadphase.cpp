@@ -23,6 +23,7 @@
 #include "pipeline/parallel_pair_sort.hpp"
 #include "support/clock.hpp"
 #include "support/huge_pages.hpp"
+#include "support/prefault.hpp"
 
 namespace hbp {
 
@@ -62,9 +63,8 @@ constexpr std::size_t kTouchPairsPerFrame = std::size_t{16} << 20;
 constexpr std::size_t kKeepPairs = 1 << 15;
 constexpr std::size_t kKeepCellPairs = 1 << 10;  // per cell: there are thousands
 // Fresh output lists of at least this many bytes are faulted in by all
-// workers at once, in chunks of a huge page (see prefault).
+// workers at once (see prefault).
 constexpr std::size_t kPrefaultBytes = std::size_t{8} << 20;
-constexpr std::size_t kPrefaultChunk = std::size_t{2} << 20;
 // The back lane's block is moved on all workers from this many pairs (512 KiB),
 // in this many chunks a worker (for balance), each chunk at least this many
 // times the distance moved (what a chunk sets aside: at most an eighth of
@@ -893,18 +893,12 @@ struct HybridBroadPhase::Impl {
     prefault(pairs.data(), total * sizeof(Pair));
   }
 
-  // Faults fresh pages in from every worker: the kernel zeroes each page
-  // on first touch (on our VMs well under 1 GB/s a thread), and the list's
-  // resize that follows would otherwise take every fault on one thread. One
-  // write per 4 KiB page of storage the resize then overwrites.
+  // A fresh list's pages faulted in from every worker (prefault_pages): the
+  // list's resize that follows would otherwise take every fault on one
+  // thread.
   void prefault(void* data, std::size_t bytes) {
     if (bytes < kPrefaultBytes || serial_engine_phase()) return;
-    auto* base = static_cast<volatile unsigned char*>(data);
-    const std::size_t chunks = (bytes + kPrefaultChunk - 1) / kPrefaultChunk;
-    tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t k) {
-      const std::size_t end = std::min(bytes, (k + 1) * kPrefaultChunk);
-      for (std::size_t at = k * kPrefaultChunk; at < end; at += 4096) base[at] = 0;
-    });
+    prefault_pages(data, bytes);
   }
 
   // ---- The frame -----------------------------------------------------------
