@@ -17,6 +17,8 @@
 #include <new>
 #include <type_traits>
 
+#include "support/huge_pages.hpp"
+
 namespace hbp {
 
 template <class T>
@@ -70,7 +72,6 @@ class RawBuffer {
   }
 
  private:
-  static constexpr std::size_t kHugePage = std::size_t{2} << 20;
   // Large buffers are mapped straight from the kernel and unmapped when
   // freed: from malloc, glibc's dynamic mmap threshold would move them into
   // the heap after the first free, where a buffer that changes size each frame
@@ -90,9 +91,9 @@ class RawBuffer {
     std::unique_ptr<T, Free> next;
     if (capacity) {
       std::size_t bytes = capacity * sizeof(T);
-      const bool huge = bytes >= kHugePage / 2;
+      const bool huge = bytes >= kHugePageBytes / 2;
       if (huge) {
-        bytes = (bytes + kHugePage - 1) / kHugePage * kHugePage;
+        bytes = whole_huge_pages(bytes);
         void* p = mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
         if (p == MAP_FAILED) throw std::bad_alloc();
         madvise(p, bytes, MADV_HUGEPAGE);  // advice only: ignored where unsupported

@@ -93,9 +93,9 @@ constexpr std::size_t kFirstFrameMargin = 32;
 // a small list's capacity would pass twice its size, and
 // release_if_oversized would free and map it again every frame).
 std::size_t list_capacity(std::size_t want) {
-  constexpr std::size_t kHugePairs = (std::size_t{2} << 20) / sizeof(Pair);
+  static_assert(kHugePageBytes % sizeof(Pair) == 0);
   if (want * sizeof(Pair) < kPrefaultBytes) return want;
-  return (want + kHugePairs - 1) / kHugePairs * kHugePairs;
+  return whole_huge_pages(want * sizeof(Pair)) / sizeof(Pair);
 }
 
 template <class T>

@@ -11,10 +11,12 @@
 #include <algorithm>
 #include <cstddef>
 
+#include "support/huge_pages.hpp"
+
 namespace hbp {
 
 inline void prefault_pages(void* data, std::size_t bytes) {
-  constexpr std::size_t kChunk = std::size_t{2} << 20;
+  constexpr std::size_t kChunk = kHugePageBytes;
   constexpr std::size_t kPage = 4096;
   auto* const base = static_cast<volatile unsigned char*>(data);
   const std::size_t chunks = (bytes + kChunk - 1) / kChunk;
