@@ -4,6 +4,7 @@
 // frame after frame at constant load. Its own executable: the process's peak
 // RSS must not be polluted by other tests.
 #include <gtest/gtest.h>
+#include <sys/prctl.h>
 
 #include <cstdint>
 #include <fstream>
@@ -57,6 +58,13 @@ void place(hbp::BoxArray& boxes, std::uint32_t i, std::uint32_t j, std::uint32_t
 }
 
 TEST(MemoryBound, JumpingClusterKeepsPeakResidentSetFlat) {
+  // Resident memory in 4 KiB pages: whether the kernel grants a buffer's
+  // huge pages depends on the machine's load (another process compacting or
+  // fragmenting memory), and a granted 2 MiB page counts whole however
+  // little of it is touched. With them, the warm-up peak moved between 47
+  // and 63 MB from run to run of the same binary under ctest -j2, which is
+  // noise of the size of the growth this test looks for.
+  ASSERT_EQ(prctl(PR_SET_THP_DISABLE, 1, 0, 0, 0), 0);
   const int frames = kSanitized ? 30 : 300;
   hbp::HybridBroadPhase bp({.engine = "sw", .threads = 2, .max_pairs = 600000});
   hbp::BoxArray boxes;
@@ -90,7 +98,16 @@ TEST(MemoryBound, JumpingClusterKeepsPeakResidentSetFlat) {
               static_cast<unsigned long long>(peak_after_warm_up), frames, static_cast<unsigned long long>(peak));
   if (kSanitized) GTEST_SKIP() << "peak RSS not meaningful under AddressSanitizer (quarantine); pairs checked";
   ASSERT_GT(peak_after_warm_up, 0u) << "no VmHWM in /proc/self/status";
-  EXPECT_LE(peak, peak_after_warm_up * 5 / 4)
+  // Plus one step of the cluster's pair list (499,500 pairs, 4 MB) and its
+  // copy: VmHWM rises in steps of that size at frames that vary from run to
+  // run (which worker, and so which malloc arena, first meets a place), and
+  // since the first frame's build scratch is freed (eighth session) the
+  // base is smaller, so one late step alone passed 1.25x (41-47 MB after 50
+  // frames, 50-64 MB after 300, under ctest -j2). The growth this test is
+  // for, a list left behind in every cell the cluster visits, is 4 MB a
+  // frame: a gigabyte by frame 300.
+  constexpr std::uint64_t kListStepKib = 8 << 10;
+  EXPECT_LE(peak, peak_after_warm_up * 5 / 4 + kListStepKib)
       << "peak RSS grew from " << peak_after_warm_up << " KiB after " << kWarmFrames << " frames";
 }
 
