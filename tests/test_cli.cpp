@@ -280,6 +280,23 @@ TEST_F(Cli, BenchPlotScriptRunsWithoutAShellAndItsFailuresAreErrors) {
 
 namespace {
 
+// `hbp bench`'s hybrid runs twice: "sw" with its pairs in cell order (like
+// the peers' unordered sets; the pair-set check sorts a copy) and "sw-sorted"
+// with the library's default sorted list. Both must match the brute-force
+// oracle every frame: a reference list left unsorted for the check would
+// show as a mismatch of every other system.
+TEST_F(Cli, BenchRunsTheHybridInCellOrderAndSorted) {
+  const Result r = hbp({"bench", "paper", "--n", "300,2000", "--frames", "2", "--warmup", "0", "--variants", "1",
+                        "--systems", "brute,sw,sw-sorted", "--no-plots", "--out", path("b")});
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("| hybrid sw (m) |"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("| hybrid sw, sorted (m) |"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("Every system that ran found exactly the reference's pairs in every timed frame."),
+            std::string::npos)
+      << r.output;
+  EXPECT_EQ(r.output.find("MISMATCH n="), std::string::npos) << r.output;  // the log line of a differing frame
+}
+
 TEST_F(Cli, DepthToleranceIsCheckedAndReported) {
   expect_refused({"run", "--n", "200", "--frames", "1", "--depth-tolerance", "1e-4"}, {"--depth-tolerance", "--narrow"});
   for (const char* value : {"0", "-1", "nan", "0.5"}) {

@@ -239,7 +239,8 @@ std::string format_tables(const BenchResult& r, const BenchHeader& h) {
   o << "\n(m): measured " << (h.config.choice.clock == BenchClock::Cpu ? "CPU" : "wall")
     << " time of one frame on this machine (Bullet: setAabb of every proxy + "
        "calculateOverlappingPairs; CGAL: box copy + box_self_intersection_d; hybrid sw: HybridBroadPhase::update, "
-       "partition included).  \n"
+       "partition included, pairs in cell order (sorted = false: deterministic, unordered like the baselines' sets); "
+       "hybrid sw, sorted: the same with the list sorted by (a, b), the library's default).  \n"
        "(model): modelled accelerator time, cycles at the model's clock (500 MHz, m = 16), spatial partition "
        "excluded as in the paper; \"none\" = the whole world in one accelerator load, only up to its capacity "
        "(1024 area-efficient, 16,384 many-object), else n/a like the paper; a cell size is used only when n "

@@ -290,7 +290,7 @@ void add_common(CLI::App* cmd, BenchArgs& a) {
   cmd->add_option("--systems", a.systems, "Only these systems (comma list): bullet-dbvt, bullet-dbvt-deferred, "
                                            "bullet-axis-sweep, cgal, fcl-dynamic-aabb-tree, fcl-sap, "
                                            "fcl-interval-tree, fcl-spatial-hash, ode-hash, ode-sap, ode-quadtree, "
-                                           "brute, sw, sw-narrow, ae-none, ae-1024, mo-none, mo-1024 ... mo-16384")
+                                           "brute, sw, sw-sorted, sw-narrow, ae-none, ae-1024, mo-none, mo-1024 ... mo-16384")
       ->delimiter(',');
   cmd->add_option("--out", a.out, "Output directory (default bench-results/<kind>-<time>)");
   cmd->add_flag("--no-plots", a.no_plots, "Do not run gnuplot");
