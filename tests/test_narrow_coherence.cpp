@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "hbp/collision_pipeline.hpp"
@@ -102,8 +103,18 @@ TEST(NarrowCacheTest, CommitAndFind) {
   EXPECT_EQ(cache.find({0, 3}), nullptr);
   EXPECT_EQ(cache.find({7, 9}), nullptr);
   EXPECT_EQ(cache.find({100, 101}), nullptr);
-  const std::vector<NarrowCacheEntry> bad = {{{3, 9}, {1, 0, 0}, 0}};
-  EXPECT_THROW(cache.commit(&bad, 1, 8), InvalidInput);
+  // An id beyond the objects: refused, naming the pair, the cache unchanged.
+  const std::vector<NarrowCacheEntry> bad = {{{1, 2}, {1, 0, 0}, 0}, {{3, 9}, {1, 0, 0}, 0}};
+  try {
+    cache.commit(&bad, 1, 8);
+    ADD_FAILURE() << "no exception";
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("3-9"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(cache.size(), 3u);
+  ASSERT_NE(cache.find({3, 7}), nullptr);
+  EXPECT_EQ(cache.find({3, 7})[0], 1.0f);
+  EXPECT_EQ(cache.find({1, 2}), nullptr);
   cache.commit(&l2, 1, 8);  // the next frame forgets pairs it did not see
   EXPECT_EQ(cache.find({3, 7}), nullptr);
   EXPECT_NE(cache.find({3, 4}), nullptr);

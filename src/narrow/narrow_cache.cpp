@@ -19,20 +19,23 @@ void NarrowCache::commit(const std::vector<const std::vector<NarrowCacheEntry>*>
 
 template <class List>
 void NarrowCache::commit_lists(const List& list_at, std::size_t count, std::size_t objects) {
+  // Every id checked before the cache changes: a refused commit leaves last
+  // frame's entries in place.
   std::size_t total = 0;
-  for (std::size_t l = 0; l < count; ++l) total += list_at(l).size();
-  // Buffers shrink with the frame: bounded by this frame's needs.
-  if (row_.capacity() > 2 * (objects + 1)) row_ = {};
-  if (entries_.capacity() > 2 * total) entries_ = {};
-  row_.assign(objects + 1, 0);
   for (std::size_t l = 0; l < count; ++l) {
     for (const NarrowCacheEntry& e : list_at(l)) {
       if (e.pair.a >= objects || e.pair.b >= objects)
         throw InvalidInput("narrow cache: pair " + std::to_string(e.pair.a) + "-" + std::to_string(e.pair.b) +
                            " names an object beyond " + std::to_string(objects));
-      ++row_[e.pair.a + 1];
     }
+    total += list_at(l).size();
   }
+  // Buffers shrink with the frame: bounded by this frame's needs.
+  if (row_.capacity() > 2 * (objects + 1)) row_ = {};
+  if (entries_.capacity() > 2 * total) entries_ = {};
+  row_.assign(objects + 1, 0);
+  for (std::size_t l = 0; l < count; ++l)
+    for (const NarrowCacheEntry& e : list_at(l)) ++row_[e.pair.a + 1];
   for (std::size_t i = 0; i < objects; ++i) row_[i + 1] += row_[i];
   if (entries_.capacity() < total) {
     // Fresh storage (with an eighth to spare, so a slowly growing frame does

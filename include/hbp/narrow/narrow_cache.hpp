@@ -51,7 +51,8 @@ class NarrowCache {
   }
   // Replaces the cache with what this frame learned: `lists[0..count)`, in
   // any order (pairs absent from them are forgotten). `objects` bounds the
-  // ids. Linear in pairs + objects.
+  // ids: an entry beyond them throws InvalidInput and leaves the cache as it
+  // was. Linear in pairs + objects.
   void commit(const std::vector<NarrowCacheEntry>* lists, std::size_t count, std::size_t objects);
   // The same from scattered lists (e.g. one per cell of the pipeline).
   void commit(const std::vector<const std::vector<NarrowCacheEntry>*>& lists, std::size_t objects);
