@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -295,6 +296,13 @@ TEST_F(Cli, BenchRunsTheHybridInCellOrderAndSorted) {
             std::string::npos)
       << r.output;
   EXPECT_EQ(r.output.find("MISMATCH n="), std::string::npos) << r.output;  // the log line of a differing frame
+  // The machine's state around the run: the memory probe before and after.
+  for (const char* when : {"start", "end"}) {
+    const std::string key = std::string("- memory latency at ") + when + ": ";
+    const std::size_t at = r.output.find(key);
+    ASSERT_NE(at, std::string::npos) << r.output;
+    EXPECT_GT(std::atof(r.output.c_str() + at + key.size()), 0.0) << r.output.substr(at, 100);
+  }
 }
 
 TEST_F(Cli, DepthToleranceIsCheckedAndReported) {

@@ -87,7 +87,7 @@ MachineDescription describe_machine() {
   m.emplace_back("hypervisor", proc_field("/proc/cpuinfo", "flags").find("hypervisor") != std::string::npos
                                    ? "yes (virtual machine)"
                                    : "no");
-  m.emplace_back("load average at start", first_line("/proc/loadavg"));
+  m.emplace_back("load average at start", read_load_average());
   m.emplace_back("compiler", compiler());
   m.emplace_back("build", build_flags());
 #ifdef HBP_BENCH_HAVE_ISA
@@ -98,6 +98,8 @@ MachineDescription describe_machine() {
 #endif
   return m;
 }
+
+std::string read_load_average() { return first_line("/proc/loadavg"); }
 
 std::string machine_summary(const MachineDescription& m) {
   auto get = [&](const std::string& k) -> std::string {

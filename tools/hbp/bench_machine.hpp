@@ -11,6 +11,9 @@ using MachineDescription = std::vector<std::pair<std::string, std::string>>;
 
 MachineDescription describe_machine();
 
+// /proc/loadavg's line (the load now; "unknown" where there is none).
+std::string read_load_average();
+
 // "Intel(R) Xeon(R) Processor, 2 cores, GCC 12.2.0": one line for headers.
 std::string machine_summary(const MachineDescription& m);
 

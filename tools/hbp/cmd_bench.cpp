@@ -23,6 +23,7 @@
 #include "child_process.hpp"
 #include "command_registry.hpp"
 #include "duration_text.hpp"
+#include "memory_probe.hpp"
 #include "option_checks.hpp"
 #include "hbp/error.hpp"
 #include "progress.hpp"
@@ -186,6 +187,7 @@ void run_bench(const BenchArgs& a, BenchSource source) {
   }
   header.config = config;
   header.machine = describe_machine();
+  header.machine.emplace_back("memory latency at start", memory_latency_text(probe_memory_latency()));
 
   const std::string out =
       !a.out.empty() ? a.out
@@ -230,6 +232,8 @@ void run_bench(const BenchArgs& a, BenchSource source) {
   bar.finish();
   BenchResult& result = runner.result();
   result.total_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  header.machine.emplace_back("memory latency at end", memory_latency_text(probe_memory_latency()));
+  header.machine.emplace_back("load average at end", read_load_average());
 
   std::fputs(format_tables(result, header).c_str(), stdout);
   const auto files = write_report_files(out, result, header);
