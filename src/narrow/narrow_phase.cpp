@@ -34,8 +34,11 @@ std::size_t NarrowPhase::process(const std::vector<Shape>& shapes, const Pair* p
   // Memory look-ahead: candidate pairs name objects all over the shape
   // array and the cache (sorted or not), so the shapes and cache rows of a
   // pair a few places ahead are requested while this one is computed.
-  constexpr std::size_t kAhead = 8;
+  // The cache row's offset is requested twice as far ahead: prefetch()
+  // reads it to find the row.
+  constexpr std::size_t kAhead = 8, kRowAhead = 2 * kAhead;
   for (std::size_t k = 0; k < count; ++k) {
+    if (cache && k + kRowAhead < count) cache->prefetch_row(pairs[k + kRowAhead].a);
     if (k + kAhead < count) {
       const Pair q = pairs[k + kAhead];
       if (q.a < n && q.b < n) {

@@ -36,6 +36,12 @@ class NarrowCache {
       if (entries_[k].pair.b == p.b) return &entries_[k];
     return nullptr;
   }
+  // Starts loading the row offset of first object `a`: a few pairs before
+  // prefetch(a), which reads it (a demand miss there would stall the pair
+  // being computed).
+  void prefetch_row(std::uint32_t a) const {
+    if (a < row_.size()) __builtin_prefetch(row_.data() + a);
+  }
   // Starts loading the row of first object `a` (the pairs of a cell come in
   // no useful order: without this every lookup waits for memory).
   void prefetch(std::uint32_t a) const {
