@@ -3,13 +3,8 @@
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
-#include <cstdlib>
-#include <memory>
-#include <new>
 #include <numeric>
 #include <vector>
-
-#include "support/huge_pages.hpp"
 
 namespace hbp::cli {
 
@@ -32,16 +27,11 @@ double chase_ns(unsigned mib, std::size_t loads) {
     const auto j = static_cast<std::size_t>((static_cast<unsigned __int128>(state) * i) >> 64);  // [0, i)
     std::swap(order[i], order[j]);
   }
-  // On 2 MiB pages where the kernel gives them (as the library's large
-  // arrays are): the probe times the caches and memory, not page walks, and
-  // faults the buffer in with 32 faults instead of 16,384 (at up to 14 us a
-  // fault on a VM).
-  const std::size_t bytes = lines * 64;
-  std::unique_ptr<std::uint64_t[], decltype(&std::free)> memory(
-      static_cast<std::uint64_t*>(std::aligned_alloc(kHugePageBytes, whole_huge_pages(bytes))), &std::free);
-  if (!memory) throw std::bad_alloc();
-  advise_huge_pages(memory.get(), bytes);
-  std::uint64_t* const buffer = memory.get();
+  // 4 KiB pages, as most callers' arrays are: on this VM a buffer on 2 MiB
+  // pages did not tell the states apart (89-122 ns over 8 MiB in runs where
+  // this one read 22-28 ns).
+  std::vector<std::uint64_t> memory(lines * kLineWords);
+  std::uint64_t* const buffer = memory.data();
   for (std::size_t i = 0; i < lines; ++i) buffer[std::size_t{order[i]} * kLineWords] = order[(i + 1) % lines];
   std::uint64_t at = 0;
   for (std::size_t k = 0; k < loads / 8; ++k) at = buffer[at * kLineWords];  // untimed start

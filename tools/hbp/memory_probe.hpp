@@ -18,12 +18,12 @@ struct MemoryLatency {
 };
 
 inline constexpr unsigned kCacheProbeMiB = 8;
-inline constexpr unsigned kMemoryProbeMiB = 64;
+inline constexpr unsigned kMemoryProbeMiB = 32;
 
-// About 0.1-0.2 s; allocates and frees the larger buffer.
+// About 0.1-0.3 s (most of it the larger buffer's page faults).
 MemoryLatency probe_memory_latency();
 
-// "31 ns over 8 MiB, 160 ns over 64 MiB (dependent random loads)".
+// "31 ns over 8 MiB, 160 ns over 32 MiB (dependent random loads)".
 std::string memory_latency_text(const MemoryLatency& m);
 
 }  // namespace hbp::cli
