@@ -317,6 +317,17 @@ TEST_F(Cli, DepthToleranceIsCheckedAndReported) {
   const Result r = hbp({"run", "--n", "200", "--frames", "2", "--narrow", "--depth-tolerance", "1e-05", "--json"});
   EXPECT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("\"depth_tolerance\": 1e-05"), std::string::npos) << r.output;
+  // bench narrow at that tolerance: it runs, says so, and records the
+  // machine's memory state before and after.
+  const Result b = hbp({"bench", "narrow", "--n", "300", "--frames", "2", "--runs", "1", "--no-bullet",
+                        "--depth-tolerance", "1e-05"});
+  ASSERT_EQ(b.status, 0) << b.output;
+  EXPECT_NE(b.output.find("depth tolerance 1e-05 relative"), std::string::npos) << b.output;
+  for (const char* key : {"memory latency at start: ", "memory latency at end: "}) {
+    const std::size_t at = b.output.find(key);
+    ASSERT_NE(at, std::string::npos) << b.output;
+    EXPECT_GT(std::atof(b.output.c_str() + at + std::strlen(key)), 0.0) << b.output.substr(at, 100);
+  }
 }
 
 }  // namespace

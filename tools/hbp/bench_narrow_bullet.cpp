@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "memory_probe.hpp"
 #include "hbp/error.hpp"
 #include "hbp/hybrid_broadphase.hpp"
 #include "hbp/narrow/libccd_solver.hpp"
@@ -141,6 +142,9 @@ void run_bench_narrow(const NarrowBenchArgs& a) {
               narrow_method_name(NarrowMethod::Auto), a.depth_tolerance,
               with_bullet ? "btCollisionDispatcher, default configuration, margins 0, persistent manifolds"
                           : "not measured");
+  // The host's cache state around the run (memory_probe.hpp): ratios taken
+  // in different states compare; absolute times only in the same one.
+  std::printf("memory latency at start: %s\n", memory_latency_text(probe_memory_latency()).c_str());
   std::vector<RunTimes> runs;
   Checks checks;
   std::uint64_t contacts_total = 0;
@@ -217,6 +221,7 @@ void run_bench_narrow(const NarrowBenchArgs& a) {
   std::printf("| steady (frames 1-%u) | %.0f | %.2f | %.0f k | %.2f | %.0f k | %.2fx |\n", a.frames - 1, ps, os,
               ps / os, bs, with_bullet ? ps / bs : 0.0, with_bullet ? bs / os : 0.0);
   std::printf("(medians of %u runs; pairs/s per core = pairs / thread CPU time)\n", a.runs);
+  std::printf("memory latency at end: %s\n", memory_latency_text(probe_memory_latency()).c_str());
   std::printf("verdicts (run 1, every frame): %llu contacts; %llu reported contacts the intersection-only test "
               "calls apart (must be 0)",
               static_cast<unsigned long long>(contacts_total), static_cast<unsigned long long>(checks.false_contacts));
