@@ -1,9 +1,11 @@
 #include "memory_probe.hpp"
 
 #include <chrono>
+#include <cstddef>
 #include <cstdint>
 #include <cstdio>
 #include <numeric>
+#include <utility>
 #include <vector>
 
 namespace hbp::cli {
