@@ -21,9 +21,9 @@ inline constexpr std::size_t whole_huge_pages(std::size_t bytes) {
 }
 
 inline void advise_huge_pages(void* data, std::size_t bytes) {
-  constexpr std::uintptr_t kHuge = kHugePageBytes;
-  const auto begin = (reinterpret_cast<std::uintptr_t>(data) + kHuge - 1) & ~(kHuge - 1);
-  const auto end = (reinterpret_cast<std::uintptr_t>(data) + bytes) & ~(kHuge - 1);
+  constexpr std::uintptr_t kMask = kHugePageBytes - 1;
+  const auto begin = (reinterpret_cast<std::uintptr_t>(data) + kMask) & ~kMask;
+  const auto end = (reinterpret_cast<std::uintptr_t>(data) + bytes) & ~kMask;
   if (end > begin) madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);
 }
 

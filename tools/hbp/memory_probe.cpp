@@ -8,6 +8,8 @@
 #include <utility>
 #include <vector>
 
+#include "support/random.hpp"
+
 namespace hbp::cli {
 
 namespace {
@@ -21,14 +23,8 @@ double chase_ns(unsigned mib, std::size_t loads) {
   const std::size_t lines = std::size_t{mib} << 20 >> 6;
   std::vector<std::uint32_t> order(lines);
   std::iota(order.begin(), order.end(), 0u);
-  std::uint64_t state = 0x5eed;  // xorshift64: cheap, and the same walk every run
-  for (std::size_t i = lines - 1; i > 0; --i) {
-    state ^= state << 13;
-    state ^= state >> 7;
-    state ^= state << 17;
-    const auto j = static_cast<std::size_t>((static_cast<unsigned __int128>(state) * i) >> 64);  // [0, i)
-    std::swap(order[i], order[j]);
-  }
+  Random rng(0x5eed);  // the same walk every run
+  for (std::size_t i = lines - 1; i > 0; --i) std::swap(order[i], order[rng.below(static_cast<std::uint32_t>(i))]);
   // 4 KiB pages, as most callers' arrays are: on this VM a buffer on 2 MiB
   // pages did not tell the states apart (89-122 ns over 8 MiB in runs where
   // this one read 22-28 ns).
