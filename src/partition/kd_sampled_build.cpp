@@ -8,7 +8,8 @@
 #include <limits>
 #include <string>
 
-#if defined(__x86_64__) && defined(__GNUC__)
+#include "support/cpu_features.hpp"
+#if HBP_X86_64_GNU
 #include <immintrin.h>
 #define HBP_ROUTE_AVX2 1
 #endif
@@ -147,13 +148,6 @@ __attribute__((target("avx2"))) void route_groups_avx2(const float* const src[6]
 }
 
 constexpr std::uint32_t kRouteGroupsOr1 = kRouteGroups;
-bool cpu_has_avx2() {
-  static const bool avx2 = [] {
-    __builtin_cpu_init();
-    return __builtin_cpu_supports("avx2") != 0;
-  }();
-  return avx2;
-}
 #else
 constexpr std::uint32_t kRouteGroupsOr1 = 1;
 #endif

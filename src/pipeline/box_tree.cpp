@@ -269,13 +269,7 @@ std::uint32_t BoxTree::depth() const {
 }
 
 #if HBP_BOX_TREE_AVX2
-bool BoxTree::cpu_has_avx2() {
-  static const bool avx2 = [] {
-    __builtin_cpu_init();
-    return __builtin_cpu_supports("avx2") != 0;
-  }();
-  return avx2;
-}
+bool BoxTree::cpu_has_avx2() { return hbp::cpu_has_avx2(); }
 #endif
 
 void BoxTree::clear() {

@@ -33,7 +33,8 @@
 #endif
 // The eight-lane node test of rays is an AVX2 function chosen at run time
 // (the library is built for plain x86-64).
-#if defined(__x86_64__) && defined(__GNUC__)
+#include "support/cpu_features.hpp"
+#if HBP_X86_64_GNU
 #include <immintrin.h>
 #define HBP_BOX_TREE_AVX2 1
 #endif
