@@ -11,7 +11,6 @@
 #include "support/cpu_features.hpp"
 #if HBP_X86_64_GNU
 #include <immintrin.h>
-#define HBP_ROUTE_AVX2 1
 #endif
 
 #include "hbp/error.hpp"
@@ -106,7 +105,7 @@ void route_group(const float* const src[6], std::uint32_t g, std::uint32_t lanes
 // nodes, the box faces on each lane's axis by blends, two compares. The
 // scalar group was the largest part of the routing pass (about a quarter of
 // the warm build at 1,024,000 on two threads).
-#if HBP_ROUTE_AVX2
+#if HBP_X86_64_GNU
 static_assert(kLockstep == 8 && sizeof(RouteNode) == 8);
 // kRouteGroups groups at once: a level's gathers wait ~20 cycles, and
 // independent groups fill that wait (the count pass at 1,024,000, one
@@ -237,7 +236,7 @@ void build_top_levels(const BoxArray& boxes, const SplitRule& rule, std::uint32_
   std::uint32_t* const counts = buffers.counts.data();
   auto* const task_of = reinterpret_cast<std::uint32_t*>(out.data());
   const RouteNode* const walk = route.data();
-#if HBP_ROUTE_AVX2
+#if HBP_X86_64_GNU
   const bool avx2 = cpu_has_avx2();
 #endif
   tbb::parallel_for(std::uint32_t{0}, chunks, [&, tree, walk, counts, task_of](std::uint32_t c) {
@@ -254,7 +253,7 @@ void build_top_levels(const BoxArray& boxes, const SplitRule& rule, std::uint32_
       const std::uint32_t lanes = std::min(kStep, end - g);
       std::uint32_t node[kStep];
       std::uint32_t several[kStep];
-#if HBP_ROUTE_AVX2
+#if HBP_X86_64_GNU
       if (lanes == kStep && avx2) {
         route_groups_avx2(src, g, walk, depth, node, several);
       } else

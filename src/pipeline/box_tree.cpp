@@ -268,10 +268,6 @@ std::uint32_t BoxTree::depth() const {
   return deepest;
 }
 
-#if HBP_BOX_TREE_AVX2
-bool BoxTree::cpu_has_avx2() { return hbp::cpu_has_avx2(); }
-#endif
-
 void BoxTree::clear() {
   RawBuffer<Node>().swap(nodes_);
   RawBuffer<Leaf>().swap(leaves_);

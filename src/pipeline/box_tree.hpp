@@ -36,7 +36,6 @@
 #include "support/cpu_features.hpp"
 #if HBP_X86_64_GNU
 #include <immintrin.h>
-#define HBP_BOX_TREE_AVX2 1
 #endif
 
 #include "hbp/aabb.hpp"
@@ -118,7 +117,7 @@ class BoxTree {
   void for_each_ray_hit(const RaySegment& ray, Hit&& hit) const {
     if (empty()) return;
     const RayLanes lanes(ray);
-#if HBP_BOX_TREE_AVX2
+#if HBP_X86_64_GNU
     if (cpu_has_avx2()) return ray_walk_avx2(ray, lanes, hit);
 #endif
     ray_walk_portable(ray, lanes, hit);
@@ -423,10 +422,7 @@ class BoxTree {
     traverse(root_, node_mask, visit_leaf);
   }
 
-#if HBP_BOX_TREE_AVX2
-  // Whether this CPU runs AVX2 (asked once).
-  static bool cpu_has_avx2();
-
+#if HBP_X86_64_GNU
   // Node test of a ray in eight lanes at once: the SSE test's operations
   // (decode lo + q * step, then the near / far slab) on a 256-bit vector, no
   // FMA (not enabled here), so the very same floats.
