@@ -204,7 +204,7 @@ TEST(NarrowGjkEpa, SymmetricInArgumentOrder) {
     if (!r1) continue;
     EXPECT_NEAR(ab.depth, ba.depth, 2 * narrow::kContactDepthTolerance * ab.depth + 1e-8);
     if (ab.depth > 1e-3) {
-      EXPECT_LT(dotv(ab.normal, ba.normal), -0.999);
+      EXPECT_LT(dotv(ab.normal, ba.normal), -0.999) << shape_kind_name(p.a.kind) << "-" << shape_kind_name(p.b.kind) << " " << ab.depth << " " << ba.depth << " sd " << signed_distance(p.a, p.b) << " size " << p.a.size.x << "," << p.a.size.y << "," << p.a.size.z << " / " << p.b.size.x << "," << p.b.size.y << "," << p.b.size.z;
     }
   }
 }

@@ -1,5 +1,6 @@
 #include "hbp/narrow/gjk.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <initializer_list>
 #include <optional>
@@ -274,7 +275,10 @@ GjkResult gjk(const Convex& a, const Convex& b, const GjkOptions& options) {
     if (s.n > 0) {
       bool duplicate = false;
       for (int i = 0; i < s.n; ++i) duplicate |= (s.v[i].w.x == w.w.x && s.v[i].w.y == w.w.y && s.v[i].w.z == w.w.z);
-      if (duplicate || vv - vw <= eps * vv) break;  // converged: separated
+      // vv - vw = |v| (|v| - lower bound); in shell mode the room is
+      // |v| (shell - |v|), floored so that a touching pair still stops.
+      const double room = options.shell > 0 ? std::max(options.shell * std::sqrt(vv) - vv, 1e-6 * vv) : vv;
+      if (duplicate || vv - vw <= eps * room) break;  // converged: separated
     }
     // Kept for a no-progress exit in distance mode only (its closest points
     // come from it); a boolean answer needs just v.

@@ -1,6 +1,7 @@
 #include "hbp/narrow/intersect.hpp"
 
 #include <cmath>
+#include <tuple>
 
 #include "hbp/narrow/closed_forms.hpp"
 #include "hbp/narrow/epa.hpp"
@@ -80,9 +81,88 @@ V3 unit(const V3& v) {
   return n > 0 ? v * (1.0 / n) : V3{};
 }
 
-// EPA from an enclosing simplex; what the frame learns for the pair.
+// The contact of an intersecting pair from its rounded cores, for pairs
+// with an ellipsoid (docs/narrow-phase.md, "Rounded cores"). An ellipsoid
+// is its core plus a ball of radius core_radius, so the pair's Minkowski
+// difference D is the cores' difference C grown by a ball of radius
+// `shell`, the sum of the two: the depth is shell + C's depth when the
+// origin lies in C (EPA on the cores), else shell - the origin's distance
+// to C (GJK on the cores; its lower bound makes the depth an upper bound,
+// as EPA's is). Near the optimum C is much less round than D, so the same
+// tolerance on the depth takes a fraction of the iterations. `hint`: a
+// direction from a towards b (last frame's), or null. True only with an
+// overlap the cores certify (their tetrahedron encloses the origin, or
+// their closest points are less than `shell` apart); false when the cores
+// cannot settle it, and then nothing is written: the caller decides on the
+// shapes themselves.
+bool rounded_contact(const Convex& a, const Convex& b, double shell, const V3* hint, Hit* hit, Coherence* learned,
+                     double depth_tolerance) {
+  // In one order of the two shapes whatever order they come in, the other
+  // answered by the mirror image: EPA's steps are not exactly symmetric in
+  // floating point, and on a flat optimum the two orders' normals would
+  // differ by up to the tolerance's swing.
+  if (std::tie(b.kind, b.centre.x, b.centre.y, b.centre.z) < std::tie(a.kind, a.centre.x, a.centre.y, a.centre.z)) {
+    const V3 flipped = hint ? -*hint : V3{};
+    if (!rounded_contact(b, a, shell, hint ? &flipped : nullptr, hit, learned, depth_tolerance)) return false;
+    hit->normal = -hit->normal;
+    if (learned) learned->dir = -learned->dir;
+    return true;
+  }
+  Convex ca = a, cb = b;
+  ca.core_inset = core_radius(a);
+  cb.core_inset = core_radius(b);
+  const auto from_cores = [&](const V3& normal, double depth, const V3& core_a, const V3& core_b) {
+    hit->normal = normal;
+    hit->depth = depth;
+    // The deepest points of the shapes: the cores' grown by their balls.
+    hit->point = 0.5 * ((core_a + ca.core_inset * normal) + (core_b - cb.core_inset * normal));
+    if (learned) learn(learned, normal, true);
+    return true;
+  };
+  const auto core_epa = [&](const Simplex& s) {
+    EpaOptions eo;
+    eo.rel_tolerance = depth_tolerance;
+    // The tolerance is on the shapes' depth, shell + the cores' depth.
+    eo.abs_tolerance += depth_tolerance * shell / pair_scale(ca, cb);
+    const EpaResult e = epa(ca, cb, s, eo);
+    if (!e.ok || e.separated) return false;
+    return from_cores(e.normal, shell + e.depth, e.point_a, e.point_b);
+  };
+  GjkOptions go;
+  go.rel_tolerance = depth_tolerance;
+  go.shell = shell;
+  GjkResult g;
+  if (hint && norm2(*hint) > 0) {
+    const Simplex cone = cone_tetrahedron(ca, cb, unit(*hint));
+    if (tetrahedron_encloses_origin(cone)) return core_epa(cone);
+    go.initial_simplex = &cone;
+    g = gjk(ca, cb, go);
+  } else {
+    g = gjk(ca, cb, go);
+  }
+  if (g.intersecting) return core_epa(g.simplex);
+  // The origin in the shell: the cores' closest points are g.distance
+  // apart, and moving b by shell + h_C(n) along n = -v / |v| separates the
+  // shapes (h_C: the cores' support function; one query). GJK's stopping
+  // rule puts that within the tolerance of the shapes' depth.
+  if (g.distance >= shell || g.distance <= 0) return false;  // touching or degenerate: EPA on the shapes
+  const V3 normal = -1.0 / g.distance * g.v;
+  const double depth = shell + dot(normal, support_difference(ca, cb, normal).w);
+  // The depth is at least shell - g.distance. GJK can stall (no progress on
+  // a thin simplex near a cone's apex) with the distance right but -v off
+  // the optimum: when the bracket is wider than the tolerance, EPA on the
+  // shapes decides.
+  const double floor = shell - g.distance;
+  if (depth - floor > depth_tolerance * depth + EpaOptions{}.abs_tolerance * pair_scale(a, b)) return false;
+  return from_cores(normal, depth, g.closest_a, g.closest_b);
+}
+
+// EPA from an enclosing simplex (first the rounded cores, unless `cores`
+// is false: they were tried); what the frame learns for the pair.
 bool epa_contact(const Convex& a, const Convex& b, const Simplex& s, Hit* hit, Coherence* learned,
-                 double depth_tolerance) {
+                 double depth_tolerance, const V3* hint, bool cores) {
+  const double shell = core_radius(a) + core_radius(b);
+  if (cores && shell > 0 && rounded_contact(a, b, shell, hint, hit, learned, depth_tolerance)) return true;
   EpaOptions eo;
   eo.rel_tolerance = depth_tolerance;
   const EpaResult e = epa(a, b, s, eo);
@@ -98,7 +178,7 @@ bool epa_contact(const Convex& a, const Convex& b, const Simplex& s, Hit* hit, C
 // last frame's direction, kept for a colliding pair when no normal is
 // computed (intersection only).
 bool gjk_epa(const Convex& a, const Convex& b, Hit* hit, const V3* start, const V3* warm, Coherence* learned,
-             double depth_tolerance, const Simplex* initial = nullptr) {
+             double depth_tolerance, const Simplex* initial = nullptr, bool cores = true) {
   // The verdict never needs the distance of a separated pair: GJK stops at
   // the first separating plane in both modes, so contacts and intersection
   // only give the same verdicts.
@@ -123,7 +203,7 @@ bool gjk_epa(const Convex& a, const Convex& b, Hit* hit, const V3* start, const 
     if (learned) learn(learned, warm ? *warm : V3{}, true);
     return true;
   }
-  return epa_contact(a, b, g.simplex, hit, learned, depth_tolerance);
+  return epa_contact(a, b, g.simplex, hit, learned, depth_tolerance, warm, cores);
 }
 
 // A pair that collided last frame, with contacts: the cone tetrahedron
@@ -135,9 +215,13 @@ bool gjk_epa(const Convex& a, const Convex& b, Hit* hit, const V3* start, const 
 // session).
 bool warm_contact(const Convex& a, const Convex& b, const V3& normal, Hit* hit, Coherence* learned,
                   double depth_tolerance) {
+  // A pair with an ellipsoid: its cores certify the overlap as they give
+  // the depth (the shapes' own cone would be four support queries more).
+  const double shell = core_radius(a) + core_radius(b);
+  if (shell > 0 && rounded_contact(a, b, shell, &normal, hit, learned, depth_tolerance)) return true;
   const Simplex cone = cone_tetrahedron(a, b, normal);
-  if (tetrahedron_encloses_origin(cone)) return epa_contact(a, b, cone, hit, learned, depth_tolerance);
-  return gjk_epa(a, b, hit, nullptr, &normal, learned, depth_tolerance, &cone);
+  if (tetrahedron_encloses_origin(cone)) return epa_contact(a, b, cone, hit, learned, depth_tolerance, &normal, false);
+  return gjk_epa(a, b, hit, nullptr, &normal, learned, depth_tolerance, &cone, false);
 }
 
 }  // namespace

@@ -23,6 +23,10 @@ struct Convex {
   // cube [-1, 1]^3, unit cylinder / cone) to the world. The support mapping
   // works there: u = m^T d, p = centre + m q(u), no scaling by h.
   double m[3][3];
+  // Ellipsoids only: the support mapping of the shape's core, the shape
+  // shrunk by a ball of this radius (at most core_radius(*this)): the core
+  // plus that ball is the shape again. 0: the shape itself.
+  double core_inset = 0;
 
   V3 axis(int j) const { return {r[0][j], r[1][j], r[2][j]}; }
   V3 to_local(const V3& w) const;  // rotation only (direction or offset)
@@ -47,6 +51,16 @@ inline double bounding_radius(const Shape& shape) {
     case ShapeKind::Cone: return std::sqrt(std::max(hx * hx, hy * hy) + hz * hz);
   }
   return 0;
+}
+
+// The radius of the largest ball that rolls freely inside the shape (the
+// smallest radius of curvature of its surface): for an ellipsoid with
+// semi-axes a >= b >= c it is c^2 / a (a true sphere: its radius, the core
+// is its centre); a cuboid, cylinder or cone has corners or rims: 0.
+inline double core_radius(const Convex& c) {
+  if (c.kind != ShapeKind::Sphere) return 0;
+  const double lo = std::min(c.h[0], std::min(c.h[1], c.h[2])), hi = std::max(c.h[0], std::max(c.h[1], c.h[2]));
+  return hi > 0 ? lo * lo / hi : 0;
 }
 
 // Tolerance scale of a pair: sum of the bounding radii.
@@ -84,6 +98,7 @@ inline V3 Convex::support(const V3& d) const {
     case ShapeKind::Sphere: {
       const double len2 = ux * ux + uy * uy + uz * uz;
       if (len2 == 0) {
+        if (core_inset != 0) return centre;  // any point of the core
         qx = qy = 0;
         qz = 1;
         break;
@@ -92,6 +107,14 @@ inline V3 Convex::support(const V3& d) const {
       qx = ux * inv;
       qy = uy * inv;
       qz = uz * inv;
+      if (core_inset != 0) {
+        // The core's support point: the shape's, moved in by the inset
+        // along the unit direction (d != 0 here: u = m^T d is not zero).
+        const double shift = core_inset / std::sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
+        return {centre.x + m[0][0] * qx + m[0][1] * qy + m[0][2] * qz - shift * d.x,
+                centre.y + m[1][0] * qx + m[1][1] * qy + m[1][2] * qz - shift * d.y,
+                centre.z + m[2][0] * qx + m[2][1] * qy + m[2][2] * qz - shift * d.z};
+      }
       break;
     }
     default: {  // cylinder, cone: the rim point of the unit section

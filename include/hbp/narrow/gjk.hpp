@@ -57,6 +57,11 @@ struct GjkResult {
 struct GjkOptions {
   bool boolean_only = false;     // stop at the first separating plane
   double rel_tolerance = 1e-10;  // on the distance
+  // Distance mode: when > 0, the tolerance is relative to (shell - distance)
+  // instead: the distance of two cores whose shapes are those cores grown
+  // by balls with radii summing to `shell`, where the shapes' depth is
+  // shell - distance (narrow::intersect's rounded pairs).
+  double shell = 0;
   int max_iterations = 128;
   // First search direction (the cached one of the last frame: from a
   // towards b); zero: the centre line.
