@@ -389,3 +389,43 @@ TEST(NarrowRoundedCores, DepthWithinToleranceInBothCases) {
 
 }  // namespace
 }  // namespace hbp
+
+namespace hbp {
+namespace {
+
+// Needles, pancakes and specks against every kind (sizes log-uniform over
+// four decades per axis): the verdict with contacts is the intersection-only
+// one, moving b by the depth along the normal separates the pair, and the
+// depth is never below the shapes' own EPA's lower bound.
+TEST(NarrowRoundedCores, ExtremeEllipsoids) {
+  std::mt19937_64 rng(21);
+  std::uniform_real_distribution<double> exponent(-2, 2), unit(-1, 1);
+  const auto size = [&] { return Vec3{std::pow(10.0, exponent(rng)), std::pow(10.0, exponent(rng)), std::pow(10.0, exponent(rng))}; };
+  int contacts = 0;
+  for (ShapeKind kb : kKinds) {
+    for (int i = 0; i < 400; ++i) {
+      const Shape a = make(ShapeKind::Sphere, size(), {0, 0, 0}, Quat{unit(rng), unit(rng), unit(rng), unit(rng)});
+      const Vec3 sb = size();
+      const double reach = 0.5 * (std::max({a.size.x, a.size.y, a.size.z}) + std::max({sb.x, sb.y, sb.z}));
+      // b's centre near a point of a (its local box, scaled by 1.2).
+      const narrow::V3 at = narrow::make_convex(a).to_world(
+          {0.6 * unit(rng) * a.size.x, 0.6 * unit(rng) * a.size.y, 0.6 * unit(rng) * a.size.z});
+      const Shape b = make(kb, sb, {at.x, at.y, at.z}, Quat{unit(rng), unit(rng), unit(rng), unit(rng)});
+      Contact c;
+      const bool hit = intersect(a, b, &c);
+      ASSERT_EQ(hit, intersect(a, b)) << shape_kind_name(kb) << " " << i;
+      if (!hit) continue;
+      ++contacts;
+      EXPECT_FALSE(intersect(a, translated(b, c.normal, c.depth * (1 + 1e-6) + 1e-9 * reach)))
+          << shape_kind_name(kb) << " " << i << " depth " << c.depth;
+      const narrow::Convex ca = narrow::make_convex(a), cb = narrow::make_convex(b);
+      const narrow::GjkResult g = narrow::gjk(ca, cb);
+      if (!g.intersecting) continue;  // touching within GJK's tolerance
+      EXPECT_GE(c.depth, narrow::epa(ca, cb, g.simplex).lower_bound - 1e-9 * reach) << shape_kind_name(kb) << " " << i;
+    }
+  }
+  EXPECT_GT(contacts, 400);
+}
+
+}  // namespace
+}  // namespace hbp
