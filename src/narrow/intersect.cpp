@@ -87,9 +87,11 @@ V3 unit(const V3& v) {
 // difference D is the cores' difference C grown by a ball of radius
 // `shell`, the sum of the two: the depth is shell + C's depth when the
 // origin lies in C (EPA on the cores), else shell - the origin's distance
-// to C (GJK on the cores; its lower bound makes the depth an upper bound,
-// as EPA's is). Near the optimum C is much less round than D, so the same
-// tolerance on the depth takes a fraction of the iterations. `hint`: a
+// to C (GJK on the cores). Either way the depth reported is D's support
+// value along the normal reported, an upper bound as EPA's on the shapes
+// is: moving b by it separates them. Near the optimum C is much less round
+// than D, so the same tolerance on the depth takes a fraction of the
+// iterations. `hint`: a
 // direction from a towards b (last frame's), or null. True only with an
 // overlap the cores certify (their tetrahedron encloses the origin, or
 // their closest points are less than `shell` apart); false when the cores
