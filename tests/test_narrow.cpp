@@ -375,7 +375,8 @@ TEST(NarrowRoundedCores, DepthWithinToleranceInBothCases) {
       const double scale = narrow::pair_scale(a, b);
       EXPECT_GE(hit.depth, truth - 1e-9 * scale) << shape_kind_name(kb) << " " << i;
       if (reference.converged) {  // (EPA on two near-concentric curved shapes may stop short)
-        EXPECT_LE(hit.depth, truth * (1 + narrow::kContactDepthTolerance) + 1e-9 * scale) << shape_kind_name(kb) << " " << i;
+        EXPECT_LE(hit.depth, truth * (1 + narrow::kContactDepthTolerance) + 1e-9 * scale)
+            << shape_kind_name(kb) << " " << i;
       }
       narrow::Convex ca = a, cb = b;
       ca.core_inset = narrow::core_radius(a);
@@ -400,7 +401,9 @@ namespace {
 TEST(NarrowRoundedCores, ExtremeEllipsoids) {
   std::mt19937_64 rng(21);
   std::uniform_real_distribution<double> exponent(-2, 2), unit(-1, 1);
-  const auto size = [&] { return Vec3{std::pow(10.0, exponent(rng)), std::pow(10.0, exponent(rng)), std::pow(10.0, exponent(rng))}; };
+  const auto size = [&] {
+    return Vec3{std::pow(10.0, exponent(rng)), std::pow(10.0, exponent(rng)), std::pow(10.0, exponent(rng))};
+  };
   int contacts = 0;
   for (ShapeKind kb : kKinds) {
     for (int i = 0; i < 400; ++i) {
