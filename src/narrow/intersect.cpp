@@ -130,33 +130,33 @@ bool rounded_contact(const Convex& a, const Convex& b, double shell, const V3* h
     if (!e.ok || e.separated) return false;
     return from_cores(e.normal, shell + e.depth, e.point_a, e.point_b);
   };
+  const auto settle = [&](const GjkResult& g) {
+    if (g.intersecting) return core_epa(g.simplex);
+    // The origin in the shell: the cores' closest points are g.distance
+    // apart, and moving b by shell + h_C(n) along n = -v / |v| separates
+    // the shapes (h_C: the cores' support function; one query). GJK's
+    // stopping rule puts that within the tolerance of the shapes' depth.
+    if (g.distance >= shell || g.distance <= 0) return false;  // touching or degenerate: EPA on the shapes
+    const V3 normal = -1.0 / g.distance * g.v;
+    const double depth = shell + dot(normal, support_difference(ca, cb, normal).w);
+    // The depth is at least shell - g.distance. GJK can stall (no progress
+    // on a thin simplex near a cone's apex) with the distance right but -v
+    // off the optimum: when the bracket is wider than the tolerance, EPA on
+    // the shapes decides.
+    const double floor = shell - g.distance;
+    if (depth - floor > depth_tolerance * depth + EpaOptions{}.abs_tolerance * pair_scale(a, b)) return false;
+    return from_cores(normal, depth, g.closest_a, g.closest_b);
+  };
   GjkOptions go;
   go.rel_tolerance = depth_tolerance;
   go.shell = shell;
-  GjkResult g;
   if (hint && norm2(*hint) > 0) {
     const Simplex cone = cone_tetrahedron(ca, cb, unit(*hint));
     if (tetrahedron_encloses_origin(cone)) return core_epa(cone);
     go.initial_simplex = &cone;
-    g = gjk(ca, cb, go);
-  } else {
-    g = gjk(ca, cb, go);
+    return settle(gjk(ca, cb, go));
   }
-  if (g.intersecting) return core_epa(g.simplex);
-  // The origin in the shell: the cores' closest points are g.distance
-  // apart, and moving b by shell + h_C(n) along n = -v / |v| separates the
-  // shapes (h_C: the cores' support function; one query). GJK's stopping
-  // rule puts that within the tolerance of the shapes' depth.
-  if (g.distance >= shell || g.distance <= 0) return false;  // touching or degenerate: EPA on the shapes
-  const V3 normal = -1.0 / g.distance * g.v;
-  const double depth = shell + dot(normal, support_difference(ca, cb, normal).w);
-  // The depth is at least shell - g.distance. GJK can stall (no progress on
-  // a thin simplex near a cone's apex) with the distance right but -v off
-  // the optimum: when the bracket is wider than the tolerance, EPA on the
-  // shapes decides.
-  const double floor = shell - g.distance;
-  if (depth - floor > depth_tolerance * depth + EpaOptions{}.abs_tolerance * pair_scale(a, b)) return false;
-  return from_cores(normal, depth, g.closest_a, g.closest_b);
+  return settle(gjk(ca, cb, go));
 }
 
 // EPA from an enclosing simplex (first the rounded cores, unless `cores`
