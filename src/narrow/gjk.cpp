@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <initializer_list>
-#include <optional>
 #include <utility>
 
 namespace hbp::narrow {
@@ -243,8 +242,18 @@ GjkResult gjk(const Convex& a, const Convex& b, const GjkOptions& options) {
   if (norm2(options.initial_direction) > 0) v = -options.initial_direction;
   if (norm2(v) == 0) v = {scale, 0, 0};
   double prev_vv = INFINITY;
-  // Distance mode only; optional, so boolean queries do not zero 424 bytes.
-  std::optional<Simplex> before;
+  // Distance mode: the closest points of A and B of the last simplex that
+  // came closer to the origin (a no-progress exit reports these, without
+  // keeping a 424-byte copy of that simplex on every iteration).
+  V3 pa, pb;
+  const auto track_closest = [&] {
+    if (options.boolean_only) return;
+    pa = pb = V3{};
+    for (int i = 0; i < s.n; ++i) {
+      pa = pa + s.lambda[i] * s.v[i].a;
+      pb = pb + s.lambda[i] * s.v[i].b;
+    }
+  };
   if (options.initial_simplex && options.initial_simplex->n == 4) {
     // A tetrahedron from last frame's knowledge: reduced to its closest
     // feature as if GJK had just built it.
@@ -259,6 +268,7 @@ GjkResult gjk(const Convex& a, const Convex& b, const GjkOptions& options) {
     }
     v = c;
     prev_vv = norm2(c);
+    track_closest();
   }
   for (int it = 0; it < options.max_iterations; ++it) {
     r.iterations = it + 1;
@@ -280,9 +290,6 @@ GjkResult gjk(const Convex& a, const Convex& b, const GjkOptions& options) {
       const double room = options.shell > 0 ? std::max(options.shell * std::sqrt(vv) - vv, 1e-6 * vv) : vv;
       if (duplicate || vv - vw <= eps * room) break;  // converged: separated
     }
-    // Kept for a no-progress exit in distance mode only (its closest points
-    // come from it); a boolean answer needs just v.
-    if (!options.boolean_only) before.emplace(s);
     const V3 v_before = v;
     s.dir[s.n] = -v;
     s.v[s.n++] = w;
@@ -312,21 +319,16 @@ GjkResult gjk(const Convex& a, const Convex& b, const GjkOptions& options) {
       r.distance = 0;
       return r;
     }
-    if (nv >= prev_vv) {  // no progress: numerically converged; keep the last good simplex
-      if (!options.boolean_only) s = *before;
+    if (nv >= prev_vv) {  // no progress: numerically converged; keep the last good v and closest points
       v = v_before;
       break;
     }
     prev_vv = nv;
+    track_closest();
   }
   r.intersecting = false;
   r.distance = norm(v);
   r.v = v;
-  V3 pa, pb;
-  for (int i = 0; i < s.n; ++i) {
-    pa = pa + s.lambda[i] * s.v[i].a;
-    pb = pb + s.lambda[i] * s.v[i].b;
-  }
   r.closest_a = pa;
   r.closest_b = pb;
   return r;
