@@ -20,6 +20,7 @@ namespace hbp {
 enum class NarrowMethod : std::uint8_t {
   Auto,          // closed forms where they apply (true sphere-sphere,
                  // cuboid-true sphere, cuboid-cuboid), else GJK + EPA
+                 // (a pair with an ellipsoid: on its rounded cores)
   GjkEpa,        // our GJK + EPA for every pair (fixed-size buffers)
   LibccdMpr,     // libccd MPR (boolean and penetration; depth along the
                  // centre line, not the minimum translation)
