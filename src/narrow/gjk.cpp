@@ -246,8 +246,7 @@ GjkResult gjk(const Convex& a, const Convex& b, const GjkOptions& options) {
   // came closer to the origin (a no-progress exit reports these, without
   // keeping a 424-byte copy of that simplex on every iteration).
   V3 pa, pb;
-  const auto track_closest = [&] {
-    if (options.boolean_only) return;
+  const auto closest_points = [&] {
     pa = pb = V3{};
     for (int i = 0; i < s.n; ++i) {
       pa = pa + s.lambda[i] * s.v[i].a;
@@ -268,7 +267,7 @@ GjkResult gjk(const Convex& a, const Convex& b, const GjkOptions& options) {
     }
     v = c;
     prev_vv = norm2(c);
-    track_closest();
+    if (!options.boolean_only) closest_points();
   }
   for (int it = 0; it < options.max_iterations; ++it) {
     r.iterations = it + 1;
@@ -324,8 +323,11 @@ GjkResult gjk(const Convex& a, const Convex& b, const GjkOptions& options) {
       break;
     }
     prev_vv = nv;
-    track_closest();
+    if (!options.boolean_only) closest_points();
   }
+  // A boolean query that ends here found no separating plane (a touching
+  // pair): its closest points are the final simplex's.
+  if (options.boolean_only) closest_points();
   r.intersecting = false;
   r.distance = norm(v);
   r.v = v;
