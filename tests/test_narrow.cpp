@@ -329,8 +329,7 @@ TEST(NarrowRoundedCores, CorePlusItsBallIsTheEllipsoid) {
     const Quat q = normalized(Quat{unit(rng), unit(rng), unit(rng), unit(rng)});
     const Shape e = make(ShapeKind::Sphere, {size(rng), size(rng), size(rng)}, {unit(rng) * 50, 0, 3}, q);
     const narrow::Convex shape = narrow::make_convex(e);
-    narrow::Convex core = shape;
-    core.core_inset = narrow::core_radius(shape);
+    const narrow::Convex core = narrow::core_of(shape);
     const double hi = std::max({e.size.x, e.size.y, e.size.z}) / 2, lo = std::min({e.size.x, e.size.y, e.size.z}) / 2;
     ASSERT_NEAR(core.core_inset, lo * lo / hi, 1e-12 * hi);
     for (int k = 0; k < 20; ++k) {
@@ -378,10 +377,7 @@ TEST(NarrowRoundedCores, DepthWithinToleranceInBothCases) {
         EXPECT_LE(hit.depth, truth * (1 + narrow::kContactDepthTolerance) + 1e-9 * scale)
             << shape_kind_name(kb) << " " << i;
       }
-      narrow::Convex ca = a, cb = b;
-      ca.core_inset = narrow::core_radius(a);
-      cb.core_inset = narrow::core_radius(b);
-      (narrow::gjk(ca, cb).intersecting ? in_core : in_shell) += 1;
+      (narrow::gjk(narrow::core_of(a), narrow::core_of(b)).intersecting ? in_core : in_shell) += 1;
     }
   }
   EXPECT_GT(in_core, 50);

@@ -176,16 +176,17 @@ EpaResult epa(const Convex& a, const Convex& b, const Simplex& simplex, const Ep
     if (gap <= options.rel_tolerance * std::fabs(B.d) + options.abs_tolerance * scale) {
       // Report the upper end of the bracket, a support value along its
       // normal: moving b by it separates the shapes, never falls short.
-      fill_result(p, best, r);
-      r.converged = true;
-      r.lower_bound = B.d;
-      r.depth = hd > 0 ? hd : 0;
       if (upper < hd) {
         r.depth = upper > 0 ? upper : 0;
         r.normal = upper_normal;
         r.point_a = upper_a;
         r.point_b = upper_b;
+      } else {
+        fill_result(p, best, r);
+        r.depth = hd > 0 ? hd : 0;
       }
+      r.converged = true;
+      r.lower_bound = B.d;
       break;
     }
     if (p.vertex_count() >= kMaxVertices) break;

@@ -106,28 +106,27 @@ V3 unit(const V3& v) {
 // value along the normal reported, an upper bound as EPA's on the shapes
 // is: moving b by it separates them. Near the optimum C is much less round
 // than D, so the same tolerance on the depth takes a fraction of the
-// iterations. `hint`: a
-// direction from a towards b (last frame's), or null. True only with an
-// overlap the cores certify (their tetrahedron encloses the origin, or
-// their closest points are less than `shell` apart); false when the cores
-// cannot settle it, and then nothing is written: the caller decides on the
-// shapes themselves.
-bool rounded_contact(const Convex& a, const Convex& b, double shell, const V3* hint, Hit* hit, Coherence* learned,
+// iterations. `hint`: a direction from a towards b (last frame's), or null.
+// True only with an overlap the cores certify (their tetrahedron encloses
+// the origin, or their closest points are less than `shell` apart); false
+// when neither shape is an ellipsoid or the cores cannot settle it, and
+// then nothing is written: the caller decides on the shapes themselves.
+bool rounded_contact(const Convex& a, const Convex& b, const V3* hint, Hit* hit, Coherence* learned,
                      double depth_tolerance) {
+  if (core_radius(a) + core_radius(b) == 0) return false;  // no ellipsoid: nothing copied
   // In one order of the two shapes whatever order they come in, the other
   // answered by the mirror image: EPA's steps are not exactly symmetric in
   // floating point, and on a flat optimum the two orders' normals would
   // differ by up to the tolerance's swing.
   if (std::tie(b.kind, b.centre.x, b.centre.y, b.centre.z) < std::tie(a.kind, a.centre.x, a.centre.y, a.centre.z)) {
     const V3 flipped = hint ? -*hint : V3{};
-    if (!rounded_contact(b, a, shell, hint ? &flipped : nullptr, hit, learned, depth_tolerance)) return false;
+    if (!rounded_contact(b, a, hint ? &flipped : nullptr, hit, learned, depth_tolerance)) return false;
     hit->normal = -hit->normal;
     if (learned) learned->dir = -learned->dir;
     return true;
   }
-  Convex ca = a, cb = b;
-  ca.core_inset = core_radius(a);
-  cb.core_inset = core_radius(b);
+  const Convex ca = core_of(a), cb = core_of(b);
+  const double shell = ca.core_inset + cb.core_inset;
   const auto from_cores = [&](const V3& normal, double depth, const V3& core_a, const V3& core_b) {
     hit->normal = normal;
     hit->depth = depth;
@@ -178,8 +177,7 @@ bool rounded_contact(const Convex& a, const Convex& b, double shell, const V3* h
 // is false: they were tried); what the frame learns for the pair.
 bool epa_contact(const Convex& a, const Convex& b, const Simplex& s, Hit* hit, Coherence* learned,
                  double depth_tolerance, const V3* hint, bool cores) {
-  const double shell = core_radius(a) + core_radius(b);
-  if (cores && shell > 0 && rounded_contact(a, b, shell, hint, hit, learned, depth_tolerance)) return true;
+  if (cores && rounded_contact(a, b, hint, hit, learned, depth_tolerance)) return true;
   EpaOptions eo;
   eo.rel_tolerance = depth_tolerance;
   const EpaResult e = epa(a, b, s, eo);
@@ -234,8 +232,7 @@ bool warm_contact(const Convex& a, const Convex& b, const V3& normal, Hit* hit, 
                   double depth_tolerance) {
   // A pair with an ellipsoid: its cores certify the overlap as they give
   // the depth (the shapes' own cone would be four support queries more).
-  const double shell = core_radius(a) + core_radius(b);
-  if (shell > 0 && rounded_contact(a, b, shell, &normal, hit, learned, depth_tolerance)) return true;
+  if (rounded_contact(a, b, &normal, hit, learned, depth_tolerance)) return true;
   const Simplex cone = cone_tetrahedron(a, b, normal, kShapesCone);
   if (tetrahedron_encloses_origin(cone)) return epa_contact(a, b, cone, hit, learned, depth_tolerance, &normal, false);
   return gjk_epa(a, b, hit, nullptr, &normal, learned, depth_tolerance, &cone, false);

@@ -63,6 +63,14 @@ inline double core_radius(const Convex& c) {
   return hi > 0 ? lo * lo / hi : 0;
 }
 
+// The shape's core: the same shape with the support mapping moved in by
+// core_radius (a shape with rims or corners is its own core).
+inline Convex core_of(const Convex& c) {
+  Convex core = c;
+  core.core_inset = core_radius(c);
+  return core;
+}
+
 // Tolerance scale of a pair: sum of the bounding radii.
 inline double pair_scale(const Convex& a, const Convex& b) { return a.radius + b.radius; }
 
