@@ -3,16 +3,27 @@
 #include <compare>
 #include <cstdint>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 namespace hbp {
 
+// Default construction leaves a and b unset, as for a plain struct, but also
+// for value-initialisation (Pair(), Pair{}, std::vector<Pair>::resize): a
+// pair-dense frame's list is ~100 M pairs, and resize zero-filling it on one
+// thread before the engine writes every pair cost ~60 ms of a ~230 ms first
+// frame. Give both ids (Pair{a, b}) to make a pair.
 struct Pair {
   std::uint32_t a;
   std::uint32_t b;
+  Pair() noexcept {}  // user-provided on purpose: no zero-fill (see above)
+  constexpr Pair(std::uint32_t first, std::uint32_t second) noexcept : a(first), b(second) {}
   friend auto operator<=>(const Pair&, const Pair&) = default;
   friend bool operator==(const Pair&, const Pair&) = default;
 };
+
+static_assert(std::is_trivially_copyable_v<Pair> && std::is_standard_layout_v<Pair> && sizeof(Pair) == 8);
+static_assert(!std::is_trivially_default_constructible_v<Pair>, "a trivial default would make resize zero-fill");
 
 inline Pair make_pair(std::uint32_t i, std::uint32_t j) {
   return i < j ? Pair{i, j} : Pair{j, i};
