@@ -152,8 +152,8 @@ struct Worker {
   std::vector<std::uint32_t> first, second;  // kernel hits before they move on (the stage)
   std::vector<Pair> local;                 // other engines: pairs in local indices
   BoxArray tile;                           // other engines: two blocks of an over-full cell
-  // This worker's cells' pairs, before the copy to the list. Not zero-filled
-  // as it grows (std::vector::resize would write every pair twice).
+  // This worker's cells' pairs, before the copy to the list (a RawBuffer:
+  // huge pages when large, storage given back after a one-frame peak).
   RawBuffer<Pair> stored;
   std::size_t touched = 0;                 // entries of `stored`'s allocation written in earlier frames
   bool store_full = false;                 // this frame's touch budget is spent: dense cells are counted
