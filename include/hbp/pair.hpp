@@ -10,9 +10,10 @@ namespace hbp {
 
 // Default construction leaves a and b unset, as for a plain struct, but also
 // for value-initialisation (Pair(), Pair{}, std::vector<Pair>::resize): a
-// pair-dense frame's list is ~100 M pairs, and resize zero-filling it on one
-// thread before the engine writes every pair cost ~60 ms of a ~230 ms first
-// frame. Give both ids (Pair{a, b}) to make a pair.
+// pair-dense first frame sizes a list of ~100 M pairs before the engine
+// writes every one, and resize zero-filled it on one thread first (~45 ms
+// per 100 M pairs; those first frames are 20-40 ms shorter without it).
+// Give both ids (Pair{a, b}) to make a pair.
 struct Pair {
   std::uint32_t a;
   std::uint32_t b;
