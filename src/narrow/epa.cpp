@@ -153,6 +153,12 @@ EpaResult epa(const Convex& a, const Convex& b, const Simplex& simplex, const Ep
   // does separate, not one that falls short.
   double upper = INFINITY;
   V3 upper_normal, upper_a, upper_b;
+  const auto report_upper = [&] {
+    r.depth = upper > 0 ? upper : 0;
+    r.normal = upper_normal;
+    r.point_a = upper_a;
+    r.point_b = upper_b;
+  };
   double last_d = 0;  // the closest face's distance: a lower bound of the depth
   for (int it = 0;; ++it) {
     r.iterations = it;
@@ -177,10 +183,7 @@ EpaResult epa(const Convex& a, const Convex& b, const Simplex& simplex, const Ep
       // Report the upper end of the bracket, a support value along its
       // normal: moving b by it separates the shapes, never falls short.
       if (upper < hd) {
-        r.depth = upper > 0 ? upper : 0;
-        r.normal = upper_normal;
-        r.point_a = upper_a;
-        r.point_b = upper_b;
+        report_upper();
       } else {
         fill_result(p, best, r);
         r.depth = hd > 0 ? hd : 0;
@@ -200,10 +203,7 @@ EpaResult epa(const Convex& a, const Convex& b, const Simplex& simplex, const Ep
   r.separated = upper < 0;
   if (!r.converged && upper < INFINITY) {
     refine_upper_bound(a, b, scale, upper, upper_normal, upper_a, upper_b);
-    r.depth = upper > 0 ? upper : 0;
-    r.normal = upper_normal;
-    r.point_a = upper_a;
-    r.point_b = upper_b;
+    report_upper();
   }
   return r;
 }

@@ -233,7 +233,7 @@ bool warm_contact(const Convex& a, const Convex& b, const V3& normal, Hit* hit, 
   // A pair with an ellipsoid: its cores certify the overlap as they give
   // the depth (the shapes' own cone would be four support queries more).
   if (rounded_contact(a, b, &normal, hit, learned, depth_tolerance)) return true;
-  const Simplex cone = cone_tetrahedron(a, b, normal, kShapesCone);
+  const Simplex cone = cone_tetrahedron(a, b, normal);
   if (tetrahedron_encloses_origin(cone)) return epa_contact(a, b, cone, hit, learned, depth_tolerance, &normal, false);
   return gjk_epa(a, b, hit, nullptr, &normal, learned, depth_tolerance, &cone, false);
 }

@@ -550,13 +550,13 @@ void KdPartition::find_crossings(const BoxArray& boxes) {
       const bool in = inside(b, node_regions[at]);
       const bool leaf = nodes[at].axis < 0;
       const StoredBox& p = prev[i];
-      // Started from a face's own distance, not from 0: GCC turns max(0, d)
+      // Started from the x faces' distances, not from 0: GCC turns max(0, d)
       // into a branch, and on the never-written previous box of an object in
       // one cell that branch is a jump on uninitialised memory (memcheck
       // reports it in every program that links us); every other max here
       // is a maxss.
-      float moved = std::abs(b[0] - p.min[0]);
-      for (int a = 0; a < 3; ++a)
+      float moved = std::max(std::abs(b[0] - p.min[0]), std::abs(b[3] - p.max[0]));
+      for (int a = 1; a < 3; ++a)
         moved = std::max(moved, std::max(std::abs(b[a] - p.min[a]), std::abs(b[3 + a] - p.max[a])));
       const bool quiet = (h != kNoHome) & in & (leaf | (moved < 0.5f * margin[i]));
       movers[moving] = i;
