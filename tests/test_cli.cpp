@@ -163,6 +163,33 @@ TEST_F(Cli, RunJsonNamesFrameTimesAndMaintenance) {
   EXPECT_NE(r.output.find("\"rebuilt_subtrees\": 0"), std::string::npos) << r.output;
 }
 
+// `hbp run` provisions the frames' memory before frame 0 unless told not
+// to (reserve_ms, outside every frame); the frames' pairs are the same.
+TEST_F(Cli, RunReservesBeforeFrameZeroUnlessToldNot) {
+  const std::vector<std::string> base = {"run", "--n", "5000", "--frames", "3", "--threads", "2", "--json", "--quiet"};
+  auto pair_counts = [](const std::string& out) {
+    std::vector<std::string> counts;
+    const std::string key = "\"pairs\": ";
+    for (std::size_t at = out.find(key); at != std::string::npos; at = out.find(key, at + 1))
+      counts.push_back(out.substr(at + key.size(), out.find_first_of(",\n", at + key.size()) - at - key.size()));
+    return counts;
+  };
+  const Result reserved = hbp(base);
+  std::vector<std::string> args = base;
+  args.push_back("--no-reserve");
+  const Result unreserved = hbp(args);
+  ASSERT_EQ(reserved.status, 0) << reserved.output;
+  ASSERT_EQ(unreserved.status, 0) << unreserved.output;
+  EXPECT_NE(reserved.output.find("\"reserve\": true"), std::string::npos) << reserved.output;
+  EXPECT_NE(reserved.output.find("\"reserve_ms\": "), std::string::npos) << reserved.output;
+  EXPECT_NE(unreserved.output.find("\"reserve\": false"), std::string::npos) << unreserved.output;
+  EXPECT_NE(unreserved.output.find("\"reserve_ms\": 0.0"), std::string::npos) << unreserved.output;
+  const auto counts = pair_counts(reserved.output);
+  ASSERT_EQ(counts.size(), 3u) << reserved.output;
+  EXPECT_NE(counts[0], "0");
+  EXPECT_EQ(counts, pair_counts(unreserved.output));
+}
+
 TEST_F(Cli, NativeLayoutFieldIsReportedAsSuch) {
   const std::string file = scene("layout.hbps", 10, 2);
   {

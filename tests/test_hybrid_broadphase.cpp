@@ -586,3 +586,66 @@ TEST(HybridBroadPhase, FirstFrameEstimateFarTooLowStaysExact) { check_estimated_
 TEST(HybridBroadPhase, FirstFrameEstimateFarTooHighIsCutToTheFrame) { check_estimated_first_frame(true); }
 
 }  // namespace
+
+namespace {
+
+// reserve() only provisions memory: the same pairs in the same order as a
+// run without it, whether it comes before the first frame, between frames
+// (a kept tree's cells and records must survive it), larger or smaller
+// than the frames, while objects cross planes, vanish and appear.
+TEST(HybridBroadPhase, ReserveChangesNoPairBeforeOrBetweenFrames) {
+  hbp::ScenarioParams p;
+  p.n = 8000;
+  p.seed = 21;
+  hbp::Scenario scene(p);
+  const BroadPhaseOptions o{.engine = "sw", .cell_limit = 64, .threads = 2, .sorted = false};
+  HybridBroadPhase plain(o), reserved(o), between(o);
+  reserved.reserve(p.n);
+  BoxArray boxes;
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> at(0.0f, 1000.0f);
+  for (int f = 0; f < 10; ++f) {
+    scene.compute_boxes(boxes);
+    if (f >= 6) boxes.resize(p.n - 500);  // the last 500 vanish
+    if (f >= 8) {                          // and 1,500 others appear anywhere, frame after frame
+      for (int k = 0; k < 1500; ++k) {
+        const float x = at(rng), y = at(rng), z = at(rng);
+        boxes.push_back({{x, y, z}, {x + 20, y + 20, z + 20}});
+      }
+    }
+    if (f == 2) between.reserve(3 * p.n);  // a kept tree, more room than it needs
+    if (f == 5) between.reserve(100);      // under the cell limit: nothing to provision
+    if (f == 7) between.reserve(p.n);      // within what it holds
+    const std::vector<Pair> want_order = plain.update(boxes);
+    const std::string frame = "frame " + std::to_string(f);
+    ASSERT_TRUE(reserved.update(boxes) == want_order) << frame << ": reserved before frame 0";
+    ASSERT_TRUE(between.update(boxes) == want_order) << frame << ": reserved between frames";
+    std::vector<Pair> got = want_order;
+    ASSERT_EQ(hbp::canonicalize(got), 0u) << frame;
+    const auto want = hbp::brute_force_pairs(boxes);
+    ASSERT_TRUE(got == want) << frame << ": " << hbp::diff_pairs(want, got).summary();
+    ASSERT_GT(want.size(), 1000u) << frame;
+    scene.step();
+  }
+}
+
+TEST(HybridBroadPhase, ReservePastTheObjectLimitFailsAndChangesNothing) {
+  hbp::ScenarioParams p;
+  p.n = 3000;
+  hbp::Scenario scene(p);
+  HybridBroadPhase bp({.engine = "sw", .cell_limit = 64, .threads = 2});
+  BoxArray boxes;
+  scene.compute_boxes(boxes);
+  const std::vector<Pair> first = bp.update(boxes);
+  try {
+    bp.reserve(std::numeric_limits<std::uint32_t>::max());
+    FAIL() << "reserve(2^32 - 1) accepted";
+  } catch (const hbp::CapacityExceeded& e) {
+    EXPECT_NE(std::string(e.what()).find("4294967295"), std::string::npos) << e.what();
+  }
+  bp.reserve(0);
+  EXPECT_TRUE(bp.update(boxes) == first);
+  EXPECT_TRUE(first == hbp::brute_force_pairs(boxes));
+}
+
+}  // namespace

@@ -89,6 +89,11 @@ class BroadPhase {
   BroadPhase(BroadPhase&&) noexcept;
   BroadPhase& operator=(BroadPhase&&) noexcept;
 
+  // Provisions memory for up to `objects` moving objects before they are
+  // added (the handles, the boxes, the hybrid system's partition: see
+  // HybridBroadPhase::reserve); InvalidInput past kMaxObjects. Optional: a
+  // first update() without it provisions the same memory itself.
+  void reserve(std::size_t objects);
   // Adds boxes.size() objects; handles in the same order.
   std::vector<Handle> add(std::span<const Aabb> boxes, const AddOptions& options = {});
   // Replaces the boxes of `handles` (same length); static objects may move too.

@@ -97,6 +97,15 @@ class HybridBroadPhase {
   // one structure, not two. partition_ms is then 0.
   const std::vector<Pair>& update(const KdPartition& cells, const PairSink& sink = {},
                                   const PairSink& parallel_consumer = {});
+  // Provisions the memory that frames of up to `objects` objects keep from
+  // frame to frame (the partition's cell buffers and per-object records,
+  // ~170 bytes an object) and faults its pages in on every worker, so that
+  // a first frame of that size finds it resident: the cost of fresh memory
+  // moves to the call (an engine's level load). Optional; the pairs are the
+  // same either way. Frames much smaller than `objects` give the memory
+  // back, as any frame does. CapacityExceeded from 2^32 - 1 objects on;
+  // std::bad_alloc when the memory cannot be had (nothing else changes).
+  void reserve(std::size_t objects);
   const std::vector<Pair>& pairs() const;
   const FrameStats& stats() const;
   const BroadPhaseOptions& options() const;

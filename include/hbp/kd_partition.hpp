@@ -115,6 +115,10 @@ class KdPartition {
   void finish_update();
   // Drops the tree; the next update builds from scratch.
   void reset();
+  // Provisions the memory that frames of up to `objects` objects keep (the
+  // cells' entry buffers, the per-object records) and faults its pages in,
+  // so a first frame of that size does not pay for fresh memory.
+  void reserve(std::size_t objects);
 
   // The most entries a frame of a spread rebuild rebuilds (and the largest
   // subtree it cuts; a frame's share is otherwise a sixteenth of the tree's

@@ -140,6 +140,14 @@ class PyBroadPhase {
     return handles_array(std::move(handles));
   }
 
+  void reserve(long long objects) {
+    if (objects < 0 || static_cast<unsigned long long>(objects) > kMaxObjects)
+      throw ArgumentError("reserve: objects must be 0.." + std::to_string(kMaxObjects) + ", got " +
+                          std::to_string(objects));
+    Exclusive lock(mutex_);
+    bp_.reserve(static_cast<std::size_t>(objects));
+  }
+
   void move(py::handle handles_obj, py::handle boxes_obj) {
     const HandlesView h = handles_view(handles_obj);
     const BoxesView b = boxes_view(boxes_obj, "boxes");
@@ -404,6 +412,9 @@ PYBIND11_MODULE(hybrid_broadphase, m) {
            py::arg("engine") = "sw", py::arg("threads") = 0, py::arg("cell_limit") = 0, py::arg("max_pairs") = 0)
       .def("add", &PyBroadPhase::add, py::arg("boxes"), py::kw_only(), py::arg("static") = false,
            py::arg("layer") = 0, "Adds (n, 6) float32 boxes; returns their (n,) uint32 handles in order.")
+      .def("reserve", &PyBroadPhase::reserve, py::arg("objects"),
+           "Provisions memory for up to `objects` moving objects before they are added, so the first update() "
+           "does not pay for fresh memory (optional; results are the same).")
       .def("move", &PyBroadPhase::move, py::arg("handles"), py::arg("boxes"),
            "Replaces the boxes of handles ((m,) integers) with boxes ((m, 6) float32).")
       .def("remove", &PyBroadPhase::remove, py::arg("handles"))

@@ -294,3 +294,26 @@ def test_threads_sharing_one_broad_phase_with_a_python_filter():
         t.join(timeout=60)
     assert not any(t.is_alive() for t in threads), "deadlock"
     assert not errors, errors
+
+
+def test_reserve_changes_no_result():
+    # More moving objects than a cell holds: the partition runs, and reserve()
+    # provisioned its memory before the first update.
+    rng = np.random.default_rng(17)
+    boxes = random_boxes(rng, 6000, extent=250.0, size=12.0)
+    plain, reserved = hbp.BroadPhase(threads=2), hbp.BroadPhase(threads=2)
+    reserved.reserve(len(boxes))
+    h = plain.add(boxes)
+    np.testing.assert_array_equal(reserved.add(boxes), h)
+    for frame in range(4):
+        a, b = plain.update(), reserved.update()
+        for name in ("pairs", "created", "removed"):
+            np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=f"{name}, frame {frame}")
+        want = np.sort(h[hbp.find_pairs(boxes, engine="brute")], axis=1)
+        want = want[np.lexsort((want[:, 1], want[:, 0]))]
+        np.testing.assert_array_equal(a.pairs, want, err_msg=f"frame {frame}")
+        assert len(a.pairs) > 1000
+        drift = rng.normal(0, 1.5, (len(boxes), 3)).astype(np.float32)
+        boxes = boxes + np.hstack([drift, drift])
+        plain.move(h, boxes)
+        reserved.move(h, boxes)

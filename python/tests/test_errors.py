@@ -190,3 +190,11 @@ def test_query_errors(world):
         with pytest.raises(ValueError, match=message):
             bp.query_ray(*args)
     assert_unchanged(bp, h, pairs)
+
+
+@pytest.mark.parametrize("objects", [-1, 2**24, 2**40])
+def test_reserve_rejects_bad_counts(world, objects):
+    bp, h, _, pairs = world
+    with pytest.raises(ValueError, match=f"reserve: objects must be 0..16777215, got {objects}"):
+        bp.reserve(objects)
+    assert_unchanged(bp, h, pairs)

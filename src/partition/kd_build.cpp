@@ -355,6 +355,8 @@ void SubtreeBuilder::node(std::uint32_t at, std::size_t begin, std::uint32_t n, 
   arena_.truncate(children);
 }
 
+std::size_t build_room(std::size_t objects) { return objects + objects / 2 + kTaskSlack; }
+
 void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buffers, std::vector<KdTreeNode>& nodes,
                 RawBuffer<CellEntry>& entries, std::uint32_t* home, StoredBox* prev, float* margin) {
   const auto n = static_cast<std::uint32_t>(boxes.size());
@@ -364,7 +366,7 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
   // Room for the top levels' duplicates and the tasks' output slots, so the
   // buffers neither move nor copy while they grow (untouched room costs
   // nothing); their old contents are not needed.
-  const std::size_t room = std::size_t{n} + n / 2 + kTaskSlack;
+  const std::size_t room = build_room(n);
   entries.clear();
   entries.reserve(room);
   a.clear();

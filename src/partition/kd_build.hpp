@@ -141,6 +141,10 @@ struct BuildBuffers {
   SubtreeBuilder sample_tree;
 };
 
+// Entries the build's buffers (a, b and the output) reserve for `objects`
+// objects: room for the top levels' duplicates and the tasks' slots.
+std::size_t build_room(std::size_t objects);
+
 // Builds the whole tree from scratch: nodes (node 0 the root), every leaf's
 // entries in `entries`, home[i] (and for objects in several cells prev[i]
 // and margin[i] = 0; an object in one cell has neither) for every object.

@@ -262,6 +262,31 @@ void KdPartition::reset() {
   state_->split_pending = false;
 }
 
+void KdPartition::reserve(std::size_t objects) {
+  // What a build of `objects` objects and the frames after it keep: the
+  // build's two working buffers (next_entries and latest, lent to it as a
+  // and b: the tasks' inputs and slots, then this frame's and the next
+  // frame's cells) at the build's room, the old entries' room (the next
+  // frame's `latest`, one entry an object), and the per-object records.
+  // Every page past a buffer's contents is written once, from every worker
+  // (prefault_pages): the build then finds them resident instead of
+  // faulting each one in. The contents (a tree kept from earlier frames)
+  // are left as they are.
+  State& s = *state_;
+  const std::size_t room = kd::build_room(objects);
+  auto provide = [](auto& buffer, std::size_t capacity, std::size_t touched) {
+    buffer.reserve(capacity);
+    if (touched > buffer.size())
+      prefault_pages(buffer.data() + buffer.size(), (touched - buffer.size()) * sizeof(*buffer.data()));
+  };
+  provide(s.next_entries, room, room);
+  provide(s.latest, room, room);
+  provide(s.entries, room, objects);
+  provide(s.home, objects, objects);
+  provide(s.prev, objects, objects);
+  provide(s.margin, objects, objects);
+}
+
 void KdPartition::update(const BoxArray& boxes) {
   if (!begin_update(boxes, false)) return;
   refresh_cells();

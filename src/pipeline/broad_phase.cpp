@@ -925,6 +925,16 @@ BroadPhase& BroadPhase::operator=(BroadPhase&&) noexcept = default;
 std::vector<Handle> BroadPhase::add(std::span<const Aabb> boxes, const AddOptions& options) {
   return impl_->add(boxes, options);
 }
+void BroadPhase::reserve(std::size_t objects) {
+  if (objects > kMaxObjects)
+    throw InvalidInput("BroadPhase::reserve: " + std::to_string(objects) + " objects would pass the limit of " +
+                       std::to_string(kMaxObjects) + " objects");
+  Impl& m = *impl_;
+  m.slot_box.reserve(objects);
+  m.moving_boxes.reserve(objects);
+  m.moving_handle.reserve(objects);
+  m.hybrid.reserve(objects);
+}
 void BroadPhase::move(std::span<const Handle> handles, std::span<const Aabb> boxes) { impl_->move(handles, boxes); }
 void BroadPhase::remove(std::span<const Handle> handles) { impl_->remove(handles); }
 void BroadPhase::set_layer(std::span<const Handle> handles, std::uint8_t layer) {

@@ -1109,6 +1109,14 @@ const std::vector<Pair>& HybridBroadPhase::update(const KdPartition& cells, cons
   impl_->arena.execute([&] { impl_->run(nullptr, &cells, sink, parallel_consumer); });
   return impl_->pairs;
 }
+void HybridBroadPhase::reserve(std::size_t objects) {
+  if (objects >= std::numeric_limits<std::uint32_t>::max())
+    throw CapacityExceeded("reserve: at most 2^32 - 2 objects (asked for " + std::to_string(objects) + ")");
+  // A frame of at most cell_limit objects is one cell, not partitioned.
+  if (objects <= impl_->cell_limit) return;
+  impl_->arena.execute([&] { impl_->own_partition.reserve(objects); });
+}
+
 const std::vector<Pair>& HybridBroadPhase::pairs() const { return impl_->pairs; }
 const FrameStats& HybridBroadPhase::stats() const { return impl_->stats; }
 const BroadPhaseOptions& HybridBroadPhase::options() const { return impl_->options; }
