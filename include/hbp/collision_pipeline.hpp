@@ -37,6 +37,9 @@ class CollisionPipeline {
   // Contacts in cell order (deterministic for any thread count). shapes[i]
   // is the shape whose AABB is boxes[i].
   const std::vector<Contact>& update(const BoxArray& boxes, const std::vector<Shape>& shapes);
+  // The broad phase's HybridBroadPhase::reserve: memory for frames of up to
+  // `objects` objects, provisioned before the first one.
+  void reserve(std::size_t objects) { broad_.reserve(objects); }
   const std::vector<Contact>& contacts() const { return contacts_; }
   const PipelineStats& stats() const { return stats_; }
   const HybridBroadPhase& broad_phase() const { return broad_; }
