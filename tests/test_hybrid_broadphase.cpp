@@ -585,10 +585,6 @@ TEST(HybridBroadPhase, FirstFrameEstimateFarTooLowStaysExact) { check_estimated_
 
 TEST(HybridBroadPhase, FirstFrameEstimateFarTooHighIsCutToTheFrame) { check_estimated_first_frame(true); }
 
-}  // namespace
-
-namespace {
-
 // reserve() only provisions memory: the same pairs in the same order as a
 // run without it, whether it comes before the first frame, between frames
 // (a kept tree's cells and records must survive it), larger or smaller
