@@ -118,6 +118,7 @@ class KdPartition {
   // Provisions the memory that frames of up to `objects` objects keep (the
   // cells' entry buffers, the per-object records) and faults its pages in,
   // so a first frame of that size does not pay for fresh memory.
+  // CapacityExceeded from 2^32 - 1 objects on, as for a frame.
   void reserve(std::size_t objects);
 
   // The most entries a frame of a spread rebuild rebuilds (and the largest

@@ -262,7 +262,17 @@ void KdPartition::reset() {
   state_->split_pending = false;
 }
 
+namespace {
+// Object ids are uint32 and 2^32 - 1 is kNoHome's: the most objects a frame
+// (or a reserve) may hold.
+void check_object_count(std::size_t objects) {
+  if (objects >= std::numeric_limits<std::uint32_t>::max())
+    throw CapacityExceeded("k-d partition: " + std::to_string(objects) + " objects: at most 2^32 - 2 per frame");
+}
+}  // namespace
+
 void KdPartition::reserve(std::size_t objects) {
+  check_object_count(objects);
   // What a build of `objects` objects and the frames after it keep: the
   // build's two working buffers (next_entries and latest, lent to it as a
   // and b: the tasks' inputs and slots, then this frame's and the next
@@ -294,8 +304,7 @@ void KdPartition::update(const BoxArray& boxes) {
 }
 
 bool KdPartition::begin_update(const BoxArray& boxes, bool allow_oversized) {
-  if (boxes.size() >= std::numeric_limits<std::uint32_t>::max())
-    throw CapacityExceeded("k-d partition: at most 2^32 - 1 objects per frame");
+  check_object_count(boxes.size());
   State& s = *state_;
   if (s.deferred) throw std::logic_error("k-d partition: begin_update before the last frame's finish_update");
   stats_.rebuilt = false;

@@ -1110,9 +1110,8 @@ const std::vector<Pair>& HybridBroadPhase::update(const KdPartition& cells, cons
   return impl_->pairs;
 }
 void HybridBroadPhase::reserve(std::size_t objects) {
-  if (objects >= std::numeric_limits<std::uint32_t>::max())
-    throw CapacityExceeded("reserve: at most 2^32 - 2 objects (asked for " + std::to_string(objects) + ")");
-  // A frame of at most cell_limit objects is one cell, not partitioned.
+  // A frame of at most cell_limit objects is one cell, not partitioned (the
+  // partition checks the object limit).
   if (objects <= impl_->cell_limit) return;
   impl_->arena.execute([&] { impl_->own_partition.reserve(objects); });
 }
