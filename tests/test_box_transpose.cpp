@@ -6,6 +6,7 @@
 // non-temporal stores (aligned lanes), and the same lanes misaligned.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -134,6 +135,62 @@ TEST(BoxTranspose, LargeBatchesStreamedOrNotMatchScalarRule) {
           }
         }
       }
+    }
+  }
+}
+
+}  // namespace
+
+namespace {
+
+// The changed-box count of the same pass: against previous lanes that
+// differ from the batch in one coordinate of some rows (each of the six,
+// and -0 against +0, which is no change), for every length and start up to
+// a few vectors and a streamed batch.
+TEST(BoxTranspose, CountsBoxesThatDifferFromThePreviousLanes) {
+  std::mt19937 rng(5);
+  for (std::size_t n : {0u, 1u, 3u, 4u, 5u, 8u, 13u, 19u, 1u << 16}) {
+    std::vector<Aabb> boxes = random_boxes(n, rng);
+    std::vector<std::uint32_t> ids(n);
+    for (std::size_t i = 0; i < n; ++i) ids[i] = static_cast<std::uint32_t>(i);
+    Lanes previous(n);
+    std::size_t changed_rows = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      for (int k = 0; k < 3; ++k) {
+        previous.lane[k][i] = boxes[i].min[k];
+        previous.lane[3 + k][i] = boxes[i].max[k];
+      }
+      const std::size_t what = rng() % 9;
+      if (what < 6) {
+        previous.lane[what][i] += 1.0f;
+        ++changed_rows;
+      } else if (what == 6) {  // -0 against +0: the same box
+        boxes[i].min[0] = 0.0f;
+        boxes[i].max[0] = std::max(boxes[i].max[0], 1.0f);
+        previous.lane[0][i] = -0.0f;
+        previous.lane[3][i] = boxes[i].max[0];
+      }
+    }
+    for (std::size_t begin : {std::size_t{0}, std::size_t{1}, std::size_t{4}}) {
+      if (begin > n) continue;
+      std::size_t want = 0;
+      for (std::size_t i = begin; i < n; ++i) {
+        bool differs = false;
+        for (int k = 0; k < 3; ++k)
+          differs |= previous.lane[k][i] != boxes[i].min[k] || previous.lane[3 + k][i] != boxes[i].max[k];
+        want += differs;
+      }
+      for (bool stream : {false, true}) {
+        hbp::BoxArray lanes(n);
+        float* lane[6] = {lanes.min(0), lanes.min(1), lanes.min(2), lanes.max(0), lanes.max(1), lanes.max(2)};
+        std::uint32_t changed = 12345;
+        ASSERT_TRUE(hbp::detail::check_and_transpose(boxes.data(), ids.data(), nullptr, begin, n, lane, stream,
+                                                     previous.lane, &changed));
+        EXPECT_EQ(changed, want) << "n " << n << " begin " << begin << " stream " << stream;
+      }
+    }
+    if (n > 100) {
+      EXPECT_GT(changed_rows, n / 2);
     }
   }
 }

@@ -203,6 +203,54 @@ TEST(BoxTree, RefitMatchesScan) {
   }
 }
 
+// Refits of a tree whose boxes span the whole float range on one axis: a
+// node's top code decodes past FLT_MAX, and the refit must not let that
+// infinity into a parent's step (0 * inf = NaN would hide every box). Many
+// boxes, so the tree has nodes above nodes; refitted with unchanged boxes,
+// then with every box moved and some widened to [-FLT_MAX, FLT_MAX].
+TEST(BoxTree, RefitOfBoxesSpanningTheFloatRangeMatchesScan) {
+  hbp::Random rng(21);
+  const float big = std::numeric_limits<float>::max();
+  for (int axis = 0; axis < 3; ++axis) {
+    SCOPED_TRACE(axis);
+    BoxArray boxes = lattice_boxes(rng, 600, 1.0f, 0.0f);
+    for (std::size_t i = 0; i < boxes.size(); ++i) {
+      Aabb b = boxes.get(i);
+      if (i % 3 == 0) {
+        b.min[axis] = -big;
+        b.max[axis] = big;
+      } else if (i % 3 == 1) {
+        b.max[axis] = big;
+      }
+      boxes.set(i, b);
+    }
+    const auto ids = ids_for(boxes.size());
+    BoxTree tree;
+    tree.build(boxes, ids);
+    ASSERT_GE(tree.depth(), 3u) << "the case needs nodes under nodes";
+    for (int round = 0; round < 4; ++round) {
+      if (round >= 2) {
+        for (std::size_t i = 0; i < boxes.size(); ++i) {
+          Aabb b = boxes.get(i);
+          const int k = (axis + 1) % 3;
+          b.min[k] += 1;
+          b.max[k] += 1;
+          if (rng.below(5) == 0) {
+            b.min[axis] = -big;
+            b.max[axis] = big;
+          }
+          boxes.set(i, b);
+        }
+      }
+      tree.refit(boxes);
+      for (std::size_t i = 0; i < boxes.size(); i += 37) check_box(tree, boxes, ids, boxes.get(i));
+      check_box(tree, boxes, ids, Aabb{{-big, -big, -big}, {big, big, big}});
+      check_box(tree, boxes, ids, Aabb{{2, 2, 2}, {3, 3, 3}});
+      check_scene(tree, boxes, ids, rng, 1.0f, 0.0f, 40);
+    }
+  }
+}
+
 // Boxes of exponentially growing size and spacing: the SAH splits peel a
 // few boxes off per level, a chain of nodes each with leaves beside it (the
 // leaf ring overflows again and again during one walk).

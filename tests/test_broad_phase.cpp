@@ -11,6 +11,7 @@
 #include <cstring>
 #include <limits>
 #include <map>
+#include <set>
 #include <random>
 #include <span>
 #include <vector>
@@ -37,6 +38,9 @@ struct Reference {
   std::uint32_t mask[32];
   BroadPhase::PairFilter filter;
   std::vector<Pair> previous;
+  // The objects the stats count since the last update: moving ones added or
+  // moved to another box, static ones added, moved to another box or removed.
+  std::set<Handle> moved, static_changed;
 
   Reference() { std::fill(std::begin(mask), std::end(mask), 0xFFFFFFFFu); }
 
@@ -59,10 +63,36 @@ struct Reference {
   }
 };
 
+bool same_box(const Aabb& a, const Aabb& b) {
+  for (int k = 0; k < 3; ++k)
+    if (a.min[k] != b.min[k] || a.max[k] != b.max[k]) return false;
+  return true;
+}
+
 std::vector<Pair> minus(const std::vector<Pair>& a, const std::vector<Pair>& b) {
   std::vector<Pair> out;
   std::set_difference(a.begin(), a.end(), b.begin(), b.end(), std::back_inserter(out));
   return out;
+}
+
+// The reference slab test: the segment o + t d, 0 <= t <= max_t, against the
+// closed box; axes with d = 0 (or 1/d infinite) need o inside the slab.
+bool ref_ray(const float o[3], const float d[3], float max_t, const Aabb& b, float& entry) {
+  float t0 = 0, t1 = max_t;
+  for (int k = 0; k < 3; ++k) {
+    const float inv = 1.0f / d[k];
+    if (d[k] == 0 || std::isinf(inv)) {
+      if (o[k] < b.min[k] || o[k] > b.max[k]) return false;
+      continue;
+    }
+    float a = (b.min[k] - o[k]) * inv, c = (b.max[k] - o[k]) * inv;
+    if (a > c) std::swap(a, c);
+    t0 = std::max(t0, a);
+    t1 = std::min(t1, c);
+  }
+  if (!(t0 <= t1)) return false;
+  entry = t0;
+  return true;
 }
 
 // One broad phase on 1 thread and one on 2, driven alike beside the
@@ -129,21 +159,94 @@ Aabb nudged(std::mt19937& rng, Aabb b) {
   return b;
 }
 
+// Every box and ray query of a handful, against a scan of the reference.
+void check_queries(const BroadPhase& bp, const Reference& ref, std::mt19937& rng, const Aabb& probe, int count) {
+  for (int q = 0; q < count; ++q) {
+    Aabb query = probe;
+    if (q > 0) {
+      for (int k = 0; k < 3; ++k) {
+        const float c = 0.5f * (probe.min[k] + probe.max[k]);
+        const float r = static_cast<float>(rng() % 8);
+        query.min[k] = std::isfinite(c - r) ? c - r : probe.min[k];
+        query.max[k] = std::isfinite(c + r) ? c + r : probe.max[k];
+      }
+    }
+    std::vector<Handle> want;
+    for (const auto& [h, o] : ref.objects)
+      if (hbp::overlaps(o.box, query)) want.push_back(h);
+    ASSERT_EQ(bp.query_box(query), want) << "box query " << q;
+    float o[3], d[3];
+    for (int k = 0; k < 3; ++k) {
+      o[k] = std::isfinite(query.min[k] - 3) ? query.min[k] - 3 : query.min[k];
+      d[k] = static_cast<float>(static_cast<int>(rng() % 5) - 2);
+    }
+    const float max_t = q % 2 ? std::numeric_limits<float>::infinity() : 4.0f;
+    struct Hit {
+      float t;
+      Handle h;
+    };
+    std::vector<Hit> hits;
+    for (const auto& [h, obj] : ref.objects) {
+      float t;
+      if (ref_ray(o, d, max_t, obj.box, t)) hits.push_back({t, h});
+    }
+    std::sort(hits.begin(), hits.end(),
+              [](const Hit& a, const Hit& b) { return a.t < b.t || (a.t == b.t && a.h < b.h); });
+    std::vector<Handle> want_ray;
+    for (const Hit& h : hits) want_ray.push_back(h.h);
+    ASSERT_EQ(bp.query_ray(o, d, max_t), want_ray) << "ray query " << q;
+  }
+}
+
 // One randomized session applied to a BroadPhase and the reference alike.
+// With `queries`, every edit is followed by box and ray queries (which must
+// see the edit and must not change what the next update() reports); with
+// `wide`, one box in eight spans [-FLT_MAX, FLT_MAX] on an axis or reaches
+// one end of the float range.
 struct Session {
   std::mt19937 rng;
   float world;
   Reference ref;
   std::vector<BroadPhase*> systems;  // identical edits to each
   std::vector<Handle> live;
+  bool queries = false, wide = false;
 
   Session(unsigned seed, float w, std::vector<BroadPhase*> s) : rng(seed), world(w), systems(std::move(s)) {}
 
   std::size_t pick() { return std::uniform_int_distribution<std::size_t>(0, live.size() - 1)(rng); }
 
+  Aabb widened(Aabb b) {
+    if (!wide || rng() % 8 != 0) return b;
+    const float big = std::numeric_limits<float>::max();
+    const int k = static_cast<int>(rng() % 3);
+    switch (rng() % 3) {
+      case 0:
+        b.min[k] = -big;
+        b.max[k] = big;
+        break;
+      case 1:
+        b.max[k] = big;
+        break;
+      default:
+        b.min[k] = -big;
+        break;
+    }
+    return b;
+  }
+
+  void query_now() {
+    if (!queries) return;
+    Aabb probe = random_box(rng, world);
+    if (!live.empty() && rng() % 2) probe = ref.objects[live[pick()]].box;  // an object's own box: a hit
+    for (BroadPhase* s : systems) {
+      check_queries(*s, ref, rng, probe, 3);
+      if (testing::Test::HasFatalFailure()) return;
+    }
+  }
+
   void add(std::size_t n, bool is_static, std::uint8_t layer) {
     std::vector<Aabb> boxes(n);
-    for (Aabb& b : boxes) b = random_box(rng, world);
+    for (Aabb& b : boxes) b = widened(random_box(rng, world));
     std::vector<Handle> h;
     for (BroadPhase* s : systems) {
       auto got = s->add(boxes, {.is_static = is_static, .layer = layer});
@@ -153,12 +256,15 @@ struct Session {
     for (std::size_t i = 0; i < n; ++i) {
       ASSERT_FALSE(ref.objects.count(h[i])) << "a live handle handed out twice";
       ref.objects[h[i]] = {boxes[i], is_static, layer};
+      (is_static ? ref.static_changed : ref.moved).insert(h[i]);
       live.push_back(h[i]);
     }
+    query_now();
   }
 
-  // Moves a random subset (distinct handles): nudges and teleports; static
-  // objects only when asked (the fat-box caches live while statics stay).
+  // Moves a random subset (distinct handles): nudges, teleports and moves
+  // to the box an object has; static objects only when asked (the fat-box
+  // caches live while statics stay).
   void move(std::size_t n, bool statics_too) {
     std::vector<Handle> h;
     for (Handle x : live)
@@ -168,11 +274,17 @@ struct Session {
     h.resize(std::min(n, h.size()));
     std::vector<Aabb> boxes;
     for (Handle x : h) {
-      const bool teleport = rng() % 10 == 0;
-      boxes.push_back(teleport ? random_box(rng, world) : nudged(rng, ref.objects[x].box));
+      const unsigned kind = rng() % 10;
+      const Aabb& now = ref.objects[x].box;
+      boxes.push_back(kind == 0 ? widened(random_box(rng, world)) : kind == 1 ? now : nudged(rng, now));
     }
     for (BroadPhase* s : systems) s->move(h, boxes);
-    for (std::size_t i = 0; i < h.size(); ++i) ref.objects[h[i]].box = boxes[i];
+    for (std::size_t i = 0; i < h.size(); ++i) {
+      RefObject& o = ref.objects[h[i]];
+      if (!same_box(o.box, boxes[i])) (o.is_static ? ref.static_changed : ref.moved).insert(h[i]);
+      o.box = boxes[i];
+    }
+    query_now();
   }
 
   void remove(std::size_t n) {
@@ -181,7 +293,11 @@ struct Session {
     std::vector<Handle> h(live.end() - static_cast<std::ptrdiff_t>(n), live.end());
     live.resize(live.size() - n);
     for (BroadPhase* s : systems) s->remove(h);
-    for (Handle x : h) ref.objects.erase(x);
+    for (Handle x : h) {
+      if (ref.objects[x].is_static) ref.static_changed.insert(x);
+      ref.objects.erase(x);
+    }
+    query_now();
   }
 
   void set_layer(std::size_t n, std::uint8_t layer) {
@@ -191,6 +307,7 @@ struct Session {
     h.resize(std::min(n, h.size()));
     for (BroadPhase* s : systems) s->set_layer(h, layer);
     for (Handle x : h) ref.objects[x].layer = layer;
+    query_now();
   }
 
   void set_collides(std::uint32_t a, std::uint32_t b, bool c) {
@@ -209,7 +326,8 @@ struct Session {
     ref.filter = f;
   }
 
-  // Updates every system and checks each against the reference.
+  // Updates every system and checks each against the reference: pairs,
+  // events and the stats' counts.
   void check_frame(int frame) {
     const std::vector<Pair> want = ref.pairs();
     const std::vector<Pair> created = minus(want, ref.previous);
@@ -220,15 +338,23 @@ struct Session {
       ASSERT_EQ(u.created, created) << "system " << i << " frame " << frame;
       ASSERT_EQ(u.removed, removed) << "system " << i << " frame " << frame;
       ASSERT_EQ(systems[i]->size(), ref.objects.size());
+      ASSERT_EQ(systems[i]->stats().moved, ref.moved.size()) << "system " << i << " frame " << frame;
+      ASSERT_EQ(systems[i]->stats().static_changes, ref.static_changed.size())
+          << "system " << i << " frame " << frame;
     }
     ref.previous = want;
+    ref.moved.clear();
+    ref.static_changed.clear();
   }
 };
 
-void run_sequence(unsigned seed, int frames, std::size_t scale, float world) {
+void run_sequence(unsigned seed, int frames, std::size_t scale, float world, bool queries = false,
+                  bool wide = false) {
   BroadPhase one({.threads = 1});
   BroadPhase two({.threads = 2});
   Session s(seed, world, {&one, &two});
+  s.queries = queries;
+  s.wide = wide;
   std::uint64_t pairs = 0, created = 0, removed = 0;
   s.add(scale, false, 0);
   s.add(scale, true, 1);
@@ -245,6 +371,11 @@ void run_sequence(unsigned seed, int frames, std::size_t scale, float world) {
     if (op == 0 && f % 16 == 8) {  // remove and re-add in one frame: slots reused
       s.remove(scale / 4);
       s.add(scale / 4, false, 2);
+    }
+    if (queries && f % 3 == 1) {  // statics added, moved and removed between a query and update()
+      s.add(2, true, 0);
+      s.move(scale / 10, true);
+      s.remove(2);
     }
     s.check_frame(f);
     if (testing::Test::HasFatalFailure()) return;
@@ -269,6 +400,29 @@ TEST(BroadPhase, RandomSequencesMatchBruteForce) {
 // Enough objects for the parallel paths (several chunks of moving objects and
 // of pairs) and a multi-cell partition.
 TEST(BroadPhase, LargerSequenceMatchesBruteForce) { run_sequence(99, 6, 2500, 60); }
+
+// Queries between every edit and the next update(): each sees the edits, and
+// none changes what update() reports (a query synchronises the structures
+// the update's incremental path is chosen by).
+TEST(BroadPhase, RandomSequencesWithQueriesBetweenEditsMatchBruteForce) {
+  for (unsigned seed = 11; seed <= 16; ++seed) {
+    SCOPED_TRACE(seed);
+    run_sequence(seed, 40, 120, 20, /*queries=*/true);
+    if (HasFatalFailure()) return;
+  }
+  run_sequence(98, 8, 1500, 50, /*queries=*/true);
+}
+
+// The same with boxes that span the whole float range on an axis or reach
+// one of its ends: the partition, the static tree and the refitted moving
+// tree stay exact.
+TEST(BroadPhase, RandomSequencesWithBoxesToFltMaxMatchBruteForce) {
+  for (unsigned seed = 21; seed <= 24; ++seed) {
+    SCOPED_TRACE(seed);
+    run_sequence(seed, 32, 120, 20, /*queries=*/true, /*wide=*/true);
+    if (HasFatalFailure()) return;
+  }
+}
 
 TEST(BroadPhase, StaticStaticNeverReportedAndStaticsMove) {
   BroadPhase bp;
@@ -570,26 +724,6 @@ TEST(BroadPhase, ErrorsChangeNothing) {
     }
   for (Handle x : hs) EXPECT_EQ(bp.layer(x), 1);
   EXPECT_TRUE(bp.collides(0, 31));
-}
-
-// The reference slab test: the segment o + t d, 0 <= t <= max_t, against the
-// closed box; axes with d = 0 (or 1/d infinite) need o inside the slab.
-bool ref_ray(const float o[3], const float d[3], float max_t, const Aabb& b, float& entry) {
-  float t0 = 0, t1 = max_t;
-  for (int k = 0; k < 3; ++k) {
-    const float inv = 1.0f / d[k];
-    if (d[k] == 0 || std::isinf(inv)) {
-      if (o[k] < b.min[k] || o[k] > b.max[k]) return false;
-      continue;
-    }
-    float a = (b.min[k] - o[k]) * inv, c = (b.max[k] - o[k]) * inv;
-    if (a > c) std::swap(a, c);
-    t0 = std::max(t0, a);
-    t1 = std::min(t1, c);
-  }
-  if (!(t0 <= t1)) return false;
-  entry = t0;
-  return true;
 }
 
 TEST(BroadPhase, QueriesMatchBruteForce) {
@@ -966,3 +1100,230 @@ TEST(BroadPhase, EmptyAndSingle) {
 }
 
 }  // namespace
+
+// ---- hardening: queries between edits and update(), refits, filters, stats --
+
+namespace {
+
+constexpr Aabb kUnit{{0, 0, 0}, {1, 1, 1}};
+
+Aabb shifted(const Aabb& b, float dx) { return {{b.min[0] + dx, b.min[1], b.min[2]}, {b.max[0] + dx, b.max[1], b.max[2]}}; }
+
+// Runs each kind of query: what a query sees must not change update().
+void query_once(const BroadPhase& bp, int kind) {
+  const float o[3] = {-100, 0.5f, 0.5f}, d[3] = {1, 0, 0};
+  if (kind == 0) (void)bp.query_box(Aabb{{-100, -100, -100}, {100, 100, 100}});
+  if (kind == 1) (void)bp.query_ray(o, d, std::numeric_limits<float>::infinity());
+}
+
+// A world whose moving objects have settled (quiet boxes set: the update's
+// incremental path skips them), before each of the edits.
+struct Settled {
+  BroadPhase bp{{.threads = 2}};
+  std::vector<Handle> movers, statics;
+  Settled() {
+    std::vector<Aabb> m, s;
+    for (int i = 0; i < 6; ++i) m.push_back(shifted(kUnit, 10.0f * static_cast<float>(i)));
+    movers = bp.add(m);
+    s.push_back(shifted(kUnit, 0.5f));  // overlaps mover 0
+    statics = bp.add(s, {.is_static = true});
+    for (int f = 0; f < 3; ++f) {
+      bp.move(movers, m);  // the same boxes: quiet
+      bp.update();
+    }
+    EXPECT_EQ(bp.last_update().pairs, (std::vector<Pair>{{movers[0], statics[0]}}));
+  }
+};
+
+}  // namespace
+
+TEST(BroadPhase, QueryBetweenStaticEditAndUpdateKeepsTheEdit) {
+  for (int kind = 0; kind < 2; ++kind) {
+    SCOPED_TRACE(kind);
+    {  // a new static beside a quiet mover
+      Settled w;
+      const Aabb near_mover2 = shifted(kUnit, 20.5f);
+      const Handle added = w.bp.add(std::span<const Aabb>(&near_mover2, 1), {.is_static = true})[0];
+      query_once(w.bp, kind);
+      const hbp::BroadPhaseUpdate& u = w.bp.update();
+      EXPECT_EQ(u.created, (std::vector<Pair>{{w.movers[2], added}}));
+      EXPECT_TRUE(u.removed.empty());
+      EXPECT_EQ(w.bp.stats().static_changes, 1u);
+    }
+    {  // a static moved from mover 0 to mover 3
+      Settled w;
+      const Aabb near_mover3 = shifted(kUnit, 30.5f);
+      w.bp.move(w.statics, std::span<const Aabb>(&near_mover3, 1));
+      query_once(w.bp, kind);
+      const hbp::BroadPhaseUpdate& u = w.bp.update();
+      EXPECT_EQ(u.created, (std::vector<Pair>{{w.movers[3], w.statics[0]}}));
+      EXPECT_EQ(u.removed, (std::vector<Pair>{{w.movers[0], w.statics[0]}}));
+      EXPECT_EQ(u.pairs, (std::vector<Pair>{{w.movers[3], w.statics[0]}}));
+    }
+    {  // a removed static
+      Settled w;
+      w.bp.remove(w.statics);
+      query_once(w.bp, kind);
+      EXPECT_EQ(w.bp.update().removed, (std::vector<Pair>{{w.movers[0], w.statics[0]}}));
+      EXPECT_TRUE(w.bp.last_update().pairs.empty());
+    }
+  }
+}
+
+TEST(BroadPhase, QueryBetweenMovingRemoveAndUpdateKeepsTheEdit) {
+  for (int kind = 0; kind < 2; ++kind) {
+    SCOPED_TRACE(kind);
+    Settled w;
+    w.bp.remove(std::span<const Handle>(&w.movers[0], 1));
+    query_once(w.bp, kind);
+    EXPECT_EQ(w.bp.update().removed, (std::vector<Pair>{{w.movers[0], w.statics[0]}}));
+    EXPECT_TRUE(w.bp.last_update().pairs.empty());
+    for (int f = 0; f < 3; ++f) {  // the removed handle is never reported again
+      query_once(w.bp, kind);
+      const hbp::BroadPhaseUpdate& u = w.bp.update();
+      EXPECT_TRUE(u.pairs.empty() && u.created.empty() && u.removed.empty()) << "frame " << f;
+    }
+  }
+}
+
+// Moving boxes that span [-FLT_MAX, FLT_MAX] on one axis: the queries stay
+// exact after the moving objects' query tree is refitted (unchanged boxes,
+// then moved ones).
+TEST(BroadPhase, QueriesExactAfterRefitOfBoxesSpanningTheFloatRange) {
+  const float big = std::numeric_limits<float>::max();
+  for (int axis = 0; axis < 3; ++axis) {
+    SCOPED_TRACE(axis);
+    BroadPhase bp({.threads = 2});
+    std::vector<Aabb> boxes;
+    for (int i = 0; i < 300; ++i) {
+      Aabb b = shifted(kUnit, 3.0f * static_cast<float>(i % 30));
+      b.min[(axis + 1) % 3] += static_cast<float>(3 * (i / 30));
+      b.max[(axis + 1) % 3] += static_cast<float>(3 * (i / 30));
+      if (i % 2 == 0) {
+        b.min[axis] = -big;
+        b.max[axis] = big;
+      }
+      boxes.push_back(b);
+    }
+    const std::vector<Handle> h = bp.add(boxes);
+    const auto expect_all = [&](const char* when) {
+      const std::vector<Handle> got = bp.query_box(Aabb{{-big, -big, -big}, {big, big, big}});
+      EXPECT_EQ(got, h) << when;
+      const float o[3] = {0, 0, 0};
+      float d[3] = {0, 0, 0};
+      d[axis] = 1;
+      const Aabb& first = boxes[0];  // spans the axis: a ray along it from inside starts in it
+      float inside[3] = {0.5f * (first.min[0] + first.max[0]), 0.5f * (first.min[1] + first.max[1]),
+                         0.5f * (first.min[2] + first.max[2])};
+      inside[axis] = 0;
+      (void)o;
+      const std::vector<Handle> hits = bp.query_ray(inside, d, 1.0f);
+      EXPECT_NE(std::find(hits.begin(), hits.end(), h[0]), hits.end()) << when;
+    };
+    bp.update();
+    expect_all("after the build");
+    bp.move(h, boxes);
+    bp.update();
+    expect_all("after a refit with the same boxes");
+    for (Aabb& b : boxes) b = shifted(b, 0.25f);
+    bp.move(h, boxes);
+    expect_all("after a refit with moved boxes");
+  }
+}
+
+// A pair filter that throws: the exception propagates, nothing of the frame
+// is applied, and the next update() reports every change since the last
+// completed one.
+TEST(BroadPhase, FilterThatThrowsAppliesNothing) {
+  for (unsigned threads : {1u, 2u}) {
+    SCOPED_TRACE(threads);
+    BroadPhase bp({.threads = threads});
+    std::vector<Aabb> boxes;
+    for (int i = 0; i < 400; ++i) boxes.push_back(shifted(kUnit, 0.5f * static_cast<float>(i)));
+    const std::vector<Handle> h = bp.add(boxes);
+    const Aabb wall{{-1, -1, -1}, {300, 0, 300}};  // touches every box's bottom face
+    const Handle s = bp.add(std::span<const Aabb>(&wall, 1), {.is_static = true})[0];
+    const std::vector<Pair> first = bp.update().pairs;  // neighbours 1 and 2 apart (touching), and the wall
+    ASSERT_EQ(first.size(), 399u + 398u + 400u);
+
+    // Off the wall, 0.75 apart: only next neighbours overlap.
+    std::vector<Pair> now;
+    for (std::size_t i = 0; i < boxes.size(); ++i) {
+      const float x = 0.75f * static_cast<float>(i);
+      boxes[i] = {{x, 5, 0}, {x + 1, 6, 1}};
+      if (i > 0) now.push_back({h[i - 1], h[i]});
+    }
+    bp.move(h, boxes);
+    bp.set_pair_filter([](Handle, Handle) -> bool { throw std::runtime_error("filter failed"); });
+    EXPECT_THROW(bp.update(), std::runtime_error);
+    EXPECT_EQ(bp.last_update().pairs, first) << "the failed frame is not applied";
+    EXPECT_EQ(bp.stats().moved, 400u) << "the stats are the last completed frame's (every object added)";
+
+    bp.set_pair_filter({});
+    const hbp::BroadPhaseUpdate& u = bp.update();
+    EXPECT_EQ(u.pairs, now);
+    EXPECT_EQ(u.removed, minus(first, now));
+    EXPECT_EQ(u.created, minus(now, first));
+    EXPECT_EQ(u.removed.size(), 398u + 400u);
+    EXPECT_EQ(bp.stats().moved, 400u);
+    EXPECT_EQ(bp.stats().static_changes, 0u);
+    (void)s;
+  }
+}
+
+// stats().moved and static_changes count objects, once each: not rows, not
+// moves to the box an object already has. Both move paths (the whole-frame
+// batch of every moving object and the general one) and their mixes.
+TEST(BroadPhase, StatsCountChangedObjectsOnce) {
+  BroadPhase bp({.threads = 2});
+  std::vector<Aabb> boxes;
+  for (int i = 0; i < 100; ++i) boxes.push_back(shifted(kUnit, 3.0f * static_cast<float>(i)));
+  const std::vector<Handle> h = bp.add(boxes);
+  const Aabb wall{{0, -5, 0}, {1, -4, 1}};
+  const std::vector<Handle> s = bp.add(std::span<const Aabb>(&wall, 1), {.is_static = true});
+  bp.update();
+  EXPECT_EQ(bp.stats().moved, 100u);
+  EXPECT_EQ(bp.stats().static_changes, 1u);
+  const auto move_one = [&](Handle x, const Aabb& b) { bp.move(std::span<const Handle>(&x, 1), std::span<const Aabb>(&b, 1)); };
+
+  // The case: one object moved twice, one to its own box.
+  move_one(h[1], shifted(boxes[1], 1));
+  move_one(h[1], shifted(boxes[1], 2));
+  move_one(h[2], boxes[2]);
+  move_one(s[0], wall);
+  bp.update();
+  EXPECT_EQ(bp.stats().moved, 1u);
+  EXPECT_EQ(bp.stats().static_changes, 0u);
+  boxes[1] = shifted(boxes[1], 2);
+
+  // Whole-frame batches: half the boxes changed; then again in the same
+  // frame (the changed half again, and two more); then single moves.
+  std::vector<Aabb> next = boxes;
+  for (int i = 0; i < 100; i += 2) next[i] = shifted(next[i], 0.5f);
+  bp.move(h, next);
+  bp.move(h, next);  // nothing new
+  next[1] = shifted(next[1], 0.5f);
+  next[0] = shifted(next[0], 0.5f);  // already counted
+  bp.move(h, next);
+  move_one(h[3], shifted(next[3], 1));
+  move_one(h[3], next[3]);  // back: it was changed this frame, counted once
+  move_one(h[4], shifted(next[4], 1));  // counted by the whole-frame batch already
+  bp.update();
+  EXPECT_EQ(bp.stats().moved, 50u + 1u + 1u);
+  next[4] = shifted(next[4], 1);
+
+  // A whole-frame batch, then a membership change in the same frame.
+  std::vector<Aabb> again = next;
+  for (int i = 0; i < 10; ++i) again[i] = shifted(again[i], 0.25f);
+  bp.move(h, again);
+  const Aabb extra = shifted(kUnit, -50);
+  const std::vector<Handle> added = bp.add(std::span<const Aabb>(&extra, 1));
+  move_one(h[5], shifted(again[5], 1));  // counted already
+  move_one(h[50], shifted(again[50], 1));
+  move_one(added[0], shifted(extra, 1));  // added this frame: counted once
+  bp.remove(std::span<const Handle>(&h[7], 1));
+  bp.remove(s);
+  bp.update();
+  EXPECT_EQ(bp.stats().moved, 10u + 1u + 1u);
+  EXPECT_EQ(bp.stats().static_changes, 1u);
+}

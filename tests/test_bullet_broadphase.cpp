@@ -590,3 +590,95 @@ TEST(BulletBroadphase, StaleProxyIsRejectedNotAppliedToAnother) {
 }
 
 }  // namespace
+
+namespace {
+
+struct CountHits : btBroadphaseAabbCallback {
+  bool process(const btBroadphaseProxy*) override {
+    ++hits;
+    return true;
+  }
+  std::size_t hits = 0;
+};
+
+struct CountRayHits : btBroadphaseRayCallback {
+  bool process(const btBroadphaseProxy*) override {
+    ++hits;
+    return true;
+  }
+  std::size_t hits = 0;
+};
+
+}  // namespace
+
+// rayTest and aabbTest between setAabb / createProxy / destroyProxy and
+// calculateOverlappingPairs: the cache stays exactly the brute force, with
+// static proxies created, moved and destroyed among quiet dynamic ones
+// (a query must never hide an edit from the next frame).
+TEST(BulletBroadphase, QueriesBetweenEditsAndFrameKeepTheCacheExact) {
+  btHashedOverlappingPairCache cache;
+  HybridBroadphase bp(&cache, {.engine = "sw", .threads = 2});
+  std::mt19937 rng(23);
+  std::vector<btBroadphaseProxy*> live, statics, dynamics;
+  std::uint32_t next_id = 0;
+  const int kStaticMask = btBroadphaseProxy::AllFilter ^ btBroadphaseProxy::StaticFilter;
+  auto create = [&](bool is_static) {
+    btVector3 lo, hi;
+    random_box(rng, lo, hi, 20);
+    btBroadphaseProxy* p =
+        is_static ? bp.createProxy(lo, hi, BOX_SHAPE_PROXYTYPE, user_of(next_id++), btBroadphaseProxy::StaticFilter,
+                                   kStaticMask, nullptr)
+                  : bp.createProxy(lo, hi, BOX_SHAPE_PROXYTYPE, user_of(next_id++),
+                                   btBroadphaseProxy::DefaultFilter, btBroadphaseProxy::AllFilter, nullptr);
+    live.push_back(p);
+    (is_static ? statics : dynamics).push_back(p);
+  };
+  auto query = [&] {
+    CountHits boxes;
+    btVector3 lo, hi;
+    random_box(rng, lo, hi, 20);
+    bp.aabbTest(lo, hi, boxes);
+    CountRayHits rays;
+    const btVector3 from(-5, 10, 10), to(30, 10, 10);
+    const btVector3 dir = (to - from).normalized();
+    rays.m_rayDirectionInverse = btVector3(1 / dir.x(), dir.y() == 0 ? BT_LARGE_FLOAT : 1 / dir.y(),
+                                           dir.z() == 0 ? BT_LARGE_FLOAT : 1 / dir.z());
+    for (int k = 0; k < 3; ++k) rays.m_signs[k] = rays.m_rayDirectionInverse[k] < 0.0;
+    rays.m_lambda_max = dir.dot(to - from);
+    bp.rayTest(from, to, rays);
+  };
+  for (int i = 0; i < 150; ++i) create(false);
+  for (int i = 0; i < 150; ++i) create(true);
+  bp.calculateOverlappingPairs(nullptr);
+  std::uint64_t static_pairs = 0;
+  for (int frame = 0; frame < 30; ++frame) {
+    switch (frame % 3) {
+      case 0: {  // a static moves
+        btBroadphaseProxy* p = statics[rng() % statics.size()];
+        btVector3 lo, hi;
+        random_box(rng, lo, hi, 20);
+        bp.setAabb(p, lo, hi, nullptr);
+        break;
+      }
+      case 1:  // a static appears
+        create(true);
+        break;
+      default: {  // a dynamic one goes
+        const std::size_t v = rng() % dynamics.size();
+        btBroadphaseProxy* p = dynamics[v];
+        dynamics.erase(dynamics.begin() + static_cast<std::ptrdiff_t>(v));
+        live.erase(std::find(live.begin(), live.end(), p));
+        bp.destroyProxy(p, nullptr);
+        break;
+      }
+    }
+    query();
+    bp.calculateOverlappingPairs(nullptr);
+    const std::vector<Pair> expected = expected_pairs(live, cache);
+    const std::vector<Pair> actual = cache_pairs(cache);
+    ASSERT_TRUE(hbp::diff_pairs(expected, actual).empty())
+        << "frame " << frame << ": " << hbp::diff_pairs(expected, actual).summary();
+    for (const Pair& p : actual) static_pairs += p.a >= 150 || p.b >= 150;
+  }
+  EXPECT_GT(static_pairs, 30u * 20u);  // the statics take part
+}

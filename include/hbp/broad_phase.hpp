@@ -26,6 +26,11 @@
 //   a pair whose object moved away, changed layer filter or was rejected by a
 //   new filter too). All three lists are sorted by (a, b), the same for any
 //   thread count.
+// - An update() that throws (CapacityExceeded, or whatever the pair filter
+//   throws) applies nothing: last_update() and stats() stay those of the
+//   last completed update, and the next update() that completes reports
+//   every change since then.
+// - Queries never change what the next update() reports.
 // - Static objects cost nothing per frame while they do not change: they are
 //   neither re-routed nor re-tested against each other.
 // - Queries see the objects as of the last edit (not only the last update)
@@ -41,6 +46,7 @@
 
 #include "hbp/aabb.hpp"
 #include "hbp/hybrid_broadphase.hpp"
+#include "hbp/limits.hpp"
 #include "hbp/pair.hpp"
 
 namespace hbp {
@@ -48,12 +54,10 @@ namespace hbp {
 // A persistent object handle: slot index in the low 24 bits, generation in
 // the high 8. A removed handle's slot is reused later with a new generation,
 // so a stale handle is detected (InvalidInput) instead of silently touching
-// the slot's new object. At most kMaxObjects live objects.
+// the slot's new object. At most kMaxObjects live objects and kLayerCount
+// layers (hbp/limits.hpp).
 using Handle = std::uint32_t;
 inline constexpr Handle kInvalidHandle = 0xFFFFFFFFu;
-inline constexpr std::uint32_t kHandleSlotBits = 24;
-inline constexpr std::uint32_t kMaxObjects = (1u << kHandleSlotBits) - 1;
-inline constexpr std::uint32_t kLayerCount = 32;
 
 struct AddOptions {
   bool is_static = false;   // static objects are never tested against each other
@@ -68,15 +72,18 @@ struct BroadPhaseUpdate {
 
 struct BroadPhaseUpdateStats {
   std::uint32_t moving = 0, statics = 0;  // live objects
-  std::uint32_t moved = 0;                // objects whose box changed since the last update
-  std::uint32_t static_changes = 0;       // static objects added, moved or removed since then
+  // Objects counted once each, whatever the number of edits: a move to the
+  // box an object already has changes nothing.
+  std::uint32_t moved = 0;                // moving objects added, or moved to another box, since the last update
+  std::uint32_t static_changes = 0;       // static objects added, moved to another box or removed since then
   double wall_ms = 0;                     // measured wall time of update()
 };
 
 class BroadPhase {
  public:
   // Pair predicate, called for pairs that pass the box and layer tests, from
-  // any worker thread (must be thread-safe); true keeps the pair.
+  // any worker thread (must be thread-safe); true keeps the pair. An
+  // exception it throws leaves update() unapplied and propagates.
   using PairFilter = std::function<bool(Handle a, Handle b)>;
 
   // options.engine / cell_limit / threads / max_pairs as for HybridBroadPhase

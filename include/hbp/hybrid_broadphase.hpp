@@ -25,7 +25,7 @@ struct HybridAccess;
 struct BroadPhaseOptions {
   std::string engine = "sw";     // see make_cell_engine()
   std::uint32_t cell_limit = 0;  // 0: the engine's default; else >= 2
-  unsigned threads = 0;          // 0: all cores
+  unsigned threads = 0;          // 0: all cores; at most kMaxThreads (hbp/limits.hpp), else InvalidInput
   bool sorted = true;            // pairs sorted by (a, b); else cell order
   std::uint64_t max_pairs = 0;   // 0: unlimited; else CapacityExceeded beyond
   // Hardware engines: keep splitting cells under the limit while that lowers

@@ -188,6 +188,15 @@ Handle handle_arg(const py::object& h, const char* what) {
   return static_cast<Handle>(v);
 }
 
+unsigned threads_arg(const py::object& threads) {
+  const std::int64_t v = integer_arg(threads, "threads");
+  if (v < 0 || v > static_cast<std::int64_t>(kMaxThreads)) {
+    throw ArgumentError("threads: must be 0 (all cores) .. " + std::to_string(kMaxThreads) + ", got " +
+                        std::to_string(v));
+  }
+  return static_cast<unsigned>(v);
+}
+
 std::uint8_t layer_arg(const py::object& layer, const char* what) {
   const std::int64_t v = integer_arg(layer, what);
   if (v < 0 || v >= static_cast<std::int64_t>(kLayerCount)) {

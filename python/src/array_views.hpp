@@ -52,6 +52,8 @@ py::array_t<std::uint32_t> handles_array(std::vector<Handle>&& handles);
 
 // A Python int as a handle (ValueError when outside uint32).
 Handle handle_arg(const py::object& h, const char* what = "handle");
+// A Python int as a thread count 0 (all cores) .. kMaxThreads.
+unsigned threads_arg(const py::object& threads);
 // A Python int as a layer 0..31.
 std::uint8_t layer_arg(const py::object& layer, const char* what = "layer");
 

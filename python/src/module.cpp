@@ -32,23 +32,22 @@
 namespace hbp::python {
 namespace {
 
-BroadPhaseOptions make_options(const std::string& engine, long long threads, long long cell_limit,
+BroadPhaseOptions make_options(const std::string& engine, const py::object& threads, long long cell_limit,
                                long long max_pairs) {
-  if (threads < 0) throw ArgumentError("threads: must be >= 0 (0: all cores), got " + std::to_string(threads));
   if (cell_limit < 0 || cell_limit == 1 || cell_limit > 0xFFFFFFFFll) {
     throw ArgumentError("cell_limit: must be 0 (engine default) or >= 2, got " + std::to_string(cell_limit));
   }
   if (max_pairs < 0) throw ArgumentError("max_pairs: must be >= 0 (0: unlimited), got " + std::to_string(max_pairs));
   BroadPhaseOptions o;
   o.engine = engine;
-  o.threads = static_cast<unsigned>(threads);
+  o.threads = threads_arg(threads);
   o.cell_limit = static_cast<std::uint32_t>(cell_limit);
   o.max_pairs = static_cast<std::uint64_t>(max_pairs);
   o.sorted = true;
   return o;
 }
 
-py::array_t<std::uint32_t> find_pairs(py::handle boxes_obj, const std::string& engine, long long threads,
+py::array_t<std::uint32_t> find_pairs(py::handle boxes_obj, const std::string& engine, const py::object& threads,
                                       long long cell_limit, long long max_pairs) {
   const BoxesView view = boxes_view(boxes_obj, "boxes");
   const BroadPhaseOptions options = make_options(engine, threads, cell_limit, max_pairs);
@@ -91,37 +90,44 @@ struct UpdateResult {
   py::array_t<std::uint32_t> pairs, created, removed;
 };
 
+// Thrown through BroadPhase::update() when the Python filter raised: the C++
+// broad phase then leaves the frame unapplied (see update() below).
+struct FilterRaised {};
+
 // A Python callable as a BroadPhase::PairFilter. Called from worker threads:
-// it takes the GIL per call. The first exception it raises is kept, the pair
-// rejected, and the exception re-raised by update() once the frame is done.
+// it takes the GIL per call. The first exception it raises is kept and
+// FilterRaised thrown (also by the calls still running on other threads), so
+// update() stops, applies nothing, and re-raises that exception.
 struct PythonPairFilter {
   std::shared_ptr<py::function> fn;  // destroyed under the GIL (deleter)
   std::shared_ptr<std::mutex> error_mutex;
   std::shared_ptr<std::exception_ptr> error;
 
   bool operator()(Handle a, Handle b) const {
-    py::gil_scoped_acquire gil;
     {
-      std::lock_guard lock(*error_mutex);
-      if (*error) return false;
+      py::gil_scoped_acquire gil;
+      {
+        std::lock_guard lock(*error_mutex);
+        if (*error) throw FilterRaised{};
+      }
+      try {
+        t_in_pair_filter = true;
+        const bool keep = (*fn)(a, b).cast<bool>();
+        t_in_pair_filter = false;
+        return keep;
+      } catch (...) {
+        t_in_pair_filter = false;
+        std::lock_guard lock(*error_mutex);
+        if (!*error) *error = std::current_exception();
+      }
     }
-    try {
-      t_in_pair_filter = true;
-      const bool keep = (*fn)(a, b).cast<bool>();
-      t_in_pair_filter = false;
-      return keep;
-    } catch (...) {
-      t_in_pair_filter = false;
-      std::lock_guard lock(*error_mutex);
-      if (!*error) *error = std::current_exception();
-      return false;
-    }
+    throw FilterRaised{};  // the GIL released first
   }
 };
 
 class PyBroadPhase {
  public:
-  PyBroadPhase(const std::string& engine, long long threads, long long cell_limit, long long max_pairs)
+  PyBroadPhase(const std::string& engine, const py::object& threads, long long cell_limit, long long max_pairs)
       : bp_(make_options(engine, threads, cell_limit, max_pairs)) {}
 
   py::array_t<std::uint32_t> add(py::handle boxes_obj, bool is_static, const py::object& layer) {
@@ -207,19 +213,23 @@ class PyBroadPhase {
     bp_.set_pair_filter(std::move(filter));
   }
 
+  // A pair filter that raises: the exception propagates and the frame is not
+  // applied (BroadPhase::update's contract for a throwing filter), so the
+  // next update() reports every change since the last completed one.
   UpdateResult update() {
     std::vector<Pair> pairs, created, removed;
     std::exception_ptr filter_error;
     {
       Exclusive lock(mutex_);
-      const BroadPhaseUpdate& u = bp_.update();
-      {
-        std::lock_guard error_lock(*filter_error_mutex_);
-        filter_error = std::exchange(*filter_error_, nullptr);
+      try {
+        const BroadPhaseUpdate& u = bp_.update();
+        pairs = u.pairs;
+        created = u.created;
+        removed = u.removed;
+      } catch (const FilterRaised&) {
       }
-      pairs = u.pairs;
-      created = u.created;
-      removed = u.removed;
+      std::lock_guard error_lock(*filter_error_mutex_);
+      filter_error = std::exchange(*filter_error_, nullptr);
     }
     if (filter_error) std::rethrow_exception(filter_error);
     return {pairs_array(pairs), pairs_array(created), pairs_array(removed)};
@@ -370,6 +380,7 @@ PYBIND11_MODULE(hybrid_broadphase, m) {
   m.attr("__version__") = HBP_VERSION;
   m.attr("LAYER_COUNT") = hbp::kLayerCount;
   m.attr("MAX_OBJECTS") = hbp::kMaxObjects;
+  m.attr("MAX_THREADS") = hbp::kMaxThreads;
 
   static py::exception<hbp::CapacityExceeded> capacity_exceeded(m, "CapacityExceeded", PyExc_RuntimeError);
   py::register_exception_translator([](std::exception_ptr p) {
@@ -408,7 +419,7 @@ PYBIND11_MODULE(hybrid_broadphase, m) {
   py::class_<PyBroadPhase>(m, "BroadPhase",
                            "Persistent handles, static and moving objects, pair events, layer filtering and "
                            "queries. Edits take effect at the next update(); a call that raises changes nothing.")
-      .def(py::init<const std::string&, long long, long long, long long>(), py::kw_only(),
+      .def(py::init<const std::string&, const py::object&, long long, long long>(), py::kw_only(),
            py::arg("engine") = "sw", py::arg("threads") = 0, py::arg("cell_limit") = 0, py::arg("max_pairs") = 0)
       .def("add", &PyBroadPhase::add, py::arg("boxes"), py::kw_only(), py::arg("static") = false,
            py::arg("layer") = 0, "Adds (n, 6) float32 boxes; returns their (n,) uint32 handles in order.")

@@ -27,7 +27,24 @@ def assert_update(bp, model):
     return r
 
 
-def run_sequence(seed, threads, frames=25):
+def check_queries(bp, model, rng):
+    """A box query, a batch of them and a ray, against the model: queries see
+    every edit so far (and must not change what the next update reports)."""
+    q = random_boxes(rng, 3, size=12.0)
+    np.testing.assert_array_equal(bp.query_box(q[0]), model.query_box(q[0]))
+    offsets, hits = bp.query_boxes(q[1:])
+    for i in range(2):
+        np.testing.assert_array_equal(hits[offsets[i]:offsets[i + 1]], model.query_box(q[1 + i]))
+    if model.boxes:
+        hs = np.array(sorted(model.boxes), np.uint32)
+        boxes = np.array([model.boxes[h] for h in hs.tolist()], np.float32)
+        origin = rng.uniform(0, 40, 3).astype(np.float32)
+        direction = rng.normal(0, 1, 3).astype(np.float32)
+        t = ray_entry(boxes, origin, direction, 60.0)
+        assert set(bp.query_ray(origin, direction, 60.0).tolist()) == set(hs[np.isfinite(t)].tolist())
+
+
+def run_sequence(seed, threads, frames=25, queries=False):
     rng = np.random.default_rng(seed)
     bp = hbp.BroadPhase(engine="sw", threads=threads)
     model = Model()
@@ -60,11 +77,15 @@ def run_sequence(seed, threads, frames=25):
             new = np.vstack([new, random_boxes(rng, 3)])
         bp.move(sel, new)
         model.move(sel, new)
+        if queries:
+            check_queries(bp, model, rng)
         # Remove a batch (moving and static), add a batch (slots get reused).
         gone = rng.choice(live, size=int(rng.integers(0, 12)), replace=False).astype(np.uint32)
         gone = np.setdiff1d(gone, sel).astype(np.uint32)
         bp.remove(gone)
         model.remove(gone)
+        if queries:
+            check_queries(bp, model, rng)
         for h in gone.tolist():
             assert h not in bp
         static = bool(rng.random() < 0.3)
@@ -72,6 +93,8 @@ def run_sequence(seed, threads, frames=25):
         boxes = random_boxes(rng, int(rng.integers(0, 15)))
         h = bp.add(boxes, static=static, layer=layer)
         model.add(h, boxes, static, layer)
+        if queries:
+            check_queries(bp, model, rng)
         assert not set(h.tolist()) & set(gone.tolist()), "a removed handle came back unchanged"
         if frame % 7 == 3:  # layer table and layer changes
             a, b = (int(x) for x in rng.integers(0, 4, 2))
@@ -99,6 +122,90 @@ def run_sequence(seed, threads, frames=25):
 @pytest.mark.parametrize("seed", range(3))
 def test_random_sequences_equal_brute_force(seed):
     run_sequence(seed, threads=2)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_random_sequences_with_queries_between_edits_equal_brute_force(seed):
+    run_sequence(100 + seed, threads=2, queries=True)
+
+
+def test_queries_between_edits_and_update_change_nothing_update_reports():
+    """The three ways a query used to hide an edit from update(): a new
+    static beside a quiet mover, a moved static, a removed mover."""
+    unit = np.array([0, 0, 0, 1, 1, 1], np.float32)
+
+    def at(x):
+        return (unit + np.array([x, 0, 0, x, 0, 0], np.float32))[None, :]
+
+    for query in (lambda bp: bp.query_box(np.array([-99, -99, -99, 99, 99, 99], np.float32)),
+                  lambda bp: bp.query_boxes(np.array([[-99, -99, -99, 99, 99, 99]], np.float32)),
+                  lambda bp: bp.query_ray(np.array([-50, 0.5, 0.5], np.float32),
+                                          np.array([1, 0, 0], np.float32), float("inf"))):
+        def settled():
+            bp = hbp.BroadPhase(threads=2)
+            movers = bp.add(np.vstack([at(10 * i) for i in range(5)]))
+            wall = bp.add(at(0.5), static=True)
+            for _ in range(3):
+                bp.move(movers, np.vstack([at(10 * i) for i in range(5)]))
+                bp.update()
+            assert bp.update().pairs.tolist() == [[movers[0], wall[0]]]
+            return bp, movers, wall
+
+        bp, movers, wall = settled()
+        new = bp.add(at(20.5), static=True)
+        query(bp)
+        assert bp.update().created.tolist() == [[movers[2], new[0]]]
+
+        bp, movers, wall = settled()
+        bp.move(wall, at(30.5))
+        query(bp)
+        r = bp.update()
+        assert r.created.tolist() == [[movers[3], wall[0]]]
+        assert r.removed.tolist() == [[movers[0], wall[0]]]
+
+        bp, movers, wall = settled()
+        bp.remove(movers[:1])
+        query(bp)
+        assert bp.update().removed.tolist() == [[movers[0], wall[0]]]
+        for _ in range(2):
+            query(bp)
+            r = bp.update()
+            assert len(r.pairs) == len(r.created) == len(r.removed) == 0
+
+
+def test_queries_exact_after_refit_of_boxes_spanning_the_float_range():
+    big = np.finfo(np.float32).max
+    rng = np.random.default_rng(3)
+    boxes = random_boxes(rng, 200)
+    boxes[::2, 0] = -big
+    boxes[::2, 3] = big
+    bp = hbp.BroadPhase()
+    h = bp.add(boxes)
+    everything = np.array([-big, -big, -big, big, big, big], np.float32)
+    for step in range(3):
+        bp.update()
+        np.testing.assert_array_equal(bp.query_box(everything), h)
+        q = random_boxes(rng, 1, size=10.0)[0]
+        want = h[np.all((boxes[:, 3:] >= q[:3]) & (boxes[:, :3] <= q[3:]), axis=1)]
+        np.testing.assert_array_equal(bp.query_box(q), want)
+        boxes[:, 1] += 0.5
+        boxes[:, 4] += 0.5
+        bp.move(h, boxes)  # the moving objects' query tree is refitted, not rebuilt
+
+
+def test_stats_count_objects_whose_box_changed():
+    bp = hbp.BroadPhase()
+    h = bp.add(random_boxes(np.random.default_rng(1), 10))
+    s = bp.add(np.array([[100, 100, 100, 101, 101, 101]], np.float32), static=True)
+    bp.update()
+    assert (bp.stats["moved"], bp.stats["static_changes"]) == (10, 1)
+    b1 = bp.box(h[1])
+    bp.move(h[1:2], (b1 + 1)[None, :])
+    bp.move(h[1:2], (b1 + 2)[None, :])   # the same object again
+    bp.move(h[2:3], bp.box(h[2])[None, :])  # to its own box
+    bp.move(s, bp.box(s[0])[None, :])
+    bp.update()
+    assert (bp.stats["moved"], bp.stats["static_changes"]) == (1, 0)
 
 
 def test_same_events_for_one_and_two_threads():
@@ -166,7 +273,8 @@ def test_pair_filter_exception_is_raised_by_update():
     with pytest.raises(KeyError, match="from the filter"):
         bp.update()
     bp.set_pair_filter(lambda a, b: True)
-    assert len(bp.update().pairs) == 1
+    r = bp.update()  # the failed frame was not applied: its pair is created now
+    assert len(r.pairs) == 1 and r.created.tolist() == r.pairs.tolist()
     bp.set_pair_filter(lambda a, b: bp.layer(a) == 0)  # would wait for itself: refused
     with pytest.raises(RuntimeError, match="pair filter cannot call its BroadPhase"):
         bp.update()
@@ -174,6 +282,52 @@ def test_pair_filter_exception_is_raised_by_update():
     assert len(bp.update().pairs) == 1
     with pytest.raises(ValueError, match="callable"):
         bp.set_pair_filter(3)
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_raising_filter_loses_no_event(threads):
+    """A filter that raises leaves the frame unapplied: the next update()
+    reports every change since the last completed one, a contact's end
+    included."""
+    rng = np.random.default_rng(8)
+    bp = hbp.BroadPhase(threads=threads)
+    model = Model()
+    boxes = random_boxes(rng, 300)
+    h = bp.add(boxes)
+    model.add(h, boxes, False, 0)
+    s = bp.add(boxes[:5] + 0.25, static=True)
+    model.add(s, boxes[:5] + 0.25, True, 0)
+    assert_update(bp, model)
+    stats = bp.stats
+    calls = []
+
+    def flaky(a, b):
+        calls.append((a, b))
+        if len(calls) == 3:
+            raise ValueError("flaky filter")
+        return True
+
+    moved = random_boxes(rng, 300)
+    bp.move(h, moved)
+    model.move(h, moved)
+    bp.set_pair_filter(flaky)
+    with pytest.raises(ValueError, match="flaky filter"):
+        bp.update()
+    assert bp.stats == stats, "the failed frame's stats are not published"
+    bp.set_pair_filter(None)
+    r = assert_update(bp, model)  # created and removed since the last completed update
+    assert len(r.removed) > 0 and len(r.created) > 0
+    assert bp.stats["moved"] == 300
+
+
+def test_threads_limit():
+    assert hbp.MAX_THREADS == 1024
+    hbp.BroadPhase(threads=hbp.MAX_THREADS).update()
+    for bad in (hbp.MAX_THREADS + 1, 65537, 2**31, 2**32, 2**64, -1):
+        with pytest.raises(ValueError, match="threads"):
+            hbp.BroadPhase(threads=bad)
+        with pytest.raises(ValueError, match="threads"):
+            hbp.find_pairs(np.zeros((2, 6), np.float32), threads=bad)
 
 
 def test_accessors_and_options():

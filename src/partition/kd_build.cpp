@@ -278,7 +278,10 @@ void SubtreeBuilder::start(const CellEntry* items, std::uint32_t n, const SplitR
   scratch_ = &scratch;
   nodes.assign(1, KdTreeNode{});
   RawBuffer<CellEntry>& arena = scratch.arena;
-  arena.resize(6 * std::size_t{n});  // the deepest stack of segments (each side of a split has room for all n), about; shrinks a past peak
+  // What the root needs (its copy and its two sides' room); deeper levels
+  // grow the stack (RawBuffer grows in place, without a copy), so no address
+  // space is held for levels a build does not reach. Shrinks a past peak.
+  arena.resize(3 * std::size_t{n} + 2);
   root_items_ = nullptr;
   if (!reset_tags) {
     // The root reads the items where they are (a copy into the arena was
@@ -307,13 +310,10 @@ void SubtreeBuilder::build_into(const CellEntry* items, std::uint32_t n, std::ui
   out_ = out;
   out_capacity_ = out_capacity;
   out_size_ = 0;
-  // No room kept from a past build, but room reserved for twice the input:
-  // a task of a pair-dense scene spills about a third of its output (clustered
-  // 1,000,000: 740,000 entries of 60 tasks), and growing by appends mapped
-  // fresh buffers and copied the spill again and again (untouched room
-  // costs nothing).
+  // No room kept from a past build. A task of a pair-dense scene spills
+  // about a third of its output (clustered 1,000,000: 740,000 entries of 60
+  // tasks): the spill grows by appends, which a large buffer does in place.
   entries.resize(0);
-  entries.reserve(std::size_t{n} * 2);
   start(items, n, rule, false, scratch);
   node(0, 0, n, depth);
 }
@@ -364,11 +364,11 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
   RawBuffer<CellEntry>& a = *buffers.a;
   RawBuffer<CellEntry>& b = *buffers.b;
   // Room for the top levels' duplicates and the tasks' output slots, so the
-  // buffers neither move nor copy while they grow (untouched room costs
-  // nothing); their old contents are not needed.
+  // buffers neither move nor copy while they grow; their old contents are
+  // not needed. `entries` (swapped with a at the end: its storage becomes
+  // the next frame's scratch) keeps what it has and grows when used.
   const std::size_t room = build_room(n);
   entries.clear();
-  entries.reserve(room);
   a.clear();
   b.clear();
   a.reserve(room);

@@ -88,6 +88,20 @@ class RawBuffer {
   };
 
   void reallocate(std::size_t capacity, std::size_t keep) {
+    // A mapped buffer that stays large is resized by the kernel (mremap moves
+    // page tables, not bytes), so growth costs no copy and a buffer need not
+    // reserve address space ahead of its contents.
+    const std::size_t mapped = data_.get_deleter().bytes;
+    if (mapped && capacity * sizeof(T) >= kHugePageBytes / 2) {
+      const std::size_t bytes = whole_huge_pages(capacity * sizeof(T));
+      void* p = mremap(data_.get(), mapped, bytes, MREMAP_MAYMOVE);
+      if (p == MAP_FAILED) throw std::bad_alloc();
+      madvise(p, bytes, MADV_HUGEPAGE);
+      (void)data_.release();
+      data_ = std::unique_ptr<T, Free>(static_cast<T*>(p), Free{bytes});
+      capacity_ = bytes / sizeof(T);
+      return;
+    }
     std::unique_ptr<T, Free> next;
     if (capacity) {
       std::size_t bytes = capacity * sizeof(T);

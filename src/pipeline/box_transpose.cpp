@@ -10,16 +10,20 @@ namespace {
 
 // x - x == 0 exactly when x is finite; NaN fails every comparison.
 bool check_and_transpose_scalar(const Aabb* boxes, const std::uint32_t* ids, const std::uint32_t* expected,
-                                std::size_t begin, std::size_t end, float* const lane[6]) {
+                                std::size_t begin, std::size_t end, float* const lane[6],
+                                const float* const* previous, std::uint32_t& changed) {
   bool ok = true;
   for (std::size_t i = begin; i < end; ++i) {
     ok &= ids[i] == (expected ? expected[i] : static_cast<std::uint32_t>(i));
+    bool differs = false;
     for (int k = 0; k < 3; ++k) {
       const float lo = boxes[i].min[k], hi = boxes[i].max[k];
       ok &= (lo - lo == 0.0f) & (hi - hi == 0.0f) & (lo <= hi);
+      if (previous) differs |= (previous[k][i] != lo) | (previous[3 + k][i] != hi);
       lane[k][i] = lo;
       lane[3 + k][i] = hi;
     }
+    changed += differs;
   }
   return ok;
 }
@@ -40,7 +44,8 @@ inline void store_lane(float* p, __m128 v) {
 // caches: a normal store would first read each line it writes).
 template <bool kStream>
 bool check_and_transpose_sse2(const Aabb* boxes, const std::uint32_t* ids, const std::uint32_t* expected,
-                              std::size_t begin, std::size_t end, float* const lane[6]) {
+                              std::size_t begin, std::size_t end, float* const lane[6],
+                              const float* const* previous, std::uint32_t& changed) {
   static_assert(sizeof(Aabb) == 6 * sizeof(float), "four boxes are six vectors of four floats");
   const __m128 zero = _mm_setzero_ps();
   __m128 good = _mm_castsi128_ps(_mm_set1_epi32(-1));
@@ -74,6 +79,15 @@ bool check_and_transpose_sse2(const Aabb* boxes, const std::uint32_t* ids, const
     store_lane<kStream>(lane[3] + i, max_x);
     store_lane<kStream>(lane[4] + i, max_y);
     store_lane<kStream>(lane[5] + i, max_z);
+    if (previous) {
+      __m128 differs = _mm_cmpneq_ps(_mm_loadu_ps(previous[0] + i), min_x);
+      differs = _mm_or_ps(differs, _mm_cmpneq_ps(_mm_loadu_ps(previous[1] + i), min_y));
+      differs = _mm_or_ps(differs, _mm_cmpneq_ps(_mm_loadu_ps(previous[2] + i), min_z));
+      differs = _mm_or_ps(differs, _mm_cmpneq_ps(_mm_loadu_ps(previous[3] + i), max_x));
+      differs = _mm_or_ps(differs, _mm_cmpneq_ps(_mm_loadu_ps(previous[4] + i), max_y));
+      differs = _mm_or_ps(differs, _mm_cmpneq_ps(_mm_loadu_ps(previous[5] + i), max_z));
+      changed += static_cast<std::uint32_t>(__builtin_popcount(static_cast<unsigned>(_mm_movemask_ps(differs))));
+    }
     // Finite: every coordinate of the six input vectors; ordered per axis.
     __m128 finite = _mm_and_ps(_mm_cmpeq_ps(_mm_sub_ps(v0, v0), zero), _mm_cmpeq_ps(_mm_sub_ps(v1, v1), zero));
     finite = _mm_and_ps(finite, _mm_cmpeq_ps(_mm_sub_ps(v2, v2), zero));
@@ -90,24 +104,30 @@ bool check_and_transpose_sse2(const Aabb* boxes, const std::uint32_t* ids, const
   }
   if constexpr (kStream) _mm_sfence();  // the streamed lanes are visible before the caller reads them
   const bool ok = _mm_movemask_ps(good) == 0xF && _mm_movemask_epi8(same) == 0xFFFF;
-  return check_and_transpose_scalar(boxes, ids, expected, i, end, lane) && ok;
+  return check_and_transpose_scalar(boxes, ids, expected, i, end, lane, previous, changed) && ok;
 }
 #endif
 
 }  // namespace
 
 bool check_and_transpose(const Aabb* boxes, const std::uint32_t* ids, const std::uint32_t* expected,
-                         std::size_t begin, std::size_t end, float* const lane[6], bool stream) {
+                         std::size_t begin, std::size_t end, float* const lane[6], bool stream,
+                         const float* const* previous, std::uint32_t* changed) {
+  std::uint32_t differ = 0;
+  bool ok;
 #if defined(__SSE2__)
   bool aligned = true;
   for (int l = 0; l < 6; ++l) aligned &= reinterpret_cast<std::uintptr_t>(lane[l] + begin) % 16 == 0;
   if (stream && aligned)
-    return check_and_transpose_sse2<true>(boxes, ids, expected, begin, end, lane);
-  return check_and_transpose_sse2<false>(boxes, ids, expected, begin, end, lane);
+    ok = check_and_transpose_sse2<true>(boxes, ids, expected, begin, end, lane, previous, differ);
+  else
+    ok = check_and_transpose_sse2<false>(boxes, ids, expected, begin, end, lane, previous, differ);
 #else
   (void)stream;
-  return check_and_transpose_scalar(boxes, ids, expected, begin, end, lane);
+  ok = check_and_transpose_scalar(boxes, ids, expected, begin, end, lane, previous, differ);
 #endif
+  if (changed) *changed = differ;
+  return ok;
 }
 
 }  // namespace hbp::detail

@@ -19,7 +19,11 @@ namespace hbp::detail {
 // of 4), are written with non-temporal stores, fenced before returning (a
 // plain store reads each line before writing it, and the lines would not
 // stay in cache for the reader anyway).
+// `previous` (six lanes, optional): the values the lanes held before; then
+// *changed is the number of i in [begin, end) whose box differs from them
+// (by value: -0 equals +0), counted in the same pass.
 bool check_and_transpose(const Aabb* boxes, const std::uint32_t* ids, const std::uint32_t* expected,
-                         std::size_t begin, std::size_t end, float* const lane[6], bool stream = false);
+                         std::size_t begin, std::size_t end, float* const lane[6], bool stream = false,
+                         const float* const* previous = nullptr, std::uint32_t* changed = nullptr);
 
 }  // namespace hbp::detail

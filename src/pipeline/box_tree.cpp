@@ -83,15 +83,20 @@ Box bounds(const BoxTree::Leaf& l) {
     }
   return b;
 }
+// A decoded bound can pass the float range (the top code of a node spanning
+// [-FLT_MAX, FLT_MAX] decodes to +inf): clamped to it, the union still
+// contains every box below (all finite), and the parent's range, hence its
+// step, stays finite (an infinite step decodes code 0 as 0 * inf = NaN).
 Box bounds(const BoxTree::Node& n) {
+  constexpr float kMax = std::numeric_limits<float>::max();
   Box b{{kInf, kInf, kInf}, {-kInf, -kInf, -kInf}};
   for (std::uint32_t c = 0; c < BoxTree::kNodeWidth; ++c) {
     if (n.link[c] == BoxTree::kNone) continue;
     float mn[3], mx[3];
     BoxTree::decode(n, c, mn, mx);
     for (int k = 0; k < 3; ++k) {
-      b.min[k] = std::min(b.min[k], mn[k]);
-      b.max[k] = std::max(b.max[k], mx[k]);
+      b.min[k] = std::min(b.min[k], std::max(mn[k], -kMax));
+      b.max[k] = std::max(b.max[k], std::min(mx[k], kMax));
     }
   }
   return b;

@@ -31,6 +31,7 @@
 #include "hbp/broad_phase.hpp"
 
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 #include <tbb/task_arena.h>
 
 #include <algorithm>
@@ -49,6 +50,7 @@
 #endif
 
 #include "hbp/error.hpp"
+#include "pipeline/arena_threads.hpp"
 #include "pipeline/box_transpose.hpp"
 #include "pipeline/box_tree.hpp"
 #include "pipeline/fat_moving_pairs.hpp"
@@ -80,6 +82,12 @@ inline float next_up(float x) {
 }
 // The float just below x (x not NaN; -inf stays).
 inline float next_down(float x) { return -next_up(-x); }
+
+// Same box by value (-0 equals +0): a move to it changes no overlap.
+inline bool same_box(const Aabb& a, const Aabb& b) {
+  return a.min[0] == b.min[0] && a.min[1] == b.min[1] && a.min[2] == b.min[2] && a.max[0] == b.max[0] &&
+         a.max[1] == b.max[1] && a.max[2] == b.max[2];
+}
 
 // Releases a buffer's memory when it holds far more than it needs now.
 template <class T>
@@ -115,7 +123,7 @@ std::string row_text(const char* call, std::size_t row) {
 struct BroadPhase::Impl {
   explicit Impl(const BroadPhaseOptions& o)
       : options(o),
-        arena(o.threads ? static_cast<int>(o.threads) : tbb::task_arena::automatic),
+        arena(detail::arena_threads(o.threads)),
         hybrid(hybrid_options(o)) {
     collide_mask.fill(0xFFFFFFFFu);
   }
@@ -219,15 +227,32 @@ struct BroadPhase::Impl {
   // Results.
   BroadPhaseUpdate result;
   BroadPhaseUpdateStats stats;
+  // Statics or the moving membership changed since the last completed
+  // update(). Kept apart from statics_dirty / moving_membership_dirty, which
+  // say whether the dense arrays are synchronised: a query synchronises them
+  // too, and must not make the next update() take the incremental path.
+  bool structure_changed = false;
   std::vector<Pair> moving_pairs, static_pairs, next, sort_scratch, flips;
   detail::PairDiffScratch diff_scratch;
   // static_pairs holds last frame's moving/static pairs and every cached
   // candidate's `hit` agrees with it: true after an unfiltered frame in
   // which nothing but moving boxes changed since.
   bool static_pairs_valid = false;
+  // The stats' counts since the last completed update(): objects counted
+  // once each, whatever the number of edits. An object is counted when an
+  // edit first changes it (added, removed, or moved to a different box);
+  // changed_serial[slot] == frame_serial marks it, except for the moving
+  // objects a whole-frame move changed (see whole_frame_moved).
   std::uint32_t moved = 0, static_changes = 0;
+  std::vector<std::uint32_t> changed_serial;
+  std::uint32_t frame_serial = 1;
+  // The whole-frame move (move_every_moving) was this frame's first change
+  // of a moving box: staged_boxes holds the boxes before it, in the same
+  // dense order, and the moving objects whose box differs from theirs there
+  // are counted without a mark (marking them would cost the fast path a
+  // write per object). Turned into marks before the dense order changes.
+  bool whole_frame_moved = false;
 
-  std::vector<std::uint32_t> batch_parts;  // for_batch's per-range results
 
   // Duplicate detection within a batch.
   std::vector<std::uint32_t> stamp;
@@ -241,13 +266,37 @@ struct BroadPhase::Impl {
   }
   void moving_membership_changed() {
     moving_membership_dirty = true;
+    structure_changed = true;
     moving_tree_state = TreeState::Rebuild;
     queries_ready = false;
   }
   void statics_changed(std::uint32_t count) {
     statics_dirty = true;
+    structure_changed = true;
     static_changes += count;
     queries_ready = false;
+  }
+
+  void size_change_marks() {
+    if (changed_serial.size() < table.slots()) changed_serial.resize(table.slots(), 0);
+  }
+  // Moving object d (dense index) was changed by the whole-frame move.
+  bool changed_by_whole_frame(std::uint32_t d) const {
+    return whole_frame_moved && !same_box(staged_boxes.get(d), moving_boxes.get(d));
+  }
+  // Before the dense order changes: the whole-frame move's changes as marks.
+  void mark_whole_frame_moves() {
+    if (!whole_frame_moved) return;
+    size_change_marks();
+    for (std::uint32_t d = 0; d < moving_handle.size(); ++d)
+      if (changed_by_whole_frame(d)) changed_serial[HandleTable::slot_of(moving_handle[d])] = frame_serial;
+    whole_frame_moved = false;
+  }
+  // Marks slot s changed; true when it was not counted yet this frame.
+  bool first_change(std::uint32_t s, std::uint32_t d) {
+    const bool counted = changed_serial[s] == frame_serial || (d != kNoIndex && changed_by_whole_frame(d));
+    changed_serial[s] = frame_serial;
+    return !counted;
   }
 
   // Checks a batch of handles: live, no duplicates. Throws naming the row.
@@ -284,6 +333,7 @@ struct BroadPhase::Impl {
                          std::to_string(table.live()) + " would pass the limit of " + std::to_string(kMaxObjects) +
                          " objects");
     check_boxes("add", boxes);
+    if (!o.is_static && !boxes.empty()) mark_whole_frame_moves();
     std::vector<Handle> handles(boxes.size());
     const auto kind = o.is_static ? HandleTable::kStatic : HandleTable::kMoving;
     for (std::size_t i = 0; i < boxes.size(); ++i) {
@@ -292,6 +342,8 @@ struct BroadPhase::Impl {
       slot_box[s] = boxes[i];
       handles[i] = table.handle_of(s);
     }
+    size_change_marks();
+    for (const Handle h : handles) changed_serial[HandleTable::slot_of(h)] = frame_serial;  // a slot reused this frame counts again
     if (boxes.empty()) return handles;
     if (o.is_static) {
       statics_changed(static_cast<std::uint32_t>(boxes.size()));
@@ -326,30 +378,41 @@ struct BroadPhase::Impl {
     return ok;
   }
 
-  // Runs body(begin, end) over fixed ranges of [0, n), in parallel on the
-  // broad phase's threads when the batch is large; returns the sum.
-  template <class Body>
-  std::uint32_t for_batch(std::size_t n, Body&& body) {
+  // Runs body(begin, end) over ranges of [0, n), in parallel on the broad
+  // phase's threads when the batch is large; returns the sum of the
+  // results (integer counts: the same for any split).
+  template <class Result, class Body>
+  Result for_batch(std::size_t n, Body&& body) {
     constexpr std::size_t kEdits = 16384;  // edits per parallel task
     if (n < 2 * kEdits) return body(std::size_t(0), n);
-    const std::size_t chunks = (n + kEdits - 1) / kEdits;
-    batch_parts.assign(chunks, 0);  // kept: one entry per 16,384 edits
-    std::uint32_t* part = batch_parts.data();
-    arena.execute([&] {
-      tbb::parallel_for(std::size_t(0), chunks,
-                        [&](std::size_t c) { part[c] = body(c * kEdits, std::min(n, (c + 1) * kEdits)); });
+    return arena.execute([&] {
+      return tbb::parallel_reduce(
+          tbb::blocked_range<std::size_t>(0, n, kEdits), Result{},
+          [&](const tbb::blocked_range<std::size_t>& r, Result sum) { return sum + body(r.begin(), r.end()); },
+          [](const Result& a, const Result& b) { return a + b; });
     });
-    return std::accumulate(batch_parts.begin(), batch_parts.end(), std::uint32_t(0));
   }
 
+  // What a general move() batch changed: objects counted for the stats
+  // (first change this frame) and rows that changed a box at all.
+  struct MoveCounts {
+    std::uint32_t moving_first = 0, moving_changed = 0, static_first = 0, static_changed = 0;
+    MoveCounts operator+(const MoveCounts& o) const {
+      return {moving_first + o.moving_first, moving_changed + o.moving_changed, static_first + o.static_first,
+              static_changed + o.static_changed};
+    }
+  };
+
   // The whole-frame batch: every moving object, in handle (= dense) order,
-  // with no membership change pending. One pass compares the handles with
-  // moving_handle, checks each box and writes it into staged_boxes, which
+  // with no membership change pending and no moving box changed yet this
+  // frame. One pass compares the handles with moving_handle, checks each
+  // box, counts the changed ones and writes it into staged_boxes, which
   // then replaces moving_boxes: the input is read once and nothing is
   // written in place, so a failed row (false: the general path below then
   // names it) leaves everything as it was.
   bool move_every_moving(const Handle* h, const Aabb* b, std::size_t n) {
-    if (moving_membership_dirty || n == 0 || n != moving_handle.size()) return false;
+    if (moving_membership_dirty || n == 0 || n != moving_handle.size() || moved != 0 || whole_frame_moved)
+      return false;
     staged_boxes.resize(n);
     float* lane[6];
     for (int k = 0; k < 3; ++k) {
@@ -366,11 +429,22 @@ struct BroadPhase::Impl {
     // update().
     constexpr std::size_t kStreamBoxes = std::size_t{1} << 18;
     const bool stream = n >= kStreamBoxes;
-    const std::uint32_t failed = for_batch(n, [&](std::size_t begin, std::size_t end) {
-      return std::uint32_t(!detail::check_and_transpose(b, h, want, begin, end, lane, stream));
+    const float* previous[6];
+    for (int k = 0; k < 3; ++k) {
+      previous[k] = moving_boxes.min(k);
+      previous[3 + k] = moving_boxes.max(k);
+    }
+    // Low 32 bits: ranges that failed; high 32: boxes that changed.
+    const std::uint64_t outcome = for_batch<std::uint64_t>(n, [&](std::size_t begin, std::size_t end) {
+      std::uint32_t changed = 0;
+      const bool ok = detail::check_and_transpose(b, h, want, begin, end, lane, stream, previous, &changed);
+      return std::uint64_t(!ok) | std::uint64_t(changed) << 32;
     });
-    if (failed) return false;
+    if (outcome & 0xFFFFFFFFu) return false;
     std::swap(moving_boxes, staged_boxes);
+    whole_frame_moved = true;
+    moved += static_cast<std::uint32_t>(outcome >> 32);
+    if (outcome >> 32) touched_moving();
     return true;
   }
 
@@ -381,52 +455,62 @@ struct BroadPhase::Impl {
     const std::size_t n = handles.size();
     const Handle* h = handles.data();
     const Aabb* b = boxes.data();
-    if (move_every_moving(h, b, n)) {
-      moved += static_cast<std::uint32_t>(n);
-      touched_moving();
-      return;
-    }
-    // Ranges whose handles failed the screen in the low 16 bits, whose
-    // boxes did in the high 16 (at most kMaxObjects / 16384 ranges).
-    const std::uint32_t failed = for_batch(n, [&](std::size_t begin, std::size_t end) {
-      return std::uint32_t(!handles_increasing_and_live(h, begin, end)) +
-             (std::uint32_t(!boxes_well_formed(b, begin, end)) << 16);
+    if (move_every_moving(h, b, n)) return;
+    // Ranges whose handles failed the screen in the low 32 bits, whose
+    // boxes did in the high 32.
+    const std::uint64_t failed = for_batch<std::uint64_t>(n, [&](std::size_t begin, std::size_t end) {
+      return std::uint64_t(!handles_increasing_and_live(h, begin, end)) |
+             std::uint64_t(!boxes_well_formed(b, begin, end)) << 32;
     });
-    if (failed & 0xFFFFu) check_handles("move", handles);
-    if (failed >> 16) check_boxes("move", boxes);
+    if (failed & 0xFFFFFFFFu) check_handles("move", handles);
+    if (failed >> 32) check_boxes("move", boxes);
+    size_change_marks();
     // Distinct handles: the ranges write distinct slots and dense indices.
-    const std::uint32_t statics = for_batch(n, [&](std::size_t begin, std::size_t end) {
-      std::uint32_t count = 0;
+    // A box moved to its own value changes nothing.
+    const MoveCounts c = for_batch<MoveCounts>(n, [&](std::size_t begin, std::size_t end) {
+      MoveCounts part;
       for (std::size_t i = begin; i < end; ++i) {
         const std::uint32_t s = HandleTable::slot_of(h[i]);
-        if (table.kind(s) == HandleTable::kStatic) {
+        const bool is_static = table.kind(s) == HandleTable::kStatic;
+        const std::uint32_t d = is_static ? kNoIndex : table.index(s);
+        if (same_box(d != kNoIndex ? moving_boxes.get(d) : slot_box[s], b[i])) continue;
+        const bool first = first_change(s, d);
+        if (is_static) {
           slot_box[s] = b[i];
-          ++count;
-        } else if (const std::uint32_t d = table.index(s); d != kNoIndex) {
-          moving_boxes.set(d, b[i]);
+          part.static_first += first;
+          ++part.static_changed;
         } else {
-          slot_box[s] = b[i];
+          if (d != kNoIndex)
+            moving_boxes.set(d, b[i]);
+          else
+            slot_box[s] = b[i];
+          part.moving_first += first;
+          ++part.moving_changed;
         }
       }
-      return count;
+      return part;
     });
-    const std::uint32_t moving = static_cast<std::uint32_t>(n) - statics;
-    if (statics) statics_changed(statics);
-    if (moving) {
-      moved += moving;
-      touched_moving();
-    }
+    if (c.static_changed) statics_changed(c.static_first);
+    if (c.moving_changed) touched_moving();
+    moved += c.moving_first;
   }
 
   void remove(std::span<const Handle> handles) {
     check_handles("remove", handles);
-    std::uint32_t statics = 0, moving = 0;
+    mark_whole_frame_moves();
+    size_change_marks();
+    std::uint32_t statics = 0, statics_first = 0, moving = 0;
     for (const Handle h : handles) {
       const std::uint32_t s = HandleTable::slot_of(h);
-      (table.kind(s) == HandleTable::kStatic ? statics : moving) += 1;
+      if (table.kind(s) == HandleTable::kStatic) {
+        ++statics;
+        statics_first += first_change(s, kNoIndex);
+      } else {
+        ++moving;
+      }
       table.release(s);
     }
-    if (statics) statics_changed(statics);
+    if (statics) statics_changed(statics_first);
     if (moving) moving_membership_changed();
     if (table.live() == 0) release_memory();
   }
@@ -830,7 +914,7 @@ struct BroadPhase::Impl {
     arena.execute([&] {
       // Only moving boxes changed since the last frame (no membership,
       // static or layer change): the moving/static pairs can be updated.
-      const bool incremental = !statics_dirty && !moving_membership_dirty;
+      const bool incremental = !structure_changed;
       sync_statics();
       sync_moving();
       if (static_handle.empty() && all_layers_collide() && !filter) {
@@ -851,6 +935,7 @@ struct BroadPhase::Impl {
       detail::diff_sorted_pairs(result.pairs, next, result.created, result.removed, diff_scratch);
       result.pairs.swap(next);
     });
+    structure_changed = false;  // only once the frame is complete: a frame that throws is not applied
     fit(next);
     fit(moving_pairs);
     fit(static_pairs);
@@ -862,6 +947,11 @@ struct BroadPhase::Impl {
     stats.moved = moved;
     stats.static_changes = static_changes;
     moved = static_changes = 0;
+    whole_frame_moved = false;
+    if (++frame_serial == 0) {  // after 2^32 frames: no mark may look current
+      std::fill(changed_serial.begin(), changed_serial.end(), 0u);
+      frame_serial = 1;
+    }
     stats.wall_ms = ms_since(start);
     return result;
   }

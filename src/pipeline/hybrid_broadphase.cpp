@@ -17,6 +17,7 @@
 #include "hbp/error.hpp"
 #include "hbp/kd_partition.hpp"
 #include "hbp/software_engine.hpp"
+#include "pipeline/arena_threads.hpp"
 #include "pipeline/hybrid_access.hpp"
 #include "partition/raw_buffer.hpp"
 #include "pipeline/ordered_cell.hpp"
@@ -323,7 +324,7 @@ struct HybridBroadPhase::Impl {
         prototype(make_cell_engine(o.engine)),
         direct_kernel(dynamic_cast<const SoftwareEngine*>(prototype.get()) != nullptr),
         cell_limit(choose_limit(o, *prototype)),
-        arena(o.threads ? static_cast<int>(o.threads) : tbb::task_arena::automatic),
+        arena(detail::arena_threads(o.threads)),
         own_partition(cell_limit, prototype->x_split_weight(), cell_cost(o, *prototype)),
         workers([this] {
           Worker w;

@@ -7,12 +7,12 @@
 #include <cstdint>
 #include <string>
 
+#include "hbp/limits.hpp"
+
 namespace hbp::cli {
 
-// --threads: 0 means every core; more than this is a typo, not a machine.
-inline constexpr unsigned kMaxThreads = 1024;
-
-inline CLI::Range threads_range() { return CLI::Range(0u, kMaxThreads); }
+// --threads: 0 means every core; at most the library's limit.
+inline CLI::Range threads_range() { return CLI::Range(0u, hbp::kMaxThreads); }
 
 // Counts that must be at least 1 (frames, variants, ...).
 inline CLI::Range at_least_one() { return CLI::Range(1u, 0xFFFFFFFFu); }
