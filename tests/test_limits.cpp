@@ -23,11 +23,13 @@
 #include <string>
 #include <vector>
 
+#include "hbp/broad_phase.hpp"
 #include "hbp/brute_force.hpp"
 #include "hbp/cell_engine.hpp"
 #include "hbp/error.hpp"
 #include "hbp/hw/hw_cell_engines.hpp"
 #include "hbp/hybrid_broadphase.hpp"
+#include "hbp/limits.hpp"
 
 extern char** environ;
 
@@ -69,19 +71,23 @@ BoxArray spread(std::size_t n) {
 }
 
 // ---- Child side ---------------------------------------------------------------
-// HBP_LIMITS_CHILD="<job> <engine> <n> <max_pairs>", job: coincident | spread.
-// Prints its peak resident memory (VmHWM of the fresh address space: wait4's
-// ru_maxrss would include the parent's, inherited through exec) on one line,
-// then one of "pairs <count>", "capacity <message>", "bad_alloc" or
-// "error <message>", and exits without running any test.
+// HBP_LIMITS_CHILD="<job> <engine> <n> <max_pairs> [<address space MiB>]",
+// job: coincident | spread; the address-space cap defaults to 2048 MiB.
+// Prints its peak resident memory and its peak address space (VmHWM and
+// VmPeak of the fresh address space: wait4's ru_maxrss would include the
+// parent's, inherited through exec) on one line, then one of "pairs
+// <count>", "capacity <message>", "bad_alloc" or "error <message>", and
+// exits without running any test.
 
-std::size_t peak_rss_bytes() {
+// A "VmXxx: <kB> kB" line of /proc/self/status, in bytes.
+std::size_t status_bytes(const char* field) {
   std::FILE* f = std::fopen("/proc/self/status", "r");
   if (f == nullptr) return 0;
   char line[256];
   std::size_t kib = 0;
+  const std::string format = std::string(field) + ": %zu kB";
   while (std::fgets(line, sizeof line, f) != nullptr)
-    if (std::sscanf(line, "VmHWM: %zu kB", &kib) == 1) break;
+    if (std::sscanf(line, format.c_str(), &kib) == 1) break;
   std::fclose(f);
   return kib * 1024;
 }
@@ -91,9 +97,11 @@ int child_main(const char* spec) {
   std::string job, engine;
   std::size_t n = 0;
   std::uint64_t max_pairs = 0;
+  std::size_t cap_mib = 2048;
   in >> job >> engine >> n >> max_pairs;
+  if (!(in >> cap_mib)) cap_mib = 2048;
   if (!HBP_LIMITS_SANITIZED) {
-    const rlimit cap{2048 * kMiB, 2048 * kMiB};
+    const rlimit cap{cap_mib * kMiB, cap_mib * kMiB};
     setrlimit(RLIMIT_AS, &cap);
   }
   // Runs before main(): register the hardware models' engines as main does.
@@ -110,7 +118,7 @@ int child_main(const char* spec) {
   } catch (const std::exception& e) {
     result = std::string("error ") + e.what();
   }
-  std::printf("%zu\n%s\n", peak_rss_bytes(), result.c_str());
+  std::printf("%zu %zu\n%s\n", status_bytes("VmHWM"), status_bytes("VmPeak"), result.c_str());
   std::fflush(stdout);
   std::_Exit(0);
 }
@@ -125,6 +133,7 @@ const bool kChildHook = [] {
 struct ChildResult {
   std::string output;        // the child's line
   std::size_t peak_rss = 0;  // bytes (the child's VmHWM)
+  std::size_t peak_address_space = 0;  // bytes (the child's VmPeak)
   int status = 0;
 };
 
@@ -161,15 +170,17 @@ ChildResult run_child(const std::string& spec) {
   while (!r.output.empty() && r.output.back() == '\n') r.output.pop_back();
   const std::size_t eol = r.output.find('\n');
   if (eol != std::string::npos) {
-    r.peak_rss = std::strtoull(r.output.c_str(), nullptr, 10);
+    char* end = nullptr;
+    r.peak_rss = std::strtoull(r.output.c_str(), &end, 10);
+    r.peak_address_space = std::strtoull(end, nullptr, 10);
     r.output.erase(0, eol + 1);
   }
   return r;
 }
 
 std::string describe(const ChildResult& r) {
-  return "child said \"" + r.output + "\", peak RSS " + std::to_string(r.peak_rss / kMiB) + " MiB, status " +
-         std::to_string(r.status);
+  return "child said \"" + r.output + "\", peak RSS " + std::to_string(r.peak_rss / kMiB) + " MiB, peak address space " +
+         std::to_string(r.peak_address_space / kMiB) + " MiB, status " + std::to_string(r.status);
 }
 
 // ---- Pair explosion -----------------------------------------------------------
@@ -343,6 +354,53 @@ TEST(Limits, MemoryPerObjectAndPerPair) {
   if (!HBP_LIMITS_SANITIZED) {
     EXPECT_LT(per_object, 1024.0);
     EXPECT_LT(per_pair, 64.0);
+  }
+}
+
+// Address space reserved ahead of use counts against a process's address
+// space limit (ulimit -v, container limits) although it costs no memory:
+// at the object limit, coincident boxes with max_pairs = 1000 must stop
+// with CapacityExceeded under an 8 GiB cap (they used to map ~2.4 times
+// their ~3.5 GB resident peak and fail with std::bad_alloc), and the peak
+// address space stays near the peak resident memory.
+TEST(Limits, AddressSpaceFollowsResidentMemoryAtTheObjectLimit) {
+  if (HBP_LIMITS_SANITIZED) GTEST_SKIP() << "the sanitizers' shadow memory is address space";
+  const ChildResult r = run_child("coincident sw 16777215 1000 8192");
+  std::printf("object limit, coincident, max_pairs 1000, 8 GiB address space: %s\n", describe(r).c_str());
+  ASSERT_TRUE(WIFEXITED(r.status)) << describe(r);
+  EXPECT_EQ(r.output.rfind("capacity ", 0), 0u) << describe(r);
+  EXPECT_LT(static_cast<double>(r.peak_address_space), 1.5 * static_cast<double>(r.peak_rss)) << describe(r);
+}
+
+// One thread limit, checked when a broad phase is built: at it, a broad
+// phase works (oneTBB runs no more workers than the machine has); past it,
+// InvalidInput naming the option (above 65,536 a BroadPhase used to crash
+// when destroyed).
+TEST(Limits, ThreadCountAtAndPastTheLimit) {
+  BoxArray boxes = coincident(3);
+  {
+    HybridBroadPhase h({.threads = hbp::kMaxThreads});
+    EXPECT_EQ(h.update(boxes).size(), 3u);
+    hbp::BroadPhase b({.threads = hbp::kMaxThreads});
+    const hbp::Aabb box{{0, 0, 0}, {1, 1, 1}};
+    const hbp::Aabb two[2] = {box, box};
+    b.add(two);
+    EXPECT_EQ(b.update().pairs.size(), 1u);
+  }
+  for (const unsigned threads : {hbp::kMaxThreads + 1, 65536u, 65537u, 70000u, 0x80000000u, 0xFFFFFFFFu}) {
+    SCOPED_TRACE(threads);
+    for (int which = 0; which < 2; ++which) {
+      try {
+        if (which == 0)
+          HybridBroadPhase({.threads = threads});
+        else
+          hbp::BroadPhase({.threads = threads});
+        ADD_FAILURE() << "accepted " << threads << " threads";
+      } catch (const hbp::InvalidInput& e) {
+        EXPECT_NE(std::string(e.what()).find("threads: " + std::to_string(threads)), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find(std::to_string(hbp::kMaxThreads)), std::string::npos) << e.what();
+      }
+    }
   }
 }
 

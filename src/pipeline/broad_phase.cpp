@@ -41,7 +41,6 @@
 #include <atomic>
 #include <chrono>
 #include <mutex>
-#include <numeric>
 #include <limits>
 #include <string>
 
@@ -252,7 +251,6 @@ struct BroadPhase::Impl {
   // are counted without a mark (marking them would cost the fast path a
   // write per object). Turned into marks before the dense order changes.
   bool whole_frame_moved = false;
-
 
   // Duplicate detection within a batch.
   std::vector<std::uint32_t> stamp;
