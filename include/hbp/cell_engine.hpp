@@ -2,6 +2,7 @@
 // A cell engine finds every overlapping pair among the boxes of one cell: the
 // "accelerator" stage of the hybrid system. Implementations: the software SIMD
 // engine, the cycle-accurate hardware models, the Verilated RTL.
+#include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -16,6 +17,45 @@ namespace hbp {
 
 struct CellRun {
   std::uint64_t cycles = 0;  // modelled accelerator cycles (0 for software)
+};
+
+// The streaming door of a cell engine. An engine whose kernel writes a
+// cell's hits, with the caller's ids, into a bounded stage row by row (the
+// software kernels) offers it through CellEngine::hit_stream(); the hybrid
+// system then moves hits from the stage straight into the frame's list (no
+// list of local indices in between) and can count a dense cell before it
+// writes it. Every other engine is driven through find_owned_pairs.
+class CellHitStream {
+ public:
+  // Spare entries emit_hits may write past the last hit it reports, and the
+  // padding owner_codes adds.
+  static constexpr std::size_t kOutputSlack = 16;
+  // A stage of min_output(n) entries always lets emit_hits make progress.
+  static constexpr std::size_t min_output(std::uint32_t n) { return 2 * std::size_t{n} + kOutputSlack; }
+
+  // Each box's owner code against `region` (the ownership rule split per
+  // box, dedup/ownership.hpp), padded: codes.size() becomes cell.size() +
+  // kOutputSlack.
+  virtual void owner_codes(const BoxArray& cell, const CellRegion& region, std::vector<std::uint32_t>& codes) const = 0;
+  // `cell` is sorted by min x, ids[k] is the id reported for box k and
+  // owner_codes[k] its owner code against `region`, both readable up to
+  // cell.size() + kOutputSlack. Runs rows [row, n) and writes hit k as the
+  // two ids (first[count + k], second[count + k]), not yet ordered; returns
+  // the row it stopped at: n when done, earlier when fewer than
+  // 2 (n - row) + kOutputSlack of `capacity` entries were free (drain with
+  // write_pairs() and resume from there). The hits come in the same order
+  // however often the caller drains.
+  virtual std::uint32_t emit_hits(const BoxArray& cell, const std::uint32_t* ids, const std::uint32_t* owner_codes,
+                                  const CellRegion& region, std::uint32_t row, std::uint32_t* first,
+                                  std::uint32_t* second, std::size_t capacity, std::size_t& count) const = 0;
+  // The hits rows [row, n) would emit, counted without storing them.
+  virtual std::uint64_t count_pairs(const BoxArray& cell, const std::uint32_t* ids, const std::uint32_t* owner_codes,
+                                    const CellRegion& region, std::uint32_t row) const = 0;
+  // Hits as canonical pairs (min id, max id), written to out[0 .. count).
+  static void write_pairs(const std::uint32_t* first, const std::uint32_t* second, std::size_t count, Pair* out);
+
+ protected:
+  ~CellHitStream() = default;
 };
 
 class CellEngine {
@@ -47,6 +87,10 @@ class CellEngine {
   virtual std::uint64_t cycles_for(std::uint32_t n) const { (void)n; return 0; }
   // Engines are used by one thread at a time; each worker gets a clone.
   virtual std::unique_ptr<CellEngine> clone() const = 0;
+  // The engine's streaming door, or nullptr when it has none (see
+  // CellHitStream); the stream belongs to this engine (same thread, same
+  // lifetime).
+  virtual const CellHitStream* hit_stream() const { return nullptr; }
 
   // Most pairs one call may append before it stops with CapacityExceeded
   // (the hybrid system passes BroadPhaseOptions::max_pairs), so a pair

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "hbp/box_array.hpp"
+#include "hbp/limits.hpp"
 #include "hbp/shape.hpp"
 
 namespace hbp {
@@ -41,12 +42,8 @@ struct ScenarioParams {
   double world_side() const;
 };
 
-// Most objects a scenario generates: its state is ~160 bytes per object
-// (shape, velocities) plus 24 per box, so 2^26 objects already take ~12 GiB
-// before the hybrid system's ~92 bytes per object. Larger n is refused up
-// front (InvalidInput naming n and this limit) rather than ending in
-// std::bad_alloc.
-inline constexpr std::uint32_t kMaxScenarioObjects = 1u << 26;  // 67,108,864
+// Most objects a scenario generates: kMaxScenarioObjects (hbp/limits.hpp);
+// a larger n is refused with InvalidInput naming n and the limit.
 
 class Scenario {
  public:

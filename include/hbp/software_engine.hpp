@@ -14,10 +14,10 @@
 
 namespace hbp {
 
-class SoftwareEngine final : public CellEngine {
+class SoftwareEngine final : public CellEngine, public CellHitStream {
  public:
   enum class Kernel { Sweep, AllPairs };
-  // Measured on the paper scene (see docs/software-engine.md).
+  // Measured on the paper scene (see docs/hybrid-system.md).
   static constexpr std::uint32_t kDefaultSweepCellLimit = 1024;
   static constexpr std::uint32_t kDefaultAllPairsCellLimit = 128;
 
@@ -29,35 +29,18 @@ class SoftwareEngine final : public CellEngine {
   CellRun find_pairs(const BoxArray& cell, std::vector<Pair>& out) override;
   CellRun find_owned_pairs(const BoxArray& cell, const CellRegion& region, std::vector<Pair>& out) override;
   std::unique_ptr<CellEngine> clone() const override;
+  // The hybrid system's path, without intermediate copies (CellHitStream).
+  const CellHitStream* hit_stream() const override { return this; }
 
   // The instruction set the kernels run with ("avx512", "avx2", "scalar").
   static const char* isa();
 
-  // The hybrid system's path, without intermediate copies. `cell` is sorted
-  // by min x (the sweep needs it), ids[k] is the id reported for box k and
-  // owner_codes[k] its owner code against `region` (owner_codes() below),
-  // both readable up to cell.size() + kOutputSlack. Runs rows [row, n) and
-  // writes hit k as the two ids (first[count + k], second[count + k]), not yet
-  // ordered; returns the row it stopped at: n when done, earlier when fewer
-  // than 2 (n - row) + kOutputSlack of `capacity` entries were free (drain
-  // with write_pairs() and resume from there; a capacity of min_output(n)
-  // always makes progress). The hits come in the same order however often
-  // the caller drains.
+  void owner_codes(const BoxArray& cell, const CellRegion& region, std::vector<std::uint32_t>& codes) const override;
   std::uint32_t emit_hits(const BoxArray& cell, const std::uint32_t* ids, const std::uint32_t* owner_codes,
                           const CellRegion& region, std::uint32_t row, std::uint32_t* first, std::uint32_t* second,
-                          std::size_t capacity, std::size_t& count) const;
-  // Hits as canonical pairs (min id, max id), written to out[0 .. count).
-  static void write_pairs(const std::uint32_t* first, const std::uint32_t* second, std::size_t count, Pair* out);
-  // The hits rows [row, n) would emit, counted without storing them.
+                          std::size_t capacity, std::size_t& count) const override;
   std::uint64_t count_pairs(const BoxArray& cell, const std::uint32_t* ids, const std::uint32_t* owner_codes,
-                            const CellRegion& region, std::uint32_t row) const;
-  // Each box's owner code against `region` (the ownership rule split per
-  // box, dedup/ownership.hpp: owner_code), padded: codes.size() becomes
-  // cell.size() + kOutputSlack.
-  static void owner_codes(const BoxArray& cell, const CellRegion& region, std::vector<std::uint32_t>& codes);
-  static constexpr std::size_t min_output(std::uint32_t n) { return 2 * std::size_t{n} + 16; }
-  // Spare entries emit_hits may write past the last hit it reports.
-  static constexpr std::size_t kOutputSlack = 16;
+                            const CellRegion& region, std::uint32_t row) const override;
 
  private:
   void run(const BoxArray& cell, const CellRegion& region, std::vector<Pair>& out);

@@ -17,6 +17,7 @@
 #include "distributed/rank_domains.hpp"
 #include "hbp/error.hpp"
 #include "support/clock.hpp"
+#include "support/retained.hpp"
 
 namespace hbp {
 namespace {
@@ -167,15 +168,12 @@ struct DistributedBroadPhase::Impl {
   // Exchange buffers sized for a burst (the first frame migrates most
   // objects) are given back once frames are small again, so memory follows
   // the current frame, not the peak.
-  template <class V>
-  static void trim(V& v) {
-    if (v.capacity() > 4 * v.size() + 65536 / sizeof(typename V::value_type)) V(v.begin(), v.end()).swap(v);
-  }
   void trim() {
-    for (auto& o : out) trim(o);
-    trim(in);
-    trim(flat);
-    trim(stay.ids), trim(stay.boxes), trim(arrived.ids), trim(arrived.boxes), trim(scratch.ids), trim(scratch.boxes);
+    for (auto& o : out) retained::trim(o);
+    retained::trim(in);
+    retained::trim(flat);
+    for (auto* v : {&stay.ids, &arrived.ids, &scratch.ids}) retained::trim(*v);
+    for (auto* v : {&stay.boxes, &arrived.boxes, &scratch.boxes}) retained::trim(*v);
   }
 
   void reset() {

@@ -9,6 +9,7 @@
 #include "hbp/brute_force.hpp"
 #include "hbp/error.hpp"
 #include "support/radix_sort.hpp"
+#include "support/retained.hpp"
 #include <string>
 
 namespace hbp {
@@ -33,10 +34,10 @@ static_assert(SoftwareEngine::kOutputSlack == kernels::kOutputSlack);
 
 static_assert(SoftwareEngine::min_output(100) == kernels::min_output(100));
 
-void SoftwareEngine::owner_codes(const BoxArray& cell, const CellRegion& region, std::vector<std::uint32_t>& codes) {
+void SoftwareEngine::owner_codes(const BoxArray& cell, const CellRegion& region, std::vector<std::uint32_t>& codes) const {
   const auto n = static_cast<std::uint32_t>(cell.size());
   // Sized for an over-full cell, released once cells are small again.
-  if (codes.capacity() > 4 * (std::size_t{n} + kOutputSlack) + (std::size_t{1} << 16)) std::vector<std::uint32_t>().swap(codes);
+  retained::release(codes, std::size_t{n} + kOutputSlack);
   codes.resize(n + kOutputSlack);
   const float* const min[3] = {cell.min(0), cell.min(1), cell.min(2)};
   kernels::write_owner_codes(min, n, region, codes.data());
@@ -62,7 +63,7 @@ std::uint32_t SoftwareEngine::emit_hits(const BoxArray& cell, const std::uint32_
   return row;
 }
 
-void SoftwareEngine::write_pairs(const std::uint32_t* first, const std::uint32_t* second, std::size_t count,
+void CellHitStream::write_pairs(const std::uint32_t* first, const std::uint32_t* second, std::size_t count,
                                  Pair* out) {
   if (count) kernels::canonical_pairs(kernels::selected_isa())(first, second, count, reinterpret_cast<std::uint32_t*>(out));
 }

@@ -7,6 +7,7 @@
 #include <new>
 #include <string>
 
+#include "geometry/box_screen.hpp"
 #include "hbp/error.hpp"
 
 namespace hbp {
@@ -87,9 +88,7 @@ void BoxArray::validate(const char* what) const {
     if (const char* defect = box_defect(b)) {
       const char* axis = "xyz";
       int k = 0;
-      for (; k < 3; ++k) {
-        if (!(std::isfinite(b.min[k]) && std::isfinite(b.max[k]) && b.min[k] <= b.max[k])) break;
-      }
+      while (k < 3 && !geometry::interval_fails(b.min[k], b.max[k])) ++k;
       throw InvalidInput(std::string(what) + ": object " + std::to_string(i) + ": " + defect +
                          " on axis " + axis[k < 3 ? k : 0] + " (min " + std::to_string(b.min[k < 3 ? k : 0]) +
                          ", max " + std::to_string(b.max[k < 3 ? k : 0]) + ")");

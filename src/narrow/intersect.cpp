@@ -25,12 +25,10 @@ namespace narrow {
 
 namespace {
 
-// Half-angle of the cone tetrahedron (radians) as its cosine and sine. On
-// the shapes: 0.15 was best at the 1e-4 depth tolerance; at the 1e-3
-// default 0.25 needs 1.3 % fewer instructions on the warm path
-// (docs/narrow-phase.md, eighth session). On the rounded cores, whose
-// difference is far less round near the optimum, 0.06 (callgrind on
-// bench_epa's warm path: 0.03 +1.6 %, 0.09 +0.2 %, 0.12 +0.6 %, 0.25 +2.1 %).
+// Half-angle of the cone tetrahedron (radians) as its cosine and sine, the
+// angle that needs the fewest instructions on the warm path at the default
+// depth tolerance (bench_epa under callgrind): 0.25 on the shapes; 0.06 on
+// the rounded cores, whose difference is far less round near the optimum.
 struct ConeAngle {
   double cos, sin;
 };
@@ -226,8 +224,7 @@ bool gjk_epa(const Convex& a, const Convex& b, Hit* hit, const V3* start, const 
 // (GJK's own stopping test), the shapes intersect and EPA starts there,
 // without GJK's iterations; otherwise GJK goes on from the cone's closest
 // feature (its final tetrahedron from there is a better start for EPA than
-// any tetrahedron cached from last frame: docs/narrow-phase.md, seventh
-// session).
+// any tetrahedron cached from last frame).
 bool warm_contact(const Convex& a, const Convex& b, const V3& normal, Hit* hit, Coherence* learned,
                   double depth_tolerance) {
   // A pair with an ellipsoid: its cores certify the overlap as they give

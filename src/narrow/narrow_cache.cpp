@@ -5,6 +5,7 @@
 
 #include "hbp/error.hpp"
 #include "support/huge_pages.hpp"
+#include "support/retained.hpp"
 
 namespace hbp {
 
@@ -31,8 +32,8 @@ void NarrowCache::commit_lists(const List& list_at, std::size_t count, std::size
     total += list_at(l).size();
   }
   // Buffers shrink with the frame: bounded by this frame's needs.
-  if (row_.capacity() > 2 * (objects + 1)) row_ = {};
-  if (entries_.capacity() > 2 * total) entries_ = {};
+  retained::release(row_, objects + 1);
+  retained::release(entries_, total);
   row_.assign(objects + 1, 0);
   for (std::size_t l = 0; l < count; ++l)
     for (const NarrowCacheEntry& e : list_at(l)) ++row_[e.pair.a + 1];

@@ -28,14 +28,10 @@ namespace {
 // Nodes with more entries than this choose their split from a fixed strided
 // sample of kSplitSamples entries (the median of the sample, about a percent
 // from the true median: cells of ~600 differ by a few entries); smaller ones
-// use every entry. Was 2^16 / 2^13: the exact medians of the subtree tasks
-// were a fifth of the build's instructions (callgrind, paper 100,000:
-// build_tree 102.3 M -> 83.2 M Ir; cells 2048 either way, duplication 1.2848
-// -> 1.2853 at 1,024,000). Then 2^12 -> 2^10 (issue 14): the nth_element
-// over every centre of a node of 1-4k entries was the largest part of the
-// subtree tasks; PaperRebuild 1,024,000 / 2 threads, CPU 74 -> 66 ms under
-// load, duplication 1.2851 -> 1.2830, cells 2048 -> ~2020 (a sampled median
-// leaves a few nodes just under the limit unsplit).
+// use every entry. Exact medians of larger nodes (an nth_element over every
+// centre) would be the largest part of the subtree tasks, while a sampled
+// median changes the cells and the duplication by a fraction of a percent
+// (a few nodes just under the limit stay unsplit).
 constexpr std::uint32_t kExactSplitMax = 1u << 10;
 constexpr std::uint32_t kSplitSamples = 1u << 10;
 // The parallel build's top levels (from a sample, kd_sampled_build.cpp) end

@@ -14,9 +14,11 @@
 #include <utility>
 
 #include "hbp/error.hpp"
+#include "hbp/limits.hpp"
 #include "partition/kd_build.hpp"
 #include "partition/raw_buffer.hpp"
 #include "support/prefault.hpp"
+#include "support/retained.hpp"
 
 namespace hbp {
 
@@ -27,10 +29,9 @@ using kd::StoredBox;
 
 // The object pass works on fixed chunks of ids (a function of n only), so the
 // cells' additions, concatenated chunk after chunk, come in increasing id
-// order whatever the thread count. 4,096 rather than 16,384: 100,000
-// objects make 25 chunks instead of 7 (two threads finished 4 and 3 chunks,
-// one idling for most of a chunk); partition 1.30-1.33 -> 1.26-1.28 ms at
-// 100,000, 15.6-15.8 -> 15.1 ms at 1,024,000 (two threads, A/B).
+// order whatever the thread count. Small enough that 100,000 objects make
+// a few dozen chunks (with a handful, one thread idles for most of a chunk
+// at the end).
 constexpr std::uint32_t kChunkObjects = 1u << 12;
 
 // The rebuild rule: the tree is rebuilt (spread over the next frames, see
@@ -263,11 +264,13 @@ void KdPartition::reset() {
 }
 
 namespace {
-// Object ids are uint32 and 2^32 - 1 is kNoHome's: the most objects a frame
-// (or a reserve) may hold.
+// The most objects a frame (or a reserve) may hold (kNoHome is the
+// all-ones id).
+static_assert(kMaxFrameObjects < kNoHome);
 void check_object_count(std::size_t objects) {
-  if (objects >= std::numeric_limits<std::uint32_t>::max())
-    throw CapacityExceeded("k-d partition: " + std::to_string(objects) + " objects: at most 2^32 - 2 per frame");
+  if (objects > kMaxFrameObjects)
+    throw CapacityExceeded("k-d partition: " + std::to_string(objects) + " objects: at most " +
+                           std::to_string(kMaxFrameObjects) + " (2^32 - 2) per frame");
 }
 }  // namespace
 
@@ -397,7 +400,7 @@ void KdPartition::rebuild(const BoxArray& boxes) {
   prefault_pages(s.latest.data(), n * sizeof(CellEntry));
   s.rebuilding = false;
   s.rebuild_queue.clear();
-  if (nodes_.capacity() > 2 * nodes_.size() + 4096) nodes_.shrink_to_fit();  // a past peak of splits
+  retained::trim(nodes_);  // a past peak of splits
   entries_ = s.entries.data();
   number_leaves();
   stats_.rebuilt = true;
@@ -666,9 +669,8 @@ void KdPartition::bucket_additions() {
   cursor.assign(s.add_offsets.begin(), s.add_offsets.end() - 1);
   for (const auto& adds : s.chunk_adds)
     for (std::uint64_t a : adds) s.add_ids[cursor[a >> 32]++] = static_cast<std::uint32_t>(a);
-  if (s.add_ids.capacity() > 2 * total + 4096) s.add_ids.shrink_to_fit();
-  for (auto& adds : s.chunk_adds)
-    if (adds.capacity() > 2 * adds.size() + 4096) adds.shrink_to_fit();
+  retained::trim(s.add_ids);
+  for (auto& adds : s.chunk_adds) retained::trim(adds);
 }
 
 void KdPartition::lay_out_cells() {
@@ -904,7 +906,7 @@ void KdPartition::build_subtree(std::uint32_t k) {
   t.gathered.erase(std::unique(t.gathered.begin(), t.gathered.end(),
                                [](const CellEntry& a, const CellEntry& b) { return a.id == b.id; }),
                    t.gathered.end());
-  if (t.gathered.capacity() > 2 * t.gathered.size() + 4096) t.gathered.shrink_to_fit();
+  retained::trim(t.gathered);
   const kd::SplitRule rule{cell_limit_, x_split_weight_, &cell_cost_};
   t.builder.build(t.gathered.data(), static_cast<std::uint32_t>(t.gathered.size()), s.node_depth[root], rule, true,
                   t.scratch);

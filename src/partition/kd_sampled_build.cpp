@@ -16,6 +16,7 @@
 #include "hbp/error.hpp"
 #include "partition/kd_build.hpp"
 #include "support/radix_sort.hpp"
+#include "support/retained.hpp"
 
 namespace hbp::kd {
 
@@ -227,8 +228,8 @@ void build_top_levels(const BoxArray& boxes, const SplitRule& rule, std::uint32_
   const std::uint32_t chunks = (n + chunk - 1) / chunk;
   buffers.counts.resize(std::size_t{chunks} * task_count);
   // Each object's task lives in the start of `out` until the sort writes
-  // there (memory the build touches anyway: a buffer of its own was 4 MB of
-  // fresh pages on the first frame at 1,024,000).
+  // there (memory the build touches anyway: a buffer of its own would be
+  // fresh pages on a first frame).
   static_assert(sizeof(CellEntry) % sizeof(std::uint32_t) == 0);
   out.clear();
   out.grow((std::size_t{n} * sizeof(std::uint32_t) + sizeof(CellEntry) - 1) / sizeof(CellEntry));
@@ -326,7 +327,7 @@ void build_top_levels(const BoxArray& boxes, const SplitRule& rule, std::uint32_
     }
   });
   for (auto& list : buffers.forked_tasks)
-    if (list.capacity() > 2 * list.size() + 4096) list.shrink_to_fit();
+    retained::trim(list);
 
   // 5. Each task's entries (in id order) into `out` in min-x order, ties by
   // id, sorted in the cache. The sort keys and their scratch (16 bytes an

@@ -18,6 +18,7 @@
 #include <type_traits>
 
 #include "support/huge_pages.hpp"
+#include "support/retained.hpp"
 
 namespace hbp {
 
@@ -26,10 +27,6 @@ class RawBuffer {
   static_assert(std::is_trivially_copyable_v<T>);
 
  public:
-  // Capacity is shrunk when it exceeds kShrinkFactor times the size asked for
-  // (plus kShrinkSlack elements, so small buffers do not churn).
-  static constexpr std::size_t kShrinkFactor = 2;
-  static constexpr std::size_t kShrinkSlack = 4096;
 
   std::size_t size() const { return size_; }
   std::size_t capacity() const { return capacity_; }
@@ -39,9 +36,9 @@ class RawBuffer {
   const T& operator[](std::size_t i) const { return data_.get()[i]; }
 
   // New size; the first min(old, new) elements are kept, the rest are
-  // uninitialised.
+  // uninitialised. The capacity follows the retained rule (support/retained.hpp).
   void resize(std::size_t n) {
-    if (n > capacity_ || capacity_ > kShrinkFactor * n + kShrinkSlack) reallocate(n + n / 8, std::min(size_, n));
+    if (n > capacity_ || retained::oversized(capacity_, n, retained::kSlack<T>)) reallocate(n + n / 8, std::min(size_, n));
     size_ = n;
   }
   // New size without ever shrinking the allocation (a scratch stack that

@@ -1,5 +1,7 @@
 #include "pipeline/box_transpose.hpp"
 
+#include "geometry/box_screen.hpp"
+
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
@@ -8,7 +10,6 @@ namespace hbp::detail {
 
 namespace {
 
-// x - x == 0 exactly when x is finite; NaN fails every comparison.
 bool check_and_transpose_scalar(const Aabb* boxes, const std::uint32_t* ids, const std::uint32_t* expected,
                                 std::size_t begin, std::size_t end, float* const lane[6],
                                 const float* const* previous, std::uint32_t& changed) {
@@ -18,7 +19,7 @@ bool check_and_transpose_scalar(const Aabb* boxes, const std::uint32_t* ids, con
     bool differs = false;
     for (int k = 0; k < 3; ++k) {
       const float lo = boxes[i].min[k], hi = boxes[i].max[k];
-      ok &= (lo - lo == 0.0f) & (hi - hi == 0.0f) & (lo <= hi);
+      ok &= !geometry::interval_fails(lo, hi);
       if (previous) differs |= (previous[k][i] != lo) | (previous[3 + k][i] != hi);
       lane[k][i] = lo;
       lane[3 + k][i] = hi;
@@ -88,7 +89,8 @@ bool check_and_transpose_sse2(const Aabb* boxes, const std::uint32_t* ids, const
       differs = _mm_or_ps(differs, _mm_cmpneq_ps(_mm_loadu_ps(previous[5] + i), max_z));
       changed += static_cast<std::uint32_t>(__builtin_popcount(static_cast<unsigned>(_mm_movemask_ps(differs))));
     }
-    // Finite: every coordinate of the six input vectors; ordered per axis.
+    // geometry::interval_fails in four lanes: every coordinate of the six
+    // input vectors finite (x - x == 0), ordered per axis.
     __m128 finite = _mm_and_ps(_mm_cmpeq_ps(_mm_sub_ps(v0, v0), zero), _mm_cmpeq_ps(_mm_sub_ps(v1, v1), zero));
     finite = _mm_and_ps(finite, _mm_cmpeq_ps(_mm_sub_ps(v2, v2), zero));
     finite = _mm_and_ps(finite, _mm_cmpeq_ps(_mm_sub_ps(v3, v3), zero));

@@ -40,6 +40,7 @@
 
 #include "hbp/aabb.hpp"
 #include "hbp/box_array.hpp"
+#include "hbp/limits.hpp"
 #include "partition/raw_buffer.hpp"
 #include "pipeline/ray_segment.hpp"
 
@@ -52,8 +53,9 @@ class BoxTree {
   // link of a leaf: kLeaf | leaf index; of a node: its index; kNone: unused lane.
   static constexpr std::uint32_t kLeaf = 0x80000000u;
   static constexpr std::uint32_t kNone = 0xffffffffu;
-  // The most boxes a tree holds.
+  // One more than the most boxes a tree holds (kMaxQueryTreeBoxes).
   static constexpr std::uint32_t kMaxBoxes = kLeaf;
+  static_assert(kMaxBoxes - 1 == kMaxQueryTreeBoxes);
   static constexpr std::uint32_t kStack = 128;
 
   // An object found by a query: its box, index and the caller's id for it

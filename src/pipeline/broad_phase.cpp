@@ -49,6 +49,7 @@
 #endif
 
 #include "hbp/error.hpp"
+#include "geometry/box_screen.hpp"
 #include "pipeline/arena_threads.hpp"
 #include "pipeline/box_transpose.hpp"
 #include "pipeline/box_tree.hpp"
@@ -58,6 +59,7 @@
 #include "pipeline/pair_events.hpp"
 #include "pipeline/parallel_pair_sort.hpp"
 #include "support/clock.hpp"
+#include "support/retained.hpp"
 
 namespace hbp {
 
@@ -71,6 +73,9 @@ namespace {
 
 constexpr std::uint32_t kNoIndex = HandleTable::kNoIndex;
 constexpr std::size_t kChunk = 1024;  // items per parallel task (fixed: deterministic output)
+// The retained rule's slack of a moving object's candidate list (there are
+// millions of lists: the default slack would be kept by each).
+constexpr std::size_t kCandidateSlack = 64;
 
 // The float just above x (x not NaN; +inf stays), without a libm call.
 inline float next_up(float x) {
@@ -86,12 +91,6 @@ inline float next_down(float x) { return -next_up(-x); }
 inline bool same_box(const Aabb& a, const Aabb& b) {
   return a.min[0] == b.min[0] && a.min[1] == b.min[1] && a.min[2] == b.min[2] && a.max[0] == b.max[0] &&
          a.max[1] == b.max[1] && a.max[2] == b.max[2];
-}
-
-// Releases a buffer's memory when it holds far more than it needs now.
-template <class T>
-void fit(std::vector<T>& v) {
-  if (v.capacity() > 4 * v.size() + 4096) v.shrink_to_fit();
 }
 
 // Runs body(begin, end, out) over fixed chunks of [0, n) in parallel and
@@ -353,9 +352,9 @@ struct BroadPhase::Impl {
   }
 
   // Screens for the common batch: handles strictly increasing (so none
-  // repeats) and live, boxes finite with min <= max. One branch-free pass
-  // each (x - x == 0 exactly when x is finite); when a screen fails, the
-  // row-by-row checks above name the offending row.
+  // repeats) and live (here), boxes well formed (geometry::screen_fails).
+  // One branch-free pass each; when a screen fails, the row-by-row checks
+  // above name the offending row.
   bool handles_increasing_and_live(const Handle* h, std::size_t begin, std::size_t end) const {
     bool ok = true;
     Handle last = begin ? h[begin - 1] : 0;
@@ -366,15 +365,7 @@ struct BroadPhase::Impl {
     return ok;
   }
 
-  static bool boxes_well_formed(const Aabb* b, std::size_t begin, std::size_t end) {
-    bool ok = true;
-    for (std::size_t i = begin; i < end; ++i)
-      for (int k = 0; k < 3; ++k) {
-        const float lo = b[i].min[k], hi = b[i].max[k];
-        ok &= (lo - lo == 0.0f) & (hi - hi == 0.0f) & (lo <= hi);
-      }
-    return ok;
-  }
+
 
   // Runs body(begin, end) over ranges of [0, n), in parallel on the broad
   // phase's threads when the batch is large; returns the sum of the
@@ -421,8 +412,7 @@ struct BroadPhase::Impl {
     // (no second handle array to read).
     const Handle* want = moving_identity ? nullptr : moving_handle.data();
     // A batch this large (6 MB of boxes) does not stay in cache until
-    // update() reads it: non-temporal stores save reading every line first
-    // (1,024,000 objects, 1 thread, under load: 2.8-3.0 -> 2.1-2.4 ms CPU).
+    // update() reads it: non-temporal stores save reading every line first.
     // A small batch keeps plain stores: its lines are still in L2 for
     // update().
     constexpr std::size_t kStreamBoxes = std::size_t{1} << 18;
@@ -458,7 +448,7 @@ struct BroadPhase::Impl {
     // boxes did in the high 32.
     const std::uint64_t failed = for_batch<std::uint64_t>(n, [&](std::size_t begin, std::size_t end) {
       return std::uint64_t(!handles_increasing_and_live(h, begin, end)) |
-             std::uint64_t(!boxes_well_formed(b, begin, end)) << 32;
+             std::uint64_t(geometry::screen_fails(b, begin, end)) << 32;
     });
     if (failed & 0xFFFFFFFFu) check_handles("move", handles);
     if (failed >> 32) check_boxes("move", boxes);
@@ -549,8 +539,8 @@ struct BroadPhase::Impl {
     for (std::uint32_t s = 0; s < table.slots(); ++s)
       if (table.kind(s) == kind) handles.push_back(table.handle_of(s));
     std::sort(handles.begin(), handles.end());
-    fit(handles);
-    if (boxes.capacity() > 4 * handles.size() + 4096) boxes = BoxArray();
+    retained::trim(handles);
+    if (retained::oversized(boxes.capacity(), handles.size(), retained::kSlack<Aabb>)) boxes = BoxArray();
     boxes.resize(handles.size());
     if (previous) previous->resize(handles.size());
     for (std::uint32_t d = 0; d < handles.size(); ++d) {
@@ -587,9 +577,9 @@ struct BroadPhase::Impl {
         slot_box[s] = moving_boxes.get(table.index(s));
     gather(HandleTable::kMoving, moving_boxes, moving_handle, &previous_index);
     cache.permute(previous_index);
-    fit(previous_index);
+    retained::trim(previous_index);
     fat_moving.reset();
-    if (staged_boxes.capacity() > 4 * moving_handle.size() + 4096) staged_boxes = BoxArray();
+    if (retained::oversized(staged_boxes.capacity(), moving_handle.size(), retained::kSlack<Aabb>)) staged_boxes = BoxArray();
     // Strictly increasing handles from 0 ending at size - 1 are 0, 1, 2 ...
     moving_identity = !moving_handle.empty() && moving_handle.back() == moving_handle.size() - 1;
     moving_membership_dirty = false;
@@ -668,7 +658,7 @@ struct BroadPhase::Impl {
       list.push_back({{{leaf.min[0], leaf.min[1], leaf.min[2]}, {leaf.max[0], leaf.max[1], leaf.max[2]}},
                       static_handle[i], 0});
     });
-    fit(list);
+    retained::trim(list, kCandidateSlack);
   }
 
   // Re-tests d's candidates against `box` (seen(candidate, hit) for each)
@@ -840,8 +830,8 @@ struct BroadPhase::Impl {
       o = std::copy(p, p_end, o);
       next.resize(static_cast<std::size_t>(o - next.data()));
       static_pairs.swap(next);
-      fit(flips);
-      fit(sort_scratch);
+      retained::trim(flips);
+      retained::trim(sort_scratch);
       static_pairs_valid = true;
       return;
     }
@@ -876,7 +866,7 @@ struct BroadPhase::Impl {
                        }
                      });
     parallel_sort_pairs(static_pairs, sort_scratch, arena);  // the whole moving/static list
-    fit(sort_scratch);
+    retained::trim(sort_scratch);
     static_pairs_valid = all && !filter;
   }
 
@@ -934,12 +924,12 @@ struct BroadPhase::Impl {
       result.pairs.swap(next);
     });
     structure_changed = false;  // only once the frame is complete: a frame that throws is not applied
-    fit(next);
-    fit(moving_pairs);
-    fit(static_pairs);
-    fit(result.pairs);
-    fit(result.created);
-    fit(result.removed);
+    retained::trim(next);
+    retained::trim(moving_pairs);
+    retained::trim(static_pairs);
+    retained::trim(result.pairs);
+    retained::trim(result.created);
+    retained::trim(result.removed);
     stats.moving = static_cast<std::uint32_t>(moving_handle.size());
     stats.statics = static_cast<std::uint32_t>(static_handle.size());
     stats.moved = moved;
@@ -968,7 +958,7 @@ struct BroadPhase::Impl {
     moving_tree.for_each_overlap(q, collect);
     std::sort(hits.begin(), hits.end());
     std::vector<Handle> out(hits.begin(), hits.end());
-    fit(hits);
+    retained::trim(hits);
     return out;
   }
 
@@ -994,7 +984,7 @@ struct BroadPhase::Impl {
     std::sort(hits.begin(), hits.end(), [](const Hit& a, const Hit& b) { return a.t < b.t || (a.t == b.t && a.h < b.h); });
     std::vector<Handle> out(hits.size());
     for (std::size_t i = 0; i < hits.size(); ++i) out[i] = hits[i].h;
-    fit(hits);
+    retained::trim(hits);
     return out;
   }
 

@@ -9,15 +9,11 @@
 #endif
 
 #include "hbp/error.hpp"
+#include "support/retained.hpp"
 
 namespace hbp::detail {
 
 namespace {
-
-template <class T>
-void fit(std::vector<T>& v) {
-  if (v.capacity() > 4 * v.size() + 4096) v.shrink_to_fit();
-}
 
 bool overlap_at(const BoxArray& b, std::uint32_t i, std::uint32_t j) {
   return (b.min(0)[i] <= b.max(0)[j]) & (b.min(0)[j] <= b.max(0)[i]) & (b.min(1)[i] <= b.max(1)[j]) &
@@ -127,7 +123,7 @@ bool FatMovingPairs::rebuild(const BoxArray& boxes, HybridBroadPhase& hybrid) {
     return false;
   }
   cand_.assign(raw->begin(), raw->end());
-  fit(cand_);
+  retained::trim(cand_);
   valid_ = true;
   return true;
 }
@@ -177,8 +173,8 @@ void FatMovingPairs::retest_left(const BoxArray& boxes) {
   merged_.resize(cand_.size() + fresh_.size());
   std::merge(cand_.begin(), cand_.end(), fresh_.begin(), fresh_.end(), merged_.begin());
   cand_.swap(merged_);
-  fit(merged_);
-  fit(fresh_);
+  retained::trim(merged_);
+  retained::trim(fresh_);
 }
 
 void FatMovingPairs::give_up() {
@@ -187,7 +183,7 @@ void FatMovingPairs::give_up() {
   cooldown_ = next_cooldown_;
   next_cooldown_ = std::min(2 * next_cooldown_, kMaxCooldownFrames);
   cand_.clear();
-  fit(cand_);
+  retained::trim(cand_);
 }
 
 void FatMovingPairs::release() {

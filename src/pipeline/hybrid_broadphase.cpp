@@ -16,7 +16,7 @@
 
 #include "hbp/error.hpp"
 #include "hbp/kd_partition.hpp"
-#include "hbp/software_engine.hpp"
+#include "geometry/box_screen.hpp"
 #include "pipeline/arena_threads.hpp"
 #include "pipeline/hybrid_access.hpp"
 #include "partition/raw_buffer.hpp"
@@ -25,6 +25,7 @@
 #include "support/clock.hpp"
 #include "support/huge_pages.hpp"
 #include "support/prefault.hpp"
+#include "support/retained.hpp"
 
 namespace hbp {
 
@@ -57,12 +58,11 @@ constexpr std::size_t kStoredPairsPerBox = 4;
 // megabytes warms up over several frames; cells past the budget are counted
 // and written in the second pass, as on the first frame.
 constexpr std::size_t kTouchPairsPerFrame = std::size_t{16} << 20;
-// Pair buffers kept from frame to frame are released when their capacity
-// exceeds twice what the frame used plus this many pairs, so memory follows
-// the current frame, not every frame's peak (issue 17: a cluster visiting
-// cell after cell).
-constexpr std::size_t kKeepPairs = 1 << 15;
-constexpr std::size_t kKeepCellPairs = 1 << 10;  // per cell: there are thousands
+// Pair buffers kept from frame to frame follow the retained rule
+// (support/retained.hpp) with its default slack; a list kept per cell
+// (there are thousands) with a smaller one.
+constexpr std::size_t kKeepPairs = retained::kSlack<Pair>;
+constexpr std::size_t kKeepCellPairs = 1 << 10;
 // Fresh output lists of at least this many bytes are faulted in by all
 // workers at once (see prefault).
 constexpr std::size_t kPrefaultBytes = std::size_t{8} << 20;
@@ -86,48 +86,15 @@ constexpr std::size_t kFirstFrameMargin = 32;
 // with its end at the start of a mapping above or of a gap, which for our
 // large buffers (whole 2 MiB pages, 2 MiB-aligned) is a 2 MiB boundary; the
 // list then starts 4 KiB - 16 bytes below a boundary, and every 2 MiB past it
-// can be a huge page. At an arbitrary size, the list's first partial 2 MiB
-// were pages of 4 KiB, and a 4 KiB fault costs ~13 us on our VMs, warm or
-// cold (the first frame of paper 1,024,000: 1,010 -> 500 minor faults, the
-// engine stage ~20 -> ~16 ms warm). Where the guess is wrong, only the
-// capacity differs. Lists under kPrefaultBytes keep their size (rounded up,
+// can be a huge page (at an arbitrary size the list's first partial 2 MiB
+// would be pages of 4 KiB, each a fault costing microseconds on our VMs,
+// warm or cold). Where the guess is wrong, only the capacity differs. Lists under kPrefaultBytes keep their size (rounded up,
 // a small list's capacity would pass twice its size, and
-// release_if_oversized would free and map it again every frame).
+// retained::release would free and map it again every frame).
 std::size_t list_capacity(std::size_t want) {
   static_assert(kHugePageBytes % sizeof(Pair) == 0);
   if (want * sizeof(Pair) < kPrefaultBytes) return want;
   return whole_huge_pages(want * sizeof(Pair)) / sizeof(Pair);
-}
-
-template <class T>
-void release_if_oversized(std::vector<T>& v, std::size_t used, std::size_t keep) {
-  if (v.capacity() > 2 * used + keep) std::vector<T>().swap(v);
-}
-template <class T>
-void release_if_oversized(RawBuffer<T>& v, std::size_t used, std::size_t keep) {
-  if (v.capacity() > 2 * used + keep) RawBuffer<T>().swap(v);
-}
-// The same rule, keeping the contents: storage cut to the size.
-template <class T>
-void fit_if_oversized(std::vector<T>& v, std::size_t keep) {
-  if (v.capacity() > 2 * v.size() + keep) v.shrink_to_fit();
-}
-
-// True when a box of [begin, end) has a NaN or infinite coordinate or min >
-// max on some axis (the screen; the serial BoxArray::validate then names
-// the object). x - x == 0 exactly when x is finite. An int OR of the
-// failures, not a bool AND of the passes: GCC 12 vectorises only this form
-// (the bool form ran as scalar compares and branches, ~60 instructions an
-// object, as does BoxArray::validate).
-bool screen_fails(const BoxArray& boxes, std::size_t begin, std::size_t end) {
-  int bad = 0;
-  for (int k = 0; k < 3; ++k) {
-    const float* lo = boxes.min(k);
-    const float* hi = boxes.max(k);
-    for (std::size_t i = begin; i != end; ++i)
-      bad |= !(lo[i] - lo[i] == 0.0f) | !(hi[i] - hi[i] == 0.0f) | !(lo[i] <= hi[i]);
-  }
-  return bad != 0;
 }
 
 // The frame's boxes screened in parallel; on failure the serial validate()
@@ -135,21 +102,21 @@ bool screen_fails(const BoxArray& boxes, std::size_t begin, std::size_t end) {
 void validate_boxes(const BoxArray& boxes) {
   const bool bad = tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, boxes.size(), 16384), false,
-      [&](const auto& r, bool acc) { return acc || screen_fails(boxes, r.begin(), r.end()); },
+      [&](const auto& r, bool acc) { return acc || geometry::screen_fails(boxes, r.begin(), r.end()); },
       [](bool a, bool b) { return a || b; });
   if (bad) boxes.validate("frame");
 }
 
 // The same on the calling thread (one-cell frames: small worlds).
 void validate_boxes_serial(const BoxArray& boxes) {
-  if (screen_fails(boxes, 0, boxes.size())) boxes.validate("frame");
+  if (geometry::screen_fails(boxes, 0, boxes.size())) boxes.validate("frame");
 }
 
 struct Worker {
   std::unique_ptr<CellEngine> engine;
-  const SoftwareEngine* direct = nullptr;  // the engine when it writes global ids itself
+  const CellHitStream* direct = nullptr;  // the engine's streaming door, when it has one
   OrderedCell cell;                        // the cell being processed, in min-x order
-  std::vector<std::uint32_t> codes;        // its boxes' owner codes (software engine)
+  std::vector<std::uint32_t> codes;        // its boxes' owner codes (streaming engines)
   std::vector<std::uint32_t> first, second;  // kernel hits before they move on (the stage)
   std::vector<Pair> local;                 // other engines: pairs in local indices
   BoxArray tile;                           // other engines: two blocks of an over-full cell
@@ -209,11 +176,11 @@ struct ListBack {
 };
 
 std::size_t stage_pairs(std::uint32_t n) {
-  return std::max(kStagePairs, 2 * (std::size_t{n} + SoftwareEngine::kOutputSlack));
+  return std::max(kStagePairs, 2 * (std::size_t{n} + CellHitStream::kOutputSlack));
 }
 
 void fit_stage(Worker& w, std::size_t hits) {
-  if (w.first.size() < hits || w.first.size() > 4 * hits + kKeepPairs) {
+  if (w.first.size() < hits || retained::oversized(w.first.size(), hits, kKeepPairs)) {
     w.first.assign(hits, 0);
     w.second.assign(hits, 0);
   }
@@ -271,7 +238,7 @@ bool fits(ListFront& out, std::size_t count, std::size_t) { return out.room->tak
 // Appends the stage's first `count` hits to out as canonical pairs.
 template <class Out>
 void drain_stage(const Worker& w, std::size_t count, Out& out) {
-  SoftwareEngine::write_pairs(w.first.data(), w.second.data(), count, extend(out, count));
+  CellHitStream::write_pairs(w.first.data(), w.second.data(), count, extend(out, count));
 }
 
 }  // namespace
@@ -279,9 +246,9 @@ void drain_stage(const Worker& w, std::size_t count, Out& out) {
 struct HybridBroadPhase::Impl {
   BroadPhaseOptions options;
   std::unique_ptr<CellEngine> prototype;
-  // The engine is the software kernel, whose count and emit calls the
-  // frame loop drives itself (the lanes in place, the sampled first frame);
-  // the hardware and RTL engines take whole cells through CellEngine.
+  // The engine has a streaming door (CellHitStream), whose count and emit
+  // calls the frame loop drives itself (the lanes in place, the sampled
+  // first frame); other engines take whole cells through find_owned_pairs.
   bool direct_kernel;
   std::uint32_t cell_limit;
   tbb::task_arena arena;
@@ -322,7 +289,7 @@ struct HybridBroadPhase::Impl {
   explicit Impl(const BroadPhaseOptions& o)
       : options(o),
         prototype(make_cell_engine(o.engine)),
-        direct_kernel(dynamic_cast<const SoftwareEngine*>(prototype.get()) != nullptr),
+        direct_kernel(prototype->hit_stream() != nullptr),
         cell_limit(choose_limit(o, *prototype)),
         arena(detail::arena_threads(o.threads)),
         own_partition(cell_limit, prototype->x_split_weight(), cell_cost(o, *prototype)),
@@ -330,7 +297,7 @@ struct HybridBroadPhase::Impl {
           Worker w;
           w.engine = prototype->clone();
           if (options.max_pairs) w.engine->set_pair_limit(options.max_pairs);
-          w.direct = dynamic_cast<const SoftwareEngine*>(w.engine.get());
+          w.direct = w.engine->hit_stream();
           return w;
         }) {}
 
@@ -344,10 +311,10 @@ struct HybridBroadPhase::Impl {
 
   // ---- One cell through the engine ---------------------------------------
 
-  // The cell in min-x order, and for the software engine its owner codes.
+  // The cell in min-x order, and for a streaming engine its owner codes.
   static void load_cell(Worker& w, std::span<const CellEntry> entries, const CellRegion& region) {
     w.cell.load(entries);
-    if (w.direct) SoftwareEngine::owner_codes(w.cell.boxes(), region, w.codes);
+    if (w.direct) w.direct->owner_codes(w.cell.boxes(), region, w.codes);
   }
 
   // Appends the owned pairs (global ids, canonical) of the loaded cell to out.
@@ -361,7 +328,7 @@ struct HybridBroadPhase::Impl {
       emit_tiled(w, region, out, r);
   }
 
-  // The software engine writes global ids into the stage; the stage drains
+  // A streaming engine writes global ids into the stage; the stage drains
   // into out whenever it fills. Should out grow past `limit` pairs (a
   // store's touch budget), what the cell appended is taken back and false
   // returned.
@@ -519,7 +486,7 @@ struct HybridBroadPhase::Impl {
     for_each_cell(cells, [&](std::uint32_t c) {
       std::vector<Pair>& v = cell_pairs[c];
       if (!v.empty()) std::memcpy(pairs.data() + offsets[c], v.data(), v.size() * sizeof(Pair));
-      release_if_oversized(v, v.size(), kKeepCellPairs);
+      retained::release(v, v.size(), kKeepCellPairs);
     });
   }
 
@@ -540,7 +507,7 @@ struct HybridBroadPhase::Impl {
     }
     if (!count_dense_cells && !w.store_full && store_within_budget(w, region, r)) return;
     const std::uint32_t n = w.cell.size();
-    const std::size_t room = kStoredPairsPerBox * n + n + SoftwareEngine::kOutputSlack;
+    const std::size_t room = kStoredPairsPerBox * n + n + CellHitStream::kOutputSlack;
     fit_stage(w, std::max(room, stage_pairs(n)));
     std::size_t count = 0;
     std::uint32_t row =
@@ -698,8 +665,8 @@ struct HybridBroadPhase::Impl {
   // ---- A first frame written once --------------------------------------------
   //
   // A frame with no last count would count its dense cells, then run their
-  // kernel again to write them (the old first frame: ~45 + ~64 ms of two
-  // threads on clustered 1,000,000). With two lanes and cells built this
+  // kernel again to write them (two kernel runs of the densest cells). With
+  // two lanes and cells built this
   // frame (no refresh deferred to the engine, so loading a cell twice has no
   // side effect) the list is sized from a sample instead: every
   // kFirstFrameSampleStride-th cell counted, scaled by entries, plus a margin,
@@ -766,7 +733,7 @@ struct HybridBroadPhase::Impl {
       row = w.direct->emit_hits(w.cell.boxes(), w.cell.ids(), w.codes.data(), partition->region(c), row, w.first.data(),
                                 w.second.data(), w.first.size(), count);
       if (written + count > r.pairs) throw std::logic_error("hybrid broad phase: cell pair count changed");
-      SoftwareEngine::write_pairs(w.first.data(), w.second.data(), count, dst + written);
+      CellHitStream::write_pairs(w.first.data(), w.second.data(), count, dst + written);
       written += count;
     }
     if (written != r.pairs) throw std::logic_error("hybrid broad phase: cell pair count changed");
@@ -811,7 +778,7 @@ struct HybridBroadPhase::Impl {
         move_pairs(from, to, back_pairs);
         pairs.resize(total);
         // A first frame's estimate far too high: the list's storage follows the frame.
-        if (estimated_list) fit_if_oversized(pairs, kKeepPairs);
+        if (estimated_list) retained::trim(pairs, kKeepPairs);
       } else {
         if (total > pairs.capacity()) pairs.reserve(total + total / 8);
         pairs.resize(total);
@@ -886,7 +853,7 @@ struct HybridBroadPhase::Impl {
   // lists ask for transparent huge pages (a pair-dense frame's list is
   // hundreds of megabytes: 512 times fewer page faults on the first frame).
   void reserve_output(std::size_t total) {
-    release_if_oversized(pairs, total, kKeepPairs);
+    retained::release(pairs, total, kKeepPairs);
     if (total <= pairs.capacity()) return;
     std::vector<Pair>().swap(pairs);
     pairs.reserve(list_capacity(total + total / 8));
@@ -951,10 +918,10 @@ struct HybridBroadPhase::Impl {
     for (Worker& other : workers) other.stored.clear();
     Worker& w = workers.local();
     w.cell.load(boxes);
-    if (w.direct) SoftwareEngine::owner_codes(w.cell.boxes(), CellRegion::everything(), w.codes);
+    if (w.direct) w.direct->owner_codes(w.cell.boxes(), CellRegion::everything(), w.codes);
     outcomes.assign(1, CellOutcome{});
     pairs.clear();
-    release_if_oversized(pairs, 0, kKeepPairs);
+    retained::release(pairs, 0, kKeepPairs);
     emit_cell(w, CellRegion::everything(), pairs, outcomes[0]);
     if (consumer) consumer(0, pairs.data(), pairs.size());
     if (sink) sink(0, pairs.data(), pairs.size());
@@ -991,7 +958,7 @@ struct HybridBroadPhase::Impl {
       } else {
         // The last frame's list is dead now; one much larger than this frame
         // needs is released rather than kept as room.
-        release_if_oversized(pairs, last_frame_pairs, kKeepPairs);
+        retained::release(pairs, last_frame_pairs, kKeepPairs);
       }
       if (front_lane_allowed())
         run_lanes(cells);
@@ -1007,8 +974,8 @@ struct HybridBroadPhase::Impl {
 
   void sort_output() {
     if (options.sorted) parallel_sort_pairs(pairs, sort_scratch, arena);  // scratch: the list + a small tail
-    release_if_oversized(sort_scratch, options.sorted ? pairs.size() : 0, kKeepPairs);
-    release_if_oversized(move_scratch, move_scratch.size(), kKeepPairs);
+    retained::release(sort_scratch, options.sorted ? pairs.size() : 0, kKeepPairs);
+    retained::release(move_scratch, move_scratch.size(), kKeepPairs);
     move_scratch.clear();
   }
 
@@ -1016,9 +983,9 @@ struct HybridBroadPhase::Impl {
   void release_worker_buffers() {
     for (Worker& w : workers) {
       w.touched = std::max(w.touched, w.stored.size());
-      release_if_oversized(w.stored, std::max(w.stored.size(), store_share()), kKeepPairs);
+      retained::release(w.stored, std::max(w.stored.size(), store_share()), kKeepPairs);
       if (w.stored.capacity() == 0) w.touched = 0;
-      release_if_oversized(w.local, w.local.size(), kKeepPairs);
+      retained::release(w.local, w.local.size(), kKeepPairs);
     }
   }
 

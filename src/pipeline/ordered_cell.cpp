@@ -6,6 +6,7 @@
 #include <numeric>
 
 #include "engines/min_x_order.hpp"
+#include "support/retained.hpp"
 
 #if defined(__SSE2__)
 #include <immintrin.h>
@@ -16,10 +17,6 @@ namespace hbp {
 namespace {
 
 constexpr std::uint32_t kIdPadding = 16;  // the kernels read ids a vector past the end
-// Buffers sized for an over-full cell are released once cells are this much
-// smaller again (memory follows the current frame, not the largest cell ever).
-constexpr std::size_t kKeepSlack = 4;
-constexpr std::size_t kKeepAlways = 1 << 16;
 
 // One entry's eight words to the six box lanes and the id lane.
 inline void copy_entry(const CellEntry& e, float* const d[6], std::uint32_t* ids, std::uint32_t i) {
@@ -35,7 +32,7 @@ inline void copy_entry(const CellEntry& e, float* const d[6], std::uint32_t* ids
 // Entries (32 bytes each, in cell order or through `order`) to the cell's
 // structure-of-arrays lanes. Four entries at a time as two 4x4 transposes
 // of their halves (SSE2, part of x86-64): about half the loads and stores
-// of the entry-by-entry copy, which was 2-4 % of a 1,024,000-object frame.
+// of an entry-by-entry copy.
 void copy_entries(const CellEntry* entries, const std::uint32_t* order, std::uint32_t n, BoxArray& dst,
                   std::uint32_t* ids) {
   float* const d[6] = {dst.min(0), dst.min(1), dst.min(2), dst.max(0), dst.max(1), dst.max(2)};
@@ -67,7 +64,8 @@ void copy_entries(const CellEntry* entries, const std::uint32_t* order, std::uin
 }  // namespace
 
 void OrderedCell::fit(std::uint32_t n) {
-  if (boxes_.capacity() > kKeepSlack * n + kKeepAlways) {
+  // Sized for an over-full cell: released by the retained rule.
+  if (retained::oversized(boxes_.capacity(), n, retained::kSlack<Aabb>)) {
     boxes_ = BoxArray();
     std::vector<std::uint32_t>().swap(ids_);
     std::vector<std::uint32_t>().swap(order_);

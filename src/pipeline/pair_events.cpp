@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cstring>
 
+#include "support/retained.hpp"
+
 namespace hbp::detail {
 
 namespace {
@@ -44,11 +46,6 @@ void merge_range(const Pair* p, const Pair* p_end, const Pair* c, const Pair* c_
   while (p != p_end && c != c_end) step();
   removed.insert(removed.end(), p, p_end);
   created.insert(created.end(), c, c_end);
-}
-
-// Releases a buffer's memory when it holds far more than it needs now.
-void fit(std::vector<Pair>& v) {
-  if (v.capacity() > 4 * v.size() + 4096) v.shrink_to_fit();
 }
 
 // Range c covers current[c * kChunk, (c + 1) * kChunk) and the previous
@@ -98,8 +95,8 @@ void diff_ranges(const std::vector<Pair>& previous, const Pair* current, std::si
   for (std::size_t c = 0; c < chunks; ++c) {
     created.insert(created.end(), scratch.created[c].begin(), scratch.created[c].end());
     removed.insert(removed.end(), scratch.removed[c].begin(), scratch.removed[c].end());
-    fit(scratch.created[c]);
-    fit(scratch.removed[c]);
+    retained::trim(scratch.created[c]);
+    retained::trim(scratch.removed[c]);
   }
 }
 

@@ -1,6 +1,6 @@
 #pragma once
 // The frame's pair list sorted by (a, b) on all threads of the broad phase's
-// arena (issue 14): what HybridBroadPhase's default sorted output and the
+// arena: what HybridBroadPhase's default sorted output and the
 // engine API BroadPhase pay every frame.
 //
 // An MSD split, then independent buckets. One pass finds the range of the
@@ -21,8 +21,8 @@
 // Memory: `scratch` (the caller's, kept between frames) holds the pairs while
 // they are split, plus a tail for the per-chunk histograms (chunks x
 // buckets 32-bit counts: 8 x 256 of them on 2 threads at a million pairs,
-// at most 32 K, that is 16 K pairs of tail, inside the slack of the callers'
-// release_if_oversized rule); nothing else is allocated.
+// at most 32 K, that is 16 K pairs of tail, inside the slack of the
+// retained rule, support/retained.hpp); nothing else is allocated.
 #include <tbb/task_arena.h>
 
 #include <cstddef>
@@ -33,8 +33,7 @@
 namespace hbp {
 
 // The serial sort is faster below about this many pairs (paper scene, 2
-// threads, loaded machine: 0.189 vs 0.216 ms at 29,480 pairs, 0.484 vs
-// 0.393 ms at 74,150; see docs/hybrid-system.md, seventh session).
+// threads: bench_pair_sort).
 inline constexpr std::size_t kParallelPairSortFrom = 40000;
 
 // Orders pairs by (a, b), exactly as sort_pairs, on the threads of `arena`
