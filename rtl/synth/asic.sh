@@ -147,6 +147,17 @@ EOF
     slack=$(awk '/^worst slack/ { print $NF }' "$log.sta.log")
     total=$(awk '$1 == "Total" { print $5; exit }' "$log.sta.log")
     leak=$(awk '$1 == "Total" { print $4; exit }' "$log.sta.log")
+    # The critical path's ends by the nets their flip-flops drive (cell
+    # instance names are Yosys-generated; the Q nets keep the RTL's names).
+    endname() {
+      local inst
+      inst=$(awk -v k="$1:" '$1 == k { print $2; exit }' "$log.sta.log")
+      if [ -z "$inst" ]; then echo "?"; return; fi
+      if ! grep -q " $inst (" "$log.netlist.v"; then echo "$inst"; return; fi
+      awk -v i="$inst" '$2 == i && $3 == "(" { f = 1 } f && /\.Q\(/ { sub(/.*\.Q\(/, ""); sub(/\).*/, ""); gsub(/ /, ""); print; exit }' "$log.netlist.v"
+    }
+    from=$(endname Startpoint)
+    to=$(endname Endpoint)
     [ -n "$area" ] && [ -n "$slack" ] && [ -n "$total" ] || { echo "asic.sh: could not read $log.stat / $log.sta.log" >&2; exit 1; }
     # Plausibility (Yosys can drop logic silently): six 32-bit comparators a
     # lane need well over 100 cells each; every memory stayed a $mem cell.
@@ -167,6 +178,8 @@ EOF
       echo "memories = $mems"
       echo "clock_period_ns = $period_ns"
       echo "worst_slack_ns = $slack"
+      echo "critical_path_from = ${from:-?}"
+      echo "critical_path_to = ${to:-?}"
       echo "power_total_w = $total"
       echo "power_leakage_w = $leak"
       echo "global_activity = $(act ${d}_global_activity)"

@@ -29,6 +29,7 @@ class Fields {
       values_[trim(line.substr(0, eq))] = trim(line.substr(eq + 1));
     }
   }
+  bool has(const std::string& key) const { return values_.count(key) != 0; }
   const std::string& text(const std::string& key) const {
     const auto it = values_.find(key);
     if (it == values_.end() || it->second.empty()) throw InvalidInput(name_ + ": no value for '" + key + "'");
@@ -73,6 +74,8 @@ AsicReport parse_asic_report(std::string_view text, const std::string& name) {
   r.memories = static_cast<std::uint32_t>(f.count("memories"));
   r.clock_period_ns = f.number("clock_period_ns");
   r.worst_slack_ns = f.number("worst_slack_ns");
+  r.critical_path_from = f.has("critical_path_from") ? f.text("critical_path_from") : "?";
+  r.critical_path_to = f.has("critical_path_to") ? f.text("critical_path_to") : "?";
   r.power_total_w = f.number("power_total_w");
   r.power_leakage_w = f.number("power_leakage_w");
   r.global_activity = f.number("global_activity");

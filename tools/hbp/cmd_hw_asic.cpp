@@ -39,6 +39,7 @@ nlohmann::json row_json(const hw::AsicReport& r) {
                       {"flip_flops", r.flip_flops},
                       {"memories", inv.count()},
                       {"critical_path_ns", r.critical_path_ns()},
+                      {"critical_path", {{"from", r.critical_path_from}, {"to", r.critical_path_to}}},
                       {"fmax_mhz", r.fmax_hz() / 1e6},
                       {"power_w_at_100mhz", r.power_total_w},
                       {"logic_energy_per_cycle_pj", r.logic_energy_per_cycle_j() * 1e12},
@@ -78,6 +79,10 @@ void run_asic(const AsicOptions& o) {
                 hw::silicon_area(r, hw::find_process_node("28nm")).total_um2() / 1e6,
                 hw::silicon_area(r, hw::find_process_node("5nm")).total_um2() / 1e6);
   }
+  std::printf("\nCritical paths (register nets at their ends):\n");
+  for (const hw::AsicReport& r : s.reports)
+    std::printf("  %-15s m = %2u: %.2f ns, %s -> %s\n", hw::design_name(r.design), r.m, r.critical_path_ns(),
+                r.critical_path_from.c_str(), r.critical_path_to.c_str());
   std::printf("\nShare of a GTX TITAN X die (GM200, TSMC 28 nm, %.0f mm2), m = 16, depth 1024:\n", hw::kTitanXDieMm2);
   for (const hw::AsicReport& r : s.reports) {
     if (r.m != 16) continue;

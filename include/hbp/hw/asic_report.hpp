@@ -20,6 +20,7 @@ struct AsicReport {
   std::uint32_t memories = 0;    // $mem cells left for the SRAM model
   double clock_period_ns = 0;    // clock the power was reported at
   double worst_slack_ns = 0;     // at that clock
+  std::string critical_path_from, critical_path_to;  // nets of its end registers
   double power_total_w = 0;      // OpenSTA, at that clock and the activities
   double power_leakage_w = 0;
   double global_activity = 0;    // toggles per clock given to OpenSTA
