@@ -87,6 +87,13 @@ FrameRun run_frames(const std::string& engine, const EnergyOptions& o) {
   return r;
 }
 
+std::string cpu_estimate_label(const EnergyOptions& o) {
+  char text[160];
+  std::snprintf(text, sizeof text, "estimate: %.1f W per busy core x threads (no powercap on this machine)",
+                o.cpu_watts_per_core);
+  return text;
+}
+
 struct GpuFigure {
   std::string gpu;
   double energy_per_frame_j = 0;
@@ -125,9 +132,7 @@ void run_energy(const EnergyOptions& o) {
               {"frame_ms", cpu.wall_ms},
               {"energy_per_frame_j", cpu_j},
               {"measured", cpu_measured},
-              {"power_source", cpu_measured ? "RAPL package energy (powercap)"
-                                            : "estimate: " + std::to_string(o.cpu_watts_per_core) +
-                                                  " W per busy core x threads (no powercap on this machine)"}};
+              {"power_source", cpu_measured ? std::string("RAPL package energy (powercap)") : cpu_estimate_label(o)}};
   j["gpu"] = gpu ? nlohmann::json{{"gpu", gpu->gpu}, {"energy_per_frame_j", gpu->energy_per_frame_j},
                                   {"frame_ms", gpu->frame_ms}, {"measured", true}, {"report", o.gpu_report}}
                  : nlohmann::json{{"measured", false}, {"note", "not yet measured (no GPU report at " + o.gpu_report + ")"}};
