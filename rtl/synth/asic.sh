@@ -10,8 +10,8 @@
 #                     [--out DIR] [--activities FILE] [--sta-only]
 #
 # Writes one report per configuration, DIR/<design>_m<m>.txt (key = value
-# lines read by `hbp hw asic`), and keeps the Yosys/OpenSTA logs beside it in
-# DIR/logs/. Every report carries rtl_sha256, the hash of the RTL sources it
+# lines read by `hbp hw asic`), and keeps the Yosys script, log (gzip) and
+# cell statistics and the OpenSTA script and report in DIR/logs/. Every report carries rtl_sha256, the hash of the RTL sources it
 # was made from, so a test can tell a report that no longer matches the RTL.
 # --sta-only reuses the netlists of an earlier run (DIR/logs/*.netlist.v) and
 # redoes timing and power only (new activities). Default DIR:
@@ -119,6 +119,7 @@ EOF
       t0=$SECONDS
       yosys -q -l "$log.yosys.log" -s "$log.ys" > /dev/null 2>&1 || { echo "asic.sh: yosys failed, see $log.yosys.log" >&2; exit 1; }
       echo $((SECONDS - t0)) > "$log.seconds"
+      gzip -9 -f "$log.yosys.log"   # kept as data, ~1 MB a run uncompressed
     fi
     synth_s=$(cat "$log.seconds")
 

@@ -47,7 +47,9 @@ nlohmann::json row_json(const hw::AsicReport& r) {
   for (const hw::ProcessNode& n : hw::process_nodes()) {
     const hw::SiliconArea a = hw::silicon_area(r, n);
     j["area"][n.name] = {{"logic_um2", a.logic_um2}, {"memory_um2", a.memory_um2}, {"total_um2", a.total_um2()},
-                         {"memory_share", a.memory_share()}, {"modelled", n.name != std::string("180nm")}};
+                         {"memory_share", a.memory_share()},
+                         {"logic_source", &n == &hw::synthesis_node() ? "synthesised" : "scaled from the synthesised node"},
+                         {"memory_source", "analytic SRAM model"}};
   }
   return j;
 }

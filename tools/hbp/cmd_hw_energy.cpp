@@ -5,7 +5,8 @@
 //         the cycles that load the cells' boxes) x energy per cycle (flow's
 //         logic power at the measured activities + SRAM model); partition
 //         excluded as in the paper, and with our CPU partition's energy added.
-//   CPU:  the software engine's wall time x package power: RAPL (powercap)
+//   CPU:  the software engine's wall time (its own default cell limit) x
+//         package power: RAPL (powercap)
 //         where the machine exposes it, else an estimate labelled as such.
 //   GPU:  read from the GPU check's report when one is stored; otherwise
 //         "not yet measured".
@@ -58,11 +59,12 @@ std::optional<double> rapl_uj() {
   return std::nullopt;
 }
 
-// The last of `frames` frames (the first builds the partition).
-FrameRun run_frames(const std::string& engine, const EnergyOptions& o) {
+// The last of `frames` frames (the first builds the partition). cell_limit
+// 0: the engine's own default.
+FrameRun run_frames(const std::string& engine, std::uint32_t cell_limit, const EnergyOptions& o) {
   BroadPhaseOptions bo;
   bo.engine = engine;
-  bo.cell_limit = 1024;
+  bo.cell_limit = cell_limit;
   bo.threads = o.threads;
   HybridBroadPhase hybrid(bo);
   ScenarioParams sp;
@@ -119,7 +121,7 @@ std::optional<GpuFigure> read_gpu_report(const std::string& path) {
 void run_energy(const EnergyOptions& o) {
   const SiliconReports s = read_silicon_reports(o.reports);
   const unsigned cores = o.threads != 0 ? o.threads : std::max(1u, std::thread::hardware_concurrency());
-  const FrameRun cpu = run_frames("sw", o);
+  const FrameRun cpu = run_frames("sw", 0, o);
   const bool cpu_measured = cpu.rapl_j.has_value();
   const double cpu_watts = cores * o.cpu_watts_per_core;
   const double cpu_j = cpu_measured ? *cpu.rapl_j : cpu.wall_ms * 1e-3 * cpu_watts;
@@ -127,7 +129,7 @@ void run_energy(const EnergyOptions& o) {
 
   nlohmann::json j;
   j["scene"] = {{"kind", "paper"}, {"n", o.n}, {"cell_limit", 1024}, {"frames", o.frames}};
-  j["cpu"] = {{"engine", "sw"},
+  j["cpu"] = {{"engine", "sw (its default cell limit)"},
               {"threads", cores},
               {"frame_ms", cpu.wall_ms},
               {"energy_per_frame_j", cpu_j},
@@ -146,7 +148,7 @@ void run_energy(const EnergyOptions& o) {
     for (const hw::AsicReport& r : s.reports)
       if (r.design == d && r.m == 16) r16 = &r;
     if (!r16) throw InvalidInput("no m = 16 report for " + std::string(hw::design_name(d)) + " in " + o.reports);
-    const FrameRun acc = run_frames(d == hw::Design::AreaEfficient ? "ae" : "mo", o);
+    const FrameRun acc = run_frames(d == hw::Design::AreaEfficient ? "ae" : "mo", 1024, o);
     const hw::CycleActivity a = s.cycle_activity(d);
     const std::uint64_t cycles = acc.cycles + acc.load_cycles;
     const double partition_j = acc.partition_ms * 1e-3 * cpu_watts;
@@ -165,6 +167,7 @@ void run_energy(const EnergyOptions& o) {
                            {"partition_ms", acc.partition_ms},
                            {"energy_per_frame_with_partition_j", frame_j + partition_j},
                            {"cpu_over_asic", cpu_j / frame_j},
+                           {"cpu_over_asic_with_partition", cpu_j / (frame_j + partition_j)},
                            {"gpu_over_asic", gpu ? nlohmann::json(gpu->energy_per_frame_j / frame_j) : nlohmann::json(nullptr)}});
     }
   }
@@ -172,15 +175,16 @@ void run_energy(const EnergyOptions& o) {
     std::printf("%s\n", j.dump(2).c_str());
     return;
   }
-  std::printf("%-15s %-6s %12s %11s %10s %7s %13s %15s %10s\n", "ASIC (model)", "node", "cycles+load", "ms@500MHz",
-              "pJ/cycle", "mem%", "J/frame", "J/frame+part.", "CPU/ASIC");
+  std::printf("%-15s %-6s %12s %11s %10s %7s %13s %15s %10s %10s\n", "ASIC (model)", "node", "cycles+load",
+              "ms@500MHz", "pJ/cycle", "mem%", "J/frame", "J/frame+part.", "CPU/ASIC", "(+part.)");
   for (const nlohmann::json& a : j["asic"]) {
-    std::printf("%-15s %-6s %12llu %11.3f %10.1f %6.1f%% %13.4g %15.4g %10.0f\n",
+    std::printf("%-15s %-6s %12llu %11.3f %10.1f %6.1f%% %13.4g %15.4g %10.0f %10.2f\n",
                 a["design"].get<std::string>().c_str(), a["node"].get<std::string>().c_str(),
                 static_cast<unsigned long long>(a["cycles"].get<std::uint64_t>() + a["load_cycles"].get<std::uint64_t>()),
                 a["frame_ms_at_500mhz"].get<double>(), a["energy_per_cycle_pj"].get<double>(),
                 100 * a["memory_share"].get<double>(), a["energy_per_frame_j"].get<double>(),
-                a["energy_per_frame_with_partition_j"].get<double>(), a["cpu_over_asic"].get<double>());
+                a["energy_per_frame_with_partition_j"].get<double>(), a["cpu_over_asic"].get<double>(),
+                a["cpu_over_asic_with_partition"].get<double>());
   }
   std::printf("\nCPU (sw engine, %u threads, this machine): %.2f ms/frame, %.4g J/frame (%s)\n", cores, cpu.wall_ms,
               cpu_j, j["cpu"]["power_source"].get<std::string>().c_str());
