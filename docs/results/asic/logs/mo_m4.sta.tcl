@@ -1,5 +1,5 @@
-read_liberty /work/wt-silicon/docs/results/asic/logs/osu018_wl.lib
-read_verilog /work/wt-silicon/docs/results/asic/logs/mo_m4.netlist.v
+read_liberty docs/results/asic/logs/osu018_wl.lib
+read_verilog docs/results/asic/logs/mo_m4.netlist.v
 link_design hbp_many_object
 create_clock -name clk -period 10 [get_ports clk]
 set inputs [delete_from_list [all_inputs] [get_ports clk]]
