@@ -6,6 +6,7 @@
 //            of n and m, for design-space exploration
 //   trace    the per-cycle sequence in the layout of Tables 1 and 3
 //   run      one scene through a simulated model: counters and oracle check
+//   activity, asic, energy: the silicon estimates (cmd_hw_silicon.hpp)
 #include <algorithm>
 #include <charconv>
 #include <chrono>
@@ -18,6 +19,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "cmd_hw_silicon.hpp"
 #include "command_registry.hpp"
 #include "option_checks.hpp"
 #include "hbp/brute_force.hpp"
@@ -588,6 +590,10 @@ void setup_hw(CLI::App& app) {
   r->add_flag("--count-load", run->count_load, "Put loading the n AABBs on the modelled clock");
   r->add_flag("--json", run->json, "JSON output");
   r->callback([run] { run_run(*run); });
+
+  setup_hw_activity(*hw);
+  setup_hw_asic(*hw);
+  setup_hw_energy(*hw);
 }
 
 const RegisterCommand kRegisterHw(setup_hw);

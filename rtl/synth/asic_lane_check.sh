@@ -1,0 +1,52 @@
+#!/usr/bin/env bash
+# The flow on one float32 comparator (hbp_fcmp_le, a <= b): cells, area,
+# input-to-output delay and energy per compare with random operands
+# (activity 0.5 on every input bit), for the hand estimate from the
+# Liberty tables in docs/hardware.md ("Silicon"). Same cells, ABC script and
+# wire-load model as rtl/synth/asic.sh.
+#   rtl/synth/asic_lane_check.sh [OUT]   (default docs/results/asic/fcmp_lane.txt)
+set -euo pipefail
+here="$(cd "$(dirname "$0")" && pwd)"
+rtl="$(dirname "$here")"
+repo="$(dirname "$rtl")"
+out="${1:-$repo/docs/results/asic/fcmp_lane.txt}"
+lib=/usr/share/qflow/tech/osu018/osu018_stdcells.lib
+work="$(mktemp -d)"
+trap 'rm -rf "$work"' EXIT
+awk '{ print } /^library\(osu018_stdcells\)/ {
+  print "  wire_load(\"hbp_local\") { resistance : 0 ; capacitance : 0.0002 ; area : 0 ; slope : 20 ;"
+  print "    fanout_length(1, 20); fanout_length(2, 40); fanout_length(4, 80); fanout_length(8, 160); }"
+  print "  default_wire_load : \"hbp_local\" ;" }' "$lib" > "$work/wl.lib"
+printf 'set_driving_cell BUFX2\nset_load 0.02\n' > "$work/abc.sdc"
+yosys -q -l "$work/yosys.log" -p "read_verilog -sv $rtl/hbp_fcmp_le.sv; synth -top hbp_fcmp_le -flatten; \
+  abc -liberty $lib -D 4000 -constr $work/abc.sdc; opt_clean; tee -o $work/stat stat -liberty $lib; \
+  write_verilog -noattr -noexpr $work/net.v" > /dev/null
+cat > "$work/sta.tcl" <<EOF2
+read_liberty $work/wl.lib
+read_verilog $work/net.v
+link_design hbp_fcmp_le
+create_clock -name vclk -period 10
+set_input_delay 0 -clock vclk [all_inputs]
+set_output_delay 0 -clock vclk [all_outputs]
+set_driving_cell -lib_cell BUFX2 [all_inputs]
+set_load 0.02 [all_outputs]
+report_checks -path_delay max -digits 3
+set_power_activity -input -activity 0.5
+report_power -digits 6
+EOF2
+sta -no_splash -exit "$work/sta.tcl" > "$work/sta.log" 2>&1
+cells=$(awk '/Number of cells:/ { n = $NF } END { print n }' "$work/stat")
+area=$(awk '/Chip area for/ { print $NF }' "$work/stat")
+arrival=$(awk '/data arrival time/ { print $1; exit }' "$work/sta.log")
+power=$(awk '$1 == "Total" { print $5; exit }' "$work/sta.log")
+{
+  echo "# one hbp_fcmp_le (float32 a <= b), OSU018, by rtl/synth/asic_lane_check.sh"
+  echo "cells = $cells"
+  echo "area_um2 = $area"
+  echo "delay_ns = $arrival"
+  echo "power_w_at_100mhz_random_operands = $power"
+  awk -v p="$power" 'BEGIN { printf "energy_per_compare_pj = %.4f\n", p * 10e-9 * 1e12 }'
+  echo "# cells by type"
+  awk '$1 ~ /^[A-Z][A-Z0-9]*X[0-9]$/ { printf "cell_%s = %s\n", $1, $2 }' "$work/stat"
+} > "$out"
+cat "$out"
