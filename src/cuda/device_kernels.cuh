@@ -12,8 +12,11 @@ namespace hbp::cuda {
 
 // Boxes that fit the accelerator's buffer memories (shared memory) are
 // swept there; a larger cell is swept from global memory by the same body.
-inline constexpr std::uint32_t kBlockBoxes = 1024;
-inline constexpr std::uint32_t kLanes = 128;
+// 256 boxes (7 KiB) and 64 lanes per block: the grid targets ~16 boxes per
+// cell (~35 references), and 32 such blocks fill an SM's 2048 threads
+// within its shared memory.
+inline constexpr std::uint32_t kBlockBoxes = 256;
+inline constexpr std::uint32_t kLanes = 64;
 
 // acc[0..2] ordered min of lo, acc[3..5] ordered max of hi, acc[6] the first
 // defective object (n when none); acc must hold {~0 x3, 0 x3, n} before.
