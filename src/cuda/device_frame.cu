@@ -5,14 +5,12 @@
 // ever truncated. Buffers are kept across frames (device_support.cuh).
 #include <cuda_runtime.h>
 
-#include <cub/device/device_radix_sort.cuh>
-#include <cub/device/device_scan.cuh>
-
 #include <algorithm>
 #include <cstring>
 #include <vector>
 
 #include "cuda/device_kernels.cuh"
+#include "cuda/device_primitives.cuh"
 #include "cuda/device_support.cuh"
 #include "cuda/frame_impl.hpp"
 #include "cuda/grid_plan.hpp"
@@ -156,8 +154,8 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     reserve(ref_offset_, (std::size_t{n} + 1) * 4);
     reserve(large_offset_, (std::size_t{n} + 1) * 4);
     launch_reference_count(g, b, n, ref_count_.as<std::uint32_t>(), is_large_.as<std::uint32_t>(), stream_);
-    inclusive_sum(ref_count_.as<std::uint32_t>(), ref_offset_.as<std::uint32_t>(), n);
-    inclusive_sum(is_large_.as<std::uint32_t>(), large_offset_.as<std::uint32_t>(), n);
+    scan(ref_count_.as<std::uint32_t>(), ref_offset_.as<std::uint32_t>(), n);
+    scan(is_large_.as<std::uint32_t>(), large_offset_.as<std::uint32_t>(), n);
     check_cuda(cudaMemcpyAsync(pinned_, ref_offset_.as<std::uint32_t>() + n, 4, cudaMemcpyDeviceToHost, stream_), "refs");
     check_cuda(cudaMemcpyAsync(reinterpret_cast<std::uint32_t*>(pinned_) + 1, large_offset_.as<std::uint32_t>() + n, 4,
                                cudaMemcpyDeviceToHost, stream_),
@@ -178,16 +176,12 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     record(kRefs);
 
     // Sort by (cell, min x) (stable), gather, cells.
-    cub::DoubleBuffer<std::uint64_t> keys(keys_.as<std::uint64_t>(), keys_alt_.as<std::uint64_t>());
-    cub::DoubleBuffer<std::uint32_t> ids(ids_.as<std::uint32_t>(), ids_alt_.as<std::uint32_t>());
-    if (refs) {
-      std::size_t bytes = 0;
-      const int end_bit = 32 + cell_bits(grid_.cells());
-      check_cuda(cub::DeviceRadixSort::SortPairs(nullptr, bytes, keys, ids, refs, 0, end_bit, stream_), "sort size");
-      reserve(temp_, bytes);
-      check_cuda(cub::DeviceRadixSort::SortPairs(temp_.as<void>(), bytes, keys, ids, refs, 0, end_bit, stream_),
-                 "sort references");
-    }
+    std::uint64_t* sorted_keys = nullptr;
+    std::uint32_t* sorted_ids = nullptr;
+    if (sort_pairs(keys_.as<std::uint64_t>(), keys_alt_.as<std::uint64_t>(), ids_.as<std::uint32_t>(),
+                   ids_alt_.as<std::uint32_t>(), refs, 32 + cell_bits(grid_.cells()), temp_, &sorted_keys,
+                   &sorted_ids, stream_))
+      ++info.allocations;
     reserve(lanes_, std::size_t{6} * (refs + 1) * sizeof(float));
     reserve(head_, (std::size_t{refs} + 1) * 4);
     reserve(head_scan_, (std::size_t{refs} + 1) * 4);
@@ -196,10 +190,10 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     reserve(regions_, (std::size_t{max_cells} + 1) * sizeof(CellRegion));
     reserve(cells_, 4);
     check_cuda(cudaMemsetAsync(cells_.as<std::uint32_t>(), 0, 4, stream_), "cells");
-    launch_gather(b, keys.Current(), ids.Current(), refs, lanes_.as<float>(), head_.as<std::uint32_t>(), stream_);
-    inclusive_sum(head_.as<std::uint32_t>(), head_scan_.as<std::uint32_t>(), refs);
-    // inclusive_sum writes out[1..refs]; the cells kernel reads the scan itself.
-    launch_cells(g, keys.Current(), head_scan_.as<std::uint32_t>() + 1, refs, cell_begin_.as<std::uint32_t>(),
+    launch_gather(b, sorted_keys, sorted_ids, refs, lanes_.as<float>(), head_.as<std::uint32_t>(), stream_);
+    scan(head_.as<std::uint32_t>(), head_scan_.as<std::uint32_t>(), refs);
+    // The scan is written to out[1..refs]: the cells kernel reads it from there.
+    launch_cells(g, sorted_keys, head_scan_.as<std::uint32_t>() + 1, refs, cell_begin_.as<std::uint32_t>(),
                  regions_.as<CellRegion>(), cells_.as<std::uint32_t>(), stream_);
     record(kSorted);
 
@@ -208,7 +202,7 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     const std::size_t stride = refs;
     const SortedLanes s{{lanes, lanes + stride, lanes + 2 * stride},
                         {lanes + 3 * stride, lanes + 4 * stride, lanes + 5 * stride},
-                        ids.Current()};
+                        sorted_ids};
     const std::uint32_t chunk = large_chunk(n, large);
     const std::uint32_t chunks = large ? (n + chunk - 1) / chunk : 0;
     const std::uint64_t slots = std::uint64_t{refs} + std::uint64_t{large} * chunks;
@@ -219,7 +213,7 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
                      max_cells, counts, nullptr, nullptr, stream_);
     launch_large_rows(b, n, is_large_.as<std::uint32_t>(), large_list_.as<std::uint32_t>(), large, chunk,
                       counts + refs, nullptr, nullptr, stream_);
-    inclusive_sum(counts, offsets_.as<std::uint64_t>(), slots);
+    scan(counts, offsets_.as<std::uint64_t>(), slots);
     check_cuda(cudaMemcpyAsync(pinned_, offsets_.as<std::uint64_t>() + slots, 8, cudaMemcpyDeviceToHost, stream_),
                "pair count");
     check_cuda(cudaMemcpyAsync(pinned_ + 1, cells_.as<std::uint32_t>(), 4, cudaMemcpyDeviceToHost, stream_), "cells");
@@ -244,12 +238,11 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
       reserve(pair_keys_, total * 8);
       reserve(pair_keys_alt_, total * 8);
       launch_pack_pairs(out, total, pair_keys_.as<std::uint64_t>(), stream_);
-      cub::DoubleBuffer<std::uint64_t> pk(pair_keys_.as<std::uint64_t>(), pair_keys_alt_.as<std::uint64_t>());
-      std::size_t bytes = 0;
-      check_cuda(cub::DeviceRadixSort::SortKeys(nullptr, bytes, pk, total, 0, 64, stream_), "pair sort size");
-      reserve(temp_, bytes);
-      check_cuda(cub::DeviceRadixSort::SortKeys(temp_.as<void>(), bytes, pk, total, 0, 64, stream_), "sort pairs");
-      launch_unpack_pairs(pk.Current(), total, out, stream_);
+      std::uint64_t* sorted_pairs = nullptr;
+      if (sort_keys(pair_keys_.as<std::uint64_t>(), pair_keys_alt_.as<std::uint64_t>(), total, temp_, &sorted_pairs,
+                    stream_))
+        ++info.allocations;
+      launch_unpack_pairs(sorted_pairs, total, out, stream_);
     }
     record(kOrdered);
     info.pairs = total;
@@ -258,15 +251,8 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
 
   // out[0] = 0, out[1 + i] = in[0] + ... + in[i] (n + 1 entries).
   template <class T>
-  void inclusive_sum(const T* in, T* out, std::uint64_t n) {
-    check_cuda(cudaMemsetAsync(out, 0, sizeof(T), stream_), "scan init");
-    if (!n) return;
-    std::size_t bytes = 0;
-    check_cuda(cub::DeviceScan::InclusiveSum(nullptr, bytes, in, out + 1, static_cast<std::int64_t>(n), stream_),
-               "scan size");
-    reserve(temp_, bytes);
-    check_cuda(cub::DeviceScan::InclusiveSum(temp_.as<void>(), bytes, in, out + 1, static_cast<std::int64_t>(n), stream_),
-               "scan");
+  void scan(const T* in, T* out, std::uint64_t n) {
+    if (hbp::cuda::inclusive_sum(in, out, n, temp_, stream_)) ++info.allocations;
   }
 
   [[noreturn]] void report_defect(const BoxLanesView& b, std::uint32_t i) {

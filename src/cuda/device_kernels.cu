@@ -172,6 +172,44 @@ __global__ void unpack_kernel(const std::uint64_t* keys, std::uint64_t count, st
 
 unsigned grid_for(std::uint64_t n) { return static_cast<unsigned>((n + kThreads - 1) / kThreads); }
 
+__global__ void centre_sums_kernel(BoxLanesView b, std::uint32_t n, double* sums) {
+  double acc[6] = {0, 0, 0, 0, 0, 0};
+  for (std::uint32_t i = blockIdx.x * blockDim.x + threadIdx.x; i < n; i += gridDim.x * blockDim.x)
+    for (int k = 0; k < 3; ++k) {
+      const double c = static_cast<double>(b.lo[k][i]) + b.hi[k][i];
+      acc[k] += c;
+      acc[3 + k] += c * c;
+    }
+  for (int v = 0; v < 6; ++v) {
+    for (int d = 16; d > 0; d /= 2) acc[v] += __shfl_down_sync(0xffffffffu, acc[v], d);
+    if ((threadIdx.x & 31u) == 0) atomicAdd(sums + v, acc[v]);
+  }
+}
+
+__global__ void axis_keys_kernel(BoxLanesView b, std::uint32_t n, std::uint64_t* keys, std::uint32_t* ids) {
+  const std::uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  keys[i] = ordered_bits(b.lo[0][i]);
+  ids[i] = i;
+}
+
+__global__ void scene_rows_kernel(SortedLanes sorted, std::uint32_t n, std::uint64_t* counts,
+                                  const std::uint64_t* offsets, std::uint32_t* out) {
+  const std::uint32_t r = blockIdx.x * blockDim.x + threadIdx.x;
+  if (r >= n) return;
+  const CellRegion everything{{-__builtin_huge_valf(), -__builtin_huge_valf(), -__builtin_huge_valf()},
+                              {__builtin_huge_valf(), __builtin_huge_valf(), __builtin_huge_valf()}};
+  if (!out) {
+    counts[r] = sweep_row(sorted, r, n, everything, [](std::uint32_t, std::uint32_t, std::uint32_t) {});
+  } else {
+    std::uint32_t* row = out + 2 * offsets[r];
+    sweep_row(sorted, r, n, everything, [row](std::uint32_t k, std::uint32_t a, std::uint32_t bb) {
+      row[2 * k] = a < bb ? a : bb;
+      row[2 * k + 1] = a < bb ? bb : a;
+    });
+  }
+}
+
 }  // namespace
 
 void launch_bounds(const BoxLanesView& b, std::uint32_t n, std::uint32_t* acc, cudaStream_t s) {
@@ -225,6 +263,25 @@ void launch_large_rows(const BoxLanesView& b, std::uint32_t n, const std::uint32
   large_rows_kernel<<<grid_for(slots), kThreads, 0, s>>>(b, n, is_large, large_list, large, chunk, chunks, counts,
                                                          offsets, out);
   check_cuda(cudaGetLastError(), "large rows kernel");
+}
+
+void launch_centre_sums(const BoxLanesView& b, std::uint32_t n, double* sums, cudaStream_t s) {
+  if (!n) return;
+  centre_sums_kernel<<<blocks_for(n) < 1024 ? blocks_for(n) : 1024, kThreads, 0, s>>>(b, n, sums);
+  check_cuda(cudaGetLastError(), "centre sums kernel");
+}
+
+void launch_axis_keys(const BoxLanesView& b, std::uint32_t n, std::uint64_t* keys, std::uint32_t* ids, cudaStream_t s) {
+  if (!n) return;
+  axis_keys_kernel<<<grid_for(n), kThreads, 0, s>>>(b, n, keys, ids);
+  check_cuda(cudaGetLastError(), "axis keys kernel");
+}
+
+void launch_scene_rows(const SortedLanes& sorted, std::uint32_t n, std::uint64_t* counts, const std::uint64_t* offsets,
+                       std::uint32_t* out, cudaStream_t s) {
+  if (!n) return;
+  scene_rows_kernel<<<grid_for(n), kThreads, 0, s>>>(sorted, n, counts, offsets, out);
+  check_cuda(cudaGetLastError(), "scene rows kernel");
 }
 
 void launch_pack_pairs(const std::uint32_t* pairs, std::uint64_t count, std::uint64_t* keys, cudaStream_t s) {

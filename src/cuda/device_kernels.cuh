@@ -42,6 +42,16 @@ void launch_cell_rows(const SortedLanes& sorted, const std::uint32_t* cell_begin
 void launch_large_rows(const BoxLanesView& b, std::uint32_t n, const std::uint32_t* is_large,
                        const std::uint32_t* large_list, std::uint32_t large, std::uint32_t chunk, std::uint64_t* counts,
                        const std::uint64_t* offsets, std::uint32_t* out, cudaStream_t s);
+// The axis sweep peer: sums and sums of squares of the centres (min + max)
+// per axis into sums[0..5] (zeroed before; double atomics: the axis choice
+// may differ in the last bits between runs, the pairs never), the sort keys
+// (ordered min on the lanes' first axis, ids 0..n-1), and a thread per row
+// of the whole scene sweeping it (counts, or with `out` the pairs).
+void launch_centre_sums(const BoxLanesView& b, std::uint32_t n, double* sums, cudaStream_t s);
+void launch_axis_keys(const BoxLanesView& b, std::uint32_t n, std::uint64_t* keys, std::uint32_t* ids, cudaStream_t s);
+void launch_scene_rows(const SortedLanes& sorted, std::uint32_t n, std::uint64_t* counts, const std::uint64_t* offsets,
+                       std::uint32_t* out, cudaStream_t s);
+
 // Pairs <-> 64-bit keys (a << 32 | b) for sorting by (a, b).
 void launch_pack_pairs(const std::uint32_t* pairs, std::uint64_t count, std::uint64_t* keys, cudaStream_t s);
 void launch_unpack_pairs(const std::uint64_t* keys, std::uint64_t count, std::uint32_t* pairs, cudaStream_t s);

@@ -14,6 +14,7 @@
 #include <cuda_runtime.h>
 
 #include "cuda_test_scenes.hpp"
+#include "hbp/cuda/axis_sweep.hpp"
 #include "hbp/cuda/frame_broadphase.hpp"
 #include "hbp/error.hpp"
 #ifdef HBP_TEST_CUDA_ENGINES
@@ -118,6 +119,22 @@ TEST(CudaDevice, DeviceEntryLeavesPairsOnTheDevice) {
   EXPECT_EQ(pairs, cuda_test::all_pairs(boxes));
   cudaStreamDestroy(stream);
   cudaFree(d);
+}
+
+TEST(CudaDevice, AxisSweepPeerMatchesTheOracle) {
+  REQUIRE_DEVICE();
+  std::vector<BoxArray> scenes;
+  for (ScenarioKind kind : kKinds) scenes.push_back(cuda_test::scenario_frames(kind, 4000, 1)[0]);
+  scenes.push_back(cuda_test::all_on_one_point(2000));
+  scenes.push_back(cuda_test::spanning_world(300, 2000));
+  cuda::FrameOptions o;
+  o.launcher = cuda::Launcher::Device;
+  cuda::AxisSweep sweep(o);
+  for (std::size_t s = 0; s < scenes.size(); ++s)
+    ASSERT_EQ(sweep.update(lanes_of(scenes[s])), cuda_test::all_pairs(scenes[s])) << "scene " << s;
+  o.max_pairs = 1000;
+  cuda::AxisSweep limited(o);
+  EXPECT_THROW(limited.update(lanes_of(cuda_test::all_on_one_point(100))), CapacityExceeded);
 }
 
 #ifdef HBP_TEST_CUDA_ENGINES

@@ -10,6 +10,7 @@
 #include "cuda_test_scenes.hpp"
 #include "hbp/brute_force.hpp"
 #include "hbp/cell_engine.hpp"
+#include "hbp/cuda/axis_sweep.hpp"
 #include "hbp/cuda/cuda_engines.hpp"
 #include "hbp/cuda/frame_broadphase.hpp"
 #include "hbp/error.hpp"
@@ -165,6 +166,46 @@ TEST(CudaHostFrame, DeviceLauncherWithoutADeviceSaysSo) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("no CUDA device found"), std::string::npos) << e.what();
   }
+}
+
+// ---- The one-axis sort-and-sweep peer (CPU twin) -----------------------------------
+
+TEST(CudaHostAxisSweep, EveryScenarioKindAndTheAdversarialScenes) {
+  std::vector<BoxArray> scenes;
+  for (ScenarioKind kind : kKinds) scenes.push_back(cuda_test::scenario_frames(kind, 3000, 1)[0]);
+  scenes.push_back(cuda_test::all_on_one_point(1200));
+  scenes.push_back(cuda_test::spanning_world(200, 1500));
+  for (std::size_t s = 0; s < scenes.size(); ++s) {
+    const std::vector<Pair> expected = brute_force_pairs(scenes[s]);
+    std::vector<Pair> frame_order[2];
+    for (unsigned threads : {1u, 2u}) {
+      cuda::FrameOptions o;
+      o.threads = threads;
+      cuda::AxisSweep sorted(o);
+      ASSERT_EQ(sorted.update(lanes_of(scenes[s])), expected) << "scene " << s << " threads " << threads;
+      o.sorted = false;
+      cuda::AxisSweep unsorted(o);
+      frame_order[threads - 1] = unsorted.update(lanes_of(scenes[s]));
+    }
+    EXPECT_EQ(frame_order[0], frame_order[1]) << "scene " << s;
+    std::sort(frame_order[0].begin(), frame_order[0].end());
+    EXPECT_EQ(frame_order[0], expected) << "scene " << s;
+  }
+}
+
+TEST(CudaHostAxisSweep, PicksTheAxisOfLargestVarianceAndHonoursMaxPairs) {
+  BoxArray row(100);
+  for (std::uint32_t i = 0; i < 100; ++i) {
+    const float y = static_cast<float>(i) * 3;
+    row.set(i, Aabb{{0, y, 0}, {1, y + 4, 1}});  // spread along y; neighbours overlap
+  }
+  cuda::FrameOptions o;
+  cuda::AxisSweep sweep(o);
+  EXPECT_EQ(sweep.update(lanes_of(row)), brute_force_pairs(row));
+  EXPECT_EQ(sweep.axis(), 1);
+  o.max_pairs = 1000;
+  cuda::AxisSweep limited(o);
+  EXPECT_THROW(limited.update(lanes_of(cuda_test::all_on_one_point(100))), CapacityExceeded);  // 4,950 pairs
 }
 
 // ---- The cell engines ---------------------------------------------------------
