@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "cuda_test_scenes.hpp"
+#include "dedup/ownership.hpp"
 #include "hbp/brute_force.hpp"
 #include "hbp/cell_engine.hpp"
 #include "hbp/cuda/axis_sweep.hpp"
@@ -32,6 +33,12 @@ cuda::FrameBroadPhase host_frame(unsigned threads, bool sorted = true, std::uint
   o.max_pairs = max_pairs;
   return cuda::FrameBroadPhase(o);
 }
+
+// The ownership rule the kernels share with the CPU is one constexpr
+// function: evaluated at compile time here, on the device in the kernels.
+static_assert(dedup::owns(CellRegion{{0, 0, 0}, {1, 1, 1}}, 0.5f, -3, 0, 0.25f, 0.5f, 0.5f));
+static_assert(!dedup::owns(CellRegion{{0, 0, 0}, {1, 1, 1}}, 1.0f, 0, 0, 0, 0, 0));  // hi is open
+static_assert(dedup::owns_sorted_x(CellRegion{{0, 0, 0}, {1, 1, 1}}, 0, 0, 0, 0.9f, 0.9f));
 
 // Sorted output equals the oracle's list; the unsorted (frame order) list is
 // canonical, duplicate-free and the same set; and both are identical for 1
