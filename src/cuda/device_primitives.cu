@@ -14,7 +14,7 @@ bool sort_pairs(std::uint64_t* keys, std::uint64_t* keys_alt, std::uint32_t* ids
   if (n) {
     std::size_t bytes = 0;
     check_cuda(cub::DeviceRadixSort::SortPairs(nullptr, bytes, k, v, n, 0, end_bit, s), "sort size");
-    grew = temp.reserve(bytes);
+    grew = temp.reserve(bytes, false);
     check_cuda(cub::DeviceRadixSort::SortPairs(temp.as<void>(), bytes, k, v, n, 0, end_bit, s), "sort pairs");
   }
   *keys_out = k.Current();
@@ -29,7 +29,7 @@ bool sort_keys(std::uint64_t* keys, std::uint64_t* keys_alt, std::uint64_t n, De
   if (n) {
     std::size_t bytes = 0;
     check_cuda(cub::DeviceRadixSort::SortKeys(nullptr, bytes, k, n, 0, 64, s), "sort size");
-    grew = temp.reserve(bytes);
+    grew = temp.reserve(bytes, false);
     check_cuda(cub::DeviceRadixSort::SortKeys(temp.as<void>(), bytes, k, n, 0, 64, s), "sort keys");
   }
   *out = k.Current();
@@ -43,7 +43,7 @@ bool scan(const T* in, T* out, std::uint64_t n, DeviceBuffer& temp, cudaStream_t
   if (!n) return false;
   std::size_t bytes = 0;
   check_cuda(cub::DeviceScan::InclusiveSum(nullptr, bytes, in, out + 1, static_cast<std::int64_t>(n), s), "scan size");
-  const bool grew = temp.reserve(bytes);
+  const bool grew = temp.reserve(bytes, false);
   check_cuda(cub::DeviceScan::InclusiveSum(temp.as<void>(), bytes, in, out + 1, static_cast<std::int64_t>(n), s), "scan");
   return grew;
 }

@@ -28,9 +28,12 @@ class DeviceBuffer {
   DeviceBuffer(const DeviceBuffer&) = delete;
   DeviceBuffer& operator=(const DeviceBuffer&) = delete;
   ~DeviceBuffer() { cudaFree(data_); }
-  // Makes room for `bytes`; returns whether it allocated.
-  bool reserve(std::size_t bytes) {
-    if (data_ && capacity_ > 4 * bytes + (std::size_t{8} << 20)) release();
+  // Makes room for `bytes`; returns whether it allocated. `trim` false for a
+  // buffer asked several times per frame for different sizes (the CUB
+  // temporary storage): it only grows, or a small request after a large one
+  // would give back and reallocate within every frame.
+  bool reserve(std::size_t bytes, bool trim = true) {
+    if (trim && data_ && capacity_ > 4 * bytes + (std::size_t{8} << 20)) release();
     if (bytes <= capacity_ && data_) return false;
     release();
     // An eighth more than asked: frame-to-frame jitter of the reference and
