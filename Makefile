@@ -34,15 +34,16 @@ clean:
 	rm -rf $(BUILD)
 
 # ---- Hardening ----------------------------------------------------------------
-# Separate build directories; RTL and benchmarks are left out (not what the
-# sanitizers are for, and the Verilated model dominates build time).
+# Separate build directories; RTL, benchmarks and the CUDA room are left out
+# (not what the sanitizers are for; the Verilated model dominates build time;
+# nvcc's objects are not instrumented).
 ASAN_BUILD ?= build-asan
 TSAN_BUILD ?= build-tsan
 FUZZ_BUILD ?= build-fuzz
 FUZZ_SECONDS ?= 60
 FUZZ_TARGETS = scene_native scene_broadmark cli broadphase
 HARDEN_FLAGS = -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1" \
-  -DHBP_WERROR=OFF -DHBP_BUILD_RTL=OFF -DHBP_BUILD_BENCH=OFF
+  -DHBP_WERROR=OFF -DHBP_BUILD_RTL=OFF -DHBP_BUILD_BENCH=OFF -DHBP_CUDA=OFF
 # The installed-package consumer test builds an uninstrumented project
 # against the instrumented library: not meaningful here.
 SANITIZE_EXCLUDE = ^bullet_consumer_package$$
@@ -85,7 +86,7 @@ test-tsan: deps
 # $(FUZZ_BUILD)/corpus/<target>; crashes land in $(FUZZ_BUILD)/artifacts.
 fuzz: deps
 	cmake -S . -B $(FUZZ_BUILD) -G Ninja -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
-	  -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHBP_BUILD_RTL=OFF -DHBP_BUILD_BENCH=OFF -DHBP_FUZZ=ON \
+	  -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHBP_BUILD_RTL=OFF -DHBP_BUILD_BENCH=OFF -DHBP_CUDA=OFF -DHBP_FUZZ=ON \
 	  -DCMAKE_CXX_FLAGS="-fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=undefined"
 	cmake --build $(FUZZ_BUILD) -j $(JOBS) --target fuzzers
 	@set -e; for t in $(FUZZ_TARGETS); do \

@@ -24,22 +24,25 @@
 //
 // Plain inline C on floats (no std templates): kernels compiled for other
 // instruction sets sit next to its callers (see engines/box_kernels.hpp).
+// The point and the two tests below are constexpr and host/device
+// (HBP_HOST_DEVICE): the CUDA kernels (src/cuda) call these very functions.
 #include "hbp/cell_region.hpp"
+#include "hbp/host_device.hpp"
 
 namespace hbp::dedup {
 
 // The ownership point's coordinate on one axis: the larger of the two minima.
-inline float ownership_coord(float min_a, float min_b) { return min_a > min_b ? min_a : min_b; }
+HBP_HOST_DEVICE constexpr float ownership_coord(float min_a, float min_b) { return min_a > min_b ? min_a : min_b; }
 
 // True when the cell of region r reports the pair of boxes whose minimum
 // corners are (ax, ay, az) and (bx, by, bz) (the boxes are known to overlap).
-inline bool owns(const CellRegion& r, float ax, float ay, float az, float bx, float by, float bz) {
+HBP_HOST_DEVICE constexpr bool owns(const CellRegion& r, float ax, float ay, float az, float bx, float by, float bz) {
   return r.contains(ownership_coord(ax, bx), ownership_coord(ay, by), ownership_coord(az, bz));
 }
 
 // The same when box b follows box a in min-x order (the sweep): b's min x is
 // already the larger, so p's x is b's.
-inline bool owns_sorted_x(const CellRegion& r, float ay, float az, float bx, float by, float bz) {
+HBP_HOST_DEVICE constexpr bool owns_sorted_x(const CellRegion& r, float ay, float az, float bx, float by, float bz) {
   return r.contains(bx, ownership_coord(by, ay), ownership_coord(bz, az));
 }
 

@@ -292,7 +292,7 @@ const RegisterCommand reg([](CLI::App& app) {
   cmd->add_option("--n", args->n, "Objects")->capture_default_str();
   cmd->add_option("--frames", args->frames, "Frames")->check(at_least_one())->capture_default_str();
   cmd->add_option("--seed", args->seed, "Scenario seed (variant)")->capture_default_str();
-  cmd->add_option("--engine", args->engine, "Cell engine: sw, sw-allpairs, brute, ae, mo, ae-sim, mo-sim, rtl-ae, rtl-mo")
+  cmd->add_option("--engine", args->engine, "Cell engine: sw, sw-allpairs, brute, ae, mo, ae-sim, mo-sim, rtl-ae, rtl-mo, cuda-host, cuda")
       ->capture_default_str();
   cmd->add_option("--cell-limit", args->cell_limit, "Objects per cell (0: engine default)")->capture_default_str();
   cmd->add_option("--threads", args->threads, "Threads (0: all cores)")->check(threads_range())->capture_default_str();

@@ -8,10 +8,16 @@
 #ifdef HBP_HAVE_RTL
 #include "hbp/rtl/rtl_engines.hpp"
 #endif
+#ifdef HBP_HAVE_CUDA
+#include "hbp/cuda/cuda_engines.hpp"
+#endif
 
 int main(int argc, char** argv) {
 #ifdef HBP_HAVE_RTL
   hbp::rtl::register_rtl_engines();  // rtl-ae, rtl-mo: the Verilated RTL as cell engines
+#endif
+#ifdef HBP_HAVE_CUDA
+  hbp::cuda::register_cell_engines();  // cuda, cuda-host: the GPU accelerator kernel as cell engines
 #endif
   const auto app_ptr = hbp::cli::make_app();
   CLI::App& app = *app_ptr;

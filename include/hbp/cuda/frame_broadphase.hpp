@@ -1,0 +1,110 @@
+#pragma once
+// The whole broad-phase frame as GPU kernels (docs/gpu.md): a sort-based
+// uniform grid kept across frames, the accelerator's sweep with a thread
+// block per cell, the CPU's ownership rule for de-duplication, and a
+// compacted pair list sized by counting (count, scan, fill), so no pair is
+// ever dropped. The same kernel bodies run on the CPU (Launcher::Host, the
+// "cuda-host" path tested against the brute-force oracle) or on a CUDA device
+// (Launcher::Device).
+//
+// Pairs: canonical (a < b). With FrameOptions::sorted they are ordered by
+// (a, b), the oracle's order; otherwise in the frame's own order (cell, lane,
+// sweep; then the large boxes), which is the same on every launcher and
+// thread count.
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "hbp/pair.hpp"
+
+namespace hbp::cuda {
+
+enum class Launcher { Host, Device };
+
+struct FrameOptions {
+  Launcher launcher = Launcher::Host;
+  unsigned threads = 1;            // Host: CPU threads running the blocks (>= 1)
+  bool sorted = true;              // pairs ordered by (a, b)
+  std::uint64_t max_pairs = 0;     // 0: unlimited; else CapacityExceeded beyond
+  std::uint32_t boxes_per_cell = 16;  // the grid's target occupancy (>= 1)
+};
+
+// Boxes as six float lanes (min x/y/z, max x/y/z) of n objects: host memory
+// for update(), device memory for update_device().
+struct Lanes {
+  const float* lo[3] = {nullptr, nullptr, nullptr};
+  const float* hi[3] = {nullptr, nullptr, nullptr};
+  std::uint32_t n = 0;
+};
+
+// Milliseconds per stage of the last frame. Device: CUDA events on the
+// frame's stream (device time); upload/download are the host transfers,
+// reported apart. Host: steady-clock wall time.
+struct StageTimes {
+  double upload_ms = 0;   // boxes host -> device (update() only)
+  double bounds_ms = 0;   // bounds, validation
+  double refs_ms = 0;     // count and emit cell references
+  double sort_ms = 0;     // sort references by (cell, min x), gather, cells
+  double count_ms = 0;    // per-lane pair counts, scan
+  double fill_ms = 0;     // pair list
+  double order_ms = 0;    // sort pairs by (a, b) (FrameOptions::sorted)
+  double download_ms = 0; // pairs device -> host (update() only)
+  double frame_ms = 0;    // bounds .. order: the frame without transfers
+};
+
+struct FrameInfo {
+  std::uint64_t pairs = 0;
+  std::uint32_t references = 0;     // cell entries of the small boxes
+  std::uint32_t cells = 0;          // non-empty cells
+  std::uint32_t large = 0;          // boxes tested by the large pass
+  std::uint32_t grid[3] = {0, 0, 0};
+  bool replanned = false;           // the grid was planned anew this frame
+  std::uint64_t allocations = 0;    // buffer (re)allocations this frame
+  std::uint64_t buffer_bytes = 0;   // bytes held by the frame's buffers
+  StageTimes times;
+};
+
+// Pairs left in device memory by update_device(): `count` canonical pairs
+// (two uint32 each, a then b), valid until the next frame.
+struct DevicePairs {
+  const std::uint32_t* data = nullptr;
+  std::uint64_t count = 0;
+};
+
+class FrameBroadPhase {
+ public:
+  // Launcher::Device throws hbp::Error "no CUDA device found" when none is.
+  // Invalid options (threads or boxes_per_cell 0) throw InvalidInput.
+  explicit FrameBroadPhase(const FrameOptions& options = {});
+  ~FrameBroadPhase();
+  FrameBroadPhase(FrameBroadPhase&&) noexcept;
+  FrameBroadPhase& operator=(FrameBroadPhase&&) noexcept;
+
+  // Host arrays in, host pairs out. Throws InvalidInput naming the first
+  // object with a NaN/Inf coordinate or min > max, CapacityExceeded when the
+  // frame has more than max_pairs pairs (found before any pair is written).
+  const std::vector<Pair>& update(const Lanes& boxes);
+  // Device entry (Launcher::Device only): lanes in device memory, pairs left
+  // in device memory; the work is queued on `stream` (a cudaStream_t, null:
+  // the default stream) and finished when this returns.
+  DevicePairs update_device(const Lanes& device_boxes, void* stream = nullptr);
+
+  const std::vector<Pair>& pairs() const;
+  const FrameInfo& info() const;
+  const FrameOptions& options() const;
+
+  // Implementation (one per launcher); public so the launchers' files can
+  // derive from it.
+  struct Impl;
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+// Whether a CUDA device is usable, and its name ("" when none).
+bool device_available();
+std::string device_name();
+
+}  // namespace hbp::cuda

@@ -1,0 +1,313 @@
+// The GPU frame on a CUDA device: the stages of host_frame.cpp as kernels
+// (device_kernels.cu) and CUB scans and radix sorts on one stream. Three
+// small read-backs per frame size what follows (bounds -> grid; reference
+// count; pair count -> max_pairs check and the pair buffer), so nothing is
+// ever truncated. Buffers are kept across frames (device_support.cuh).
+#include <cuda_runtime.h>
+
+#include <algorithm>
+#include <cstring>
+#include <vector>
+
+#include "cuda/device_kernels.cuh"
+#include "cuda/device_primitives.cuh"
+#include "cuda/device_support.cuh"
+#include "cuda/frame_impl.hpp"
+#include "cuda/grid_plan.hpp"
+
+namespace hbp::cuda {
+
+void require_device() {
+  int count = 0;
+  if (cudaGetDeviceCount(&count) != cudaSuccess || count == 0) {
+    cudaGetLastError();  // clear the sticky error of a missing driver or device
+    throw Error("no CUDA device found (the \"cuda\" engine and Launcher::Device need an NVIDIA GPU; "
+                "\"cuda-host\" runs the same kernels on the CPU)");
+  }
+  check_cuda(cudaSetDevice(0), "cudaSetDevice");
+}
+
+bool device_available() {
+  int count = 0;
+  const bool ok = cudaGetDeviceCount(&count) == cudaSuccess && count > 0;
+  cudaGetLastError();
+  return ok;
+}
+
+std::string device_name() {
+  if (!device_available()) return "";
+  cudaDeviceProp p{};
+  if (cudaGetDeviceProperties(&p, 0) != cudaSuccess) return "";
+  return p.name;
+}
+
+namespace {
+
+float from_ordered(std::uint32_t u) {
+  const std::uint32_t bits = (u & 0x80000000u) ? (u & 0x7fffffffu) : ~u;
+  float f;
+  std::memcpy(&f, &bits, sizeof f);
+  return f;
+}
+
+int cell_bits(std::uint32_t cells) {
+  int bits = 1;
+  while ((std::uint64_t{1} << bits) < cells) ++bits;
+  return bits;
+}
+
+enum Stage { kStart, kUploaded, kBounds, kRefs, kSorted, kCounted, kFilled, kOrdered, kDownloaded, kStages };
+
+class DeviceFrame final : public FrameBroadPhase::Impl {
+ public:
+  explicit DeviceFrame(const FrameOptions& o) : Impl(o) {
+    require_device();
+    check_cuda(cudaStreamCreateWithFlags(&own_stream_, cudaStreamNonBlocking), "cudaStreamCreate");
+    for (auto& e : events_) check_cuda(cudaEventCreate(&e), "cudaEventCreate");
+    check_cuda(cudaMallocHost(&pinned_, 16 * sizeof(std::uint64_t)), "cudaMallocHost");
+  }
+  ~DeviceFrame() override {
+    for (auto& e : events_) cudaEventDestroy(e);
+    cudaStreamDestroy(own_stream_);
+    cudaFreeHost(pinned_);
+  }
+
+  void run(const Lanes& in) override {
+    info = {};
+    stream_ = own_stream_;
+    record(kStart);
+    const std::uint32_t n = in.n;
+    reserve(boxes_, std::size_t{6} * n * sizeof(float));
+    Lanes d{};
+    d.n = n;
+    for (int l = 0; l < 6; ++l) {
+      float* lane = boxes_.as<float>() + static_cast<std::size_t>(l) * n;
+      const float* src = l < 3 ? in.lo[l] : in.hi[l - 3];
+      if (n) check_cuda(cudaMemcpyAsync(lane, src, n * sizeof(float), cudaMemcpyHostToDevice, stream_), "upload");
+      (l < 3 ? d.lo[l] : d.hi[l - 3]) = lane;
+    }
+    record(kUploaded);
+    const std::uint64_t count = frame(d);
+    pairs.resize(count);
+    if (count)
+      check_cuda(cudaMemcpyAsync(pairs.data(), pair_buffer(), count * sizeof(Pair), cudaMemcpyDeviceToHost, stream_),
+                 "download");
+    record(kDownloaded);
+    sync();
+    times(true);
+  }
+
+  DevicePairs run_device(const Lanes& in, void* stream) override {
+    info = {};
+    stream_ = static_cast<cudaStream_t>(stream);
+    record(kStart);
+    record(kUploaded);
+    const std::uint64_t count = frame(in);
+    record(kDownloaded);
+    sync();
+    times(false);
+    pairs.clear();
+    return {pair_buffer(), count};
+  }
+
+ private:
+  const std::uint32_t* pair_buffer() const { return pair_out_.as<std::uint32_t>(); }
+
+  // The stages bounds .. order over device lanes; returns the pair count,
+  // the pairs left in pair_out_.
+  std::uint64_t frame(const Lanes& in) {
+    const std::uint32_t n = in.n;
+    const BoxLanesView b{{in.lo[0], in.lo[1], in.lo[2]}, {in.hi[0], in.hi[1], in.hi[2]}};
+
+    // Bounds and validation.
+    reserve(acc_, 8 * sizeof(std::uint32_t));
+    std::uint32_t init[7] = {~0u, ~0u, ~0u, 0, 0, 0, n};
+    std::memcpy(pinned_, init, sizeof init);
+    check_cuda(cudaMemcpyAsync(acc_.as<std::uint32_t>(), pinned_, sizeof init, cudaMemcpyHostToDevice, stream_),
+               "bounds init");
+    if (n) launch_bounds(b, n, acc_.as<std::uint32_t>(), stream_);
+    check_cuda(cudaMemcpyAsync(pinned_, acc_.as<std::uint32_t>(), sizeof init, cudaMemcpyDeviceToHost, stream_),
+               "bounds read-back");
+    sync();
+    std::uint32_t acc[7];
+    std::memcpy(acc, pinned_, sizeof acc);
+    if (acc[6] < n) report_defect(b, acc[6]);
+    Bounds bounds{{0, 0, 0}, {0, 0, 0}};
+    if (n)
+      for (int k = 0; k < 3; ++k) {
+        bounds.lo[k] = from_ordered(acc[k]);
+        bounds.hi[k] = from_ordered(acc[3 + k]);
+      }
+    info.replanned = grid_.update(bounds, n, options.boxes_per_cell);
+    reserve(planes_, 3 * kMaxAxisCells * sizeof(float));
+    if (info.replanned && !grid_.planes().empty())
+      check_cuda(cudaMemcpyAsync(planes_.as<float>(), grid_.planes().data(), grid_.planes().size() * sizeof(float),
+                                 cudaMemcpyHostToDevice, stream_),
+                 "planes upload");
+    const GridView g = grid_.view(planes_.as<float>());
+    for (int k = 0; k < 3; ++k) info.grid[k] = g.dims[k];
+    record(kBounds);
+
+    // References: count, scan, emit.
+    reserve(ref_count_, (std::size_t{n} + 1) * 4);
+    reserve(is_large_, (std::size_t{n} + 1) * 4);
+    reserve(ref_offset_, (std::size_t{n} + 1) * 4);
+    reserve(large_offset_, (std::size_t{n} + 1) * 4);
+    launch_reference_count(g, b, n, ref_count_.as<std::uint32_t>(), is_large_.as<std::uint32_t>(), stream_);
+    scan(ref_count_.as<std::uint32_t>(), ref_offset_.as<std::uint32_t>(), n);
+    scan(is_large_.as<std::uint32_t>(), large_offset_.as<std::uint32_t>(), n);
+    check_cuda(cudaMemcpyAsync(pinned_, ref_offset_.as<std::uint32_t>() + n, 4, cudaMemcpyDeviceToHost, stream_), "refs");
+    check_cuda(cudaMemcpyAsync(reinterpret_cast<std::uint32_t*>(pinned_) + 1, large_offset_.as<std::uint32_t>() + n, 4,
+                               cudaMemcpyDeviceToHost, stream_),
+               "large");
+    sync();
+    const std::uint32_t refs = reinterpret_cast<std::uint32_t*>(pinned_)[0];
+    const std::uint32_t large = reinterpret_cast<std::uint32_t*>(pinned_)[1];
+    info.references = refs;
+    info.large = large;
+    reserve(keys_, (std::size_t{refs} + 1) * 8);
+    reserve(keys_alt_, (std::size_t{refs} + 1) * 8);
+    reserve(ids_, (std::size_t{refs} + 1) * 4);
+    reserve(ids_alt_, (std::size_t{refs} + 1) * 4);
+    reserve(large_list_, (std::size_t{large} + 1) * 4);
+    launch_emit(g, b, n, is_large_.as<std::uint32_t>(), ref_offset_.as<std::uint32_t>(),
+                large_offset_.as<std::uint32_t>(), keys_.as<std::uint64_t>(), ids_.as<std::uint32_t>(),
+                large_list_.as<std::uint32_t>(), stream_);
+    record(kRefs);
+
+    // Sort by (cell, min x) (stable), gather, cells.
+    std::uint64_t* sorted_keys = nullptr;
+    std::uint32_t* sorted_ids = nullptr;
+    if (sort_pairs(keys_.as<std::uint64_t>(), keys_alt_.as<std::uint64_t>(), ids_.as<std::uint32_t>(),
+                   ids_alt_.as<std::uint32_t>(), refs, 32 + cell_bits(grid_.cells()), temp_, &sorted_keys,
+                   &sorted_ids, stream_))
+      ++info.allocations;
+    reserve(lanes_, std::size_t{6} * (refs + 1) * sizeof(float));
+    reserve(head_, (std::size_t{refs} + 1) * 4);
+    reserve(head_scan_, (std::size_t{refs} + 1) * 4);
+    const std::uint32_t max_cells = std::min(refs, grid_.cells());
+    reserve(cell_begin_, (std::size_t{max_cells} + 2) * 4);
+    reserve(regions_, (std::size_t{max_cells} + 1) * sizeof(CellRegion));
+    reserve(cells_, 4);
+    check_cuda(cudaMemsetAsync(cells_.as<std::uint32_t>(), 0, 4, stream_), "cells");
+    launch_gather(b, sorted_keys, sorted_ids, refs, lanes_.as<float>(), head_.as<std::uint32_t>(), stream_);
+    scan(head_.as<std::uint32_t>(), head_scan_.as<std::uint32_t>(), refs);
+    // The scan is written to out[1..refs]: the cells kernel reads it from there.
+    launch_cells(g, sorted_keys, head_scan_.as<std::uint32_t>() + 1, refs, cell_begin_.as<std::uint32_t>(),
+                 regions_.as<CellRegion>(), cells_.as<std::uint32_t>(), stream_);
+    record(kSorted);
+
+    // Count, scan.
+    const float* lanes = lanes_.as<float>();
+    const std::size_t stride = refs;
+    const SortedLanes s{{lanes, lanes + stride, lanes + 2 * stride},
+                        {lanes + 3 * stride, lanes + 4 * stride, lanes + 5 * stride},
+                        sorted_ids};
+    const std::uint32_t chunk = large_chunk(n, large);
+    const std::uint32_t chunks = large ? (n + chunk - 1) / chunk : 0;
+    const std::uint64_t slots = std::uint64_t{refs} + std::uint64_t{large} * chunks;
+    reserve(counts_, (slots + 1) * 8);
+    reserve(offsets_, (slots + 1) * 8);
+    std::uint64_t* counts = counts_.as<std::uint64_t>();
+    launch_cell_rows(s, cell_begin_.as<std::uint32_t>(), regions_.as<CellRegion>(), cells_.as<std::uint32_t>(),
+                     max_cells, counts, nullptr, nullptr, stream_);
+    launch_large_rows(b, n, is_large_.as<std::uint32_t>(), large_list_.as<std::uint32_t>(), large, chunk,
+                      counts + refs, nullptr, nullptr, stream_);
+    scan(counts, offsets_.as<std::uint64_t>(), slots);
+    check_cuda(cudaMemcpyAsync(pinned_, offsets_.as<std::uint64_t>() + slots, 8, cudaMemcpyDeviceToHost, stream_),
+               "pair count");
+    check_cuda(cudaMemcpyAsync(pinned_ + 1, cells_.as<std::uint32_t>(), 4, cudaMemcpyDeviceToHost, stream_), "cells");
+    sync();
+    const std::uint64_t total = pinned_[0];
+    info.cells = static_cast<std::uint32_t>(pinned_[1] & 0xffffffffu);
+    record(kCounted);
+    if (options.max_pairs && total > options.max_pairs) throw_too_many_pairs(total, options.max_pairs);
+
+    // Fill.
+    reserve(pair_out_, (total + 1) * 8);
+    std::uint32_t* out = pair_out_.as<std::uint32_t>();
+    const std::uint64_t* offsets = offsets_.as<std::uint64_t>();
+    launch_cell_rows(s, cell_begin_.as<std::uint32_t>(), regions_.as<CellRegion>(), cells_.as<std::uint32_t>(),
+                     max_cells, nullptr, offsets, out, stream_);
+    launch_large_rows(b, n, is_large_.as<std::uint32_t>(), large_list_.as<std::uint32_t>(), large, chunk, nullptr,
+                      offsets + refs, out, stream_);
+    record(kFilled);
+
+    // Order by (a, b).
+    if (options.sorted && total > 1) {
+      reserve(pair_keys_, total * 8);
+      reserve(pair_keys_alt_, total * 8);
+      launch_pack_pairs(out, total, pair_keys_.as<std::uint64_t>(), stream_);
+      std::uint64_t* sorted_pairs = nullptr;
+      if (sort_keys(pair_keys_.as<std::uint64_t>(), pair_keys_alt_.as<std::uint64_t>(), total, temp_, &sorted_pairs,
+                    stream_))
+        ++info.allocations;
+      launch_unpack_pairs(sorted_pairs, total, out, stream_);
+    }
+    record(kOrdered);
+    info.pairs = total;
+    return total;
+  }
+
+  // out[0] = 0, out[1 + i] = in[0] + ... + in[i] (n + 1 entries).
+  template <class T>
+  void scan(const T* in, T* out, std::uint64_t n) {
+    if (hbp::cuda::inclusive_sum(in, out, n, temp_, stream_)) ++info.allocations;
+  }
+
+  [[noreturn]] void report_defect(const BoxLanesView& b, std::uint32_t i) {
+    float box[6];
+    for (int l = 0; l < 6; ++l)
+      check_cuda(cudaMemcpy(box + l, (l < 3 ? b.lo[l] : b.hi[l - 3]) + i, sizeof(float), cudaMemcpyDeviceToHost),
+                 "defect read-back");
+    const BoxLanesView one{{box, box + 1, box + 2}, {box + 3, box + 4, box + 5}};
+    throw_box_defect(i, box_defect(one, 0));
+  }
+
+  void reserve(DeviceBuffer& buffer, std::size_t bytes) {
+    if (buffer.reserve(bytes)) ++info.allocations;
+  }
+  void record(Stage s) { check_cuda(cudaEventRecord(events_[s], stream_), "cudaEventRecord"); }
+  void sync() { check_cuda(cudaStreamSynchronize(stream_), "cudaStreamSynchronize"); }
+  double between(Stage a, Stage b) {
+    float ms = 0;
+    check_cuda(cudaEventElapsedTime(&ms, events_[a], events_[b]), "cudaEventElapsedTime");
+    return ms;
+  }
+  void times(bool transfers) {
+    StageTimes& t = info.times;
+    t.upload_ms = transfers ? between(kStart, kUploaded) : 0;
+    t.bounds_ms = between(kUploaded, kBounds);
+    t.refs_ms = between(kBounds, kRefs);
+    t.sort_ms = between(kRefs, kSorted);
+    t.count_ms = between(kSorted, kCounted);
+    t.fill_ms = between(kCounted, kFilled);
+    t.order_ms = between(kFilled, kOrdered);
+    t.download_ms = transfers ? between(kOrdered, kDownloaded) : 0;
+    t.frame_ms = between(kUploaded, kOrdered);
+    std::size_t held = 0;
+    for (const DeviceBuffer* d : {&boxes_, &acc_, &planes_, &ref_count_, &is_large_, &ref_offset_, &large_offset_,
+                                  &keys_, &keys_alt_, &ids_, &ids_alt_, &large_list_, &lanes_, &head_, &head_scan_,
+                                  &cell_begin_, &regions_, &cells_, &counts_, &offsets_, &pair_out_, &pair_keys_,
+                                  &pair_keys_alt_, &temp_})
+      held += d->capacity();
+    info.buffer_bytes = held;
+  }
+
+  GridPlan grid_;
+  cudaStream_t own_stream_ = nullptr;
+  cudaStream_t stream_ = nullptr;
+  cudaEvent_t events_[kStages] = {};
+  std::uint64_t* pinned_ = nullptr;
+  DeviceBuffer boxes_, acc_, planes_, ref_count_, is_large_, ref_offset_, large_offset_, keys_, keys_alt_, ids_,
+      ids_alt_, large_list_, lanes_, head_, head_scan_, cell_begin_, regions_, cells_, counts_, offsets_, pair_out_,
+      pair_keys_, pair_keys_alt_, temp_;
+};
+
+}  // namespace
+
+std::unique_ptr<FrameBroadPhase::Impl> make_device_frame(const FrameOptions& options) {
+  return std::make_unique<DeviceFrame>(options);
+}
+
+}  // namespace hbp::cuda

@@ -1,0 +1,59 @@
+#include "cuda/device_primitives.cuh"
+
+#include <cub/device/device_radix_sort.cuh>
+#include <cub/device/device_scan.cuh>
+
+namespace hbp::cuda {
+
+bool sort_pairs(std::uint64_t* keys, std::uint64_t* keys_alt, std::uint32_t* ids, std::uint32_t* ids_alt,
+                std::uint32_t n, int end_bit, DeviceBuffer& temp, std::uint64_t** keys_out, std::uint32_t** ids_out,
+                cudaStream_t s) {
+  cub::DoubleBuffer<std::uint64_t> k(keys, keys_alt);
+  cub::DoubleBuffer<std::uint32_t> v(ids, ids_alt);
+  bool grew = false;
+  if (n) {
+    std::size_t bytes = 0;
+    check_cuda(cub::DeviceRadixSort::SortPairs(nullptr, bytes, k, v, n, 0, end_bit, s), "sort size");
+    grew = temp.reserve(bytes, false);
+    check_cuda(cub::DeviceRadixSort::SortPairs(temp.as<void>(), bytes, k, v, n, 0, end_bit, s), "sort pairs");
+  }
+  *keys_out = k.Current();
+  *ids_out = v.Current();
+  return grew;
+}
+
+bool sort_keys(std::uint64_t* keys, std::uint64_t* keys_alt, std::uint64_t n, DeviceBuffer& temp, std::uint64_t** out,
+               cudaStream_t s) {
+  cub::DoubleBuffer<std::uint64_t> k(keys, keys_alt);
+  bool grew = false;
+  if (n) {
+    std::size_t bytes = 0;
+    check_cuda(cub::DeviceRadixSort::SortKeys(nullptr, bytes, k, n, 0, 64, s), "sort size");
+    grew = temp.reserve(bytes, false);
+    check_cuda(cub::DeviceRadixSort::SortKeys(temp.as<void>(), bytes, k, n, 0, 64, s), "sort keys");
+  }
+  *out = k.Current();
+  return grew;
+}
+
+namespace {
+template <class T>
+bool scan(const T* in, T* out, std::uint64_t n, DeviceBuffer& temp, cudaStream_t s) {
+  check_cuda(cudaMemsetAsync(out, 0, sizeof(T), s), "scan init");
+  if (!n) return false;
+  std::size_t bytes = 0;
+  check_cuda(cub::DeviceScan::InclusiveSum(nullptr, bytes, in, out + 1, static_cast<std::int64_t>(n), s), "scan size");
+  const bool grew = temp.reserve(bytes, false);
+  check_cuda(cub::DeviceScan::InclusiveSum(temp.as<void>(), bytes, in, out + 1, static_cast<std::int64_t>(n), s), "scan");
+  return grew;
+}
+}  // namespace
+
+bool inclusive_sum(const std::uint32_t* in, std::uint32_t* out, std::uint64_t n, DeviceBuffer& temp, cudaStream_t s) {
+  return scan(in, out, n, temp, s);
+}
+bool inclusive_sum(const std::uint64_t* in, std::uint64_t* out, std::uint64_t n, DeviceBuffer& temp, cudaStream_t s) {
+  return scan(in, out, n, temp, s);
+}
+
+}  // namespace hbp::cuda

@@ -1,0 +1,62 @@
+#pragma once
+// CUDA error checks and the frame's kept device buffers. A buffer grows
+// (a new cudaMalloc, counted) only when a frame needs more than it holds,
+// and is given back when it holds more than four times what the frame needs
+// beyond 8 MiB (the host launcher's rule), so steady frames allocate nothing
+// and memory follows the current frame.
+#include <cuda_runtime.h>
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+#include "hbp/error.hpp"
+
+namespace hbp::cuda {
+
+inline void check_cuda(cudaError_t e, const char* what) {
+  if (e != cudaSuccess) throw Error(std::string("CUDA: ") + what + ": " + cudaGetErrorString(e));
+}
+
+// Throws hbp::Error "no CUDA device found" unless a device is usable, and
+// makes device 0 current.
+void require_device();
+
+class DeviceBuffer {
+ public:
+  DeviceBuffer() = default;
+  DeviceBuffer(const DeviceBuffer&) = delete;
+  DeviceBuffer& operator=(const DeviceBuffer&) = delete;
+  ~DeviceBuffer() { cudaFree(data_); }
+  // Makes room for `bytes`; returns whether it allocated. `trim` false for a
+  // buffer asked several times per frame for different sizes (the CUB
+  // temporary storage): it only grows, or a small request after a large one
+  // would give back and reallocate within every frame.
+  bool reserve(std::size_t bytes, bool trim = true) {
+    if (trim && data_ && capacity_ > 4 * bytes + (std::size_t{8} << 20)) release();
+    if (bytes <= capacity_ && data_) return false;
+    release();
+    // An eighth more than asked: frame-to-frame jitter of the reference and
+    // pair counts does not reallocate.
+    const std::size_t size = bytes + bytes / 8 + 256;
+    check_cuda(cudaMalloc(&data_, size), "cudaMalloc");
+    capacity_ = size;
+    return true;
+  }
+  template <class T>
+  T* as() const {
+    return static_cast<T*>(data_);
+  }
+  std::size_t capacity() const { return capacity_; }
+
+ private:
+  void release() {
+    if (data_) cudaFree(data_);
+    data_ = nullptr;
+    capacity_ = 0;
+  }
+  void* data_ = nullptr;
+  std::size_t capacity_ = 0;
+};
+
+}  // namespace hbp::cuda

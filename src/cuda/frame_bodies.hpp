@@ -1,0 +1,202 @@
+#pragma once
+// The bodies of the GPU frame's kernels, written once as host/device
+// functions: device_frame.cu launches them as CUDA kernels, host_frame.cpp
+// and host_cell_engine.cpp run them on CPU threads. Every decision that
+// picks a cell or a pair is a float comparison against stored values (the
+// grid's planes, the boxes' own coordinates), never arithmetic, so host and
+// device agree bit for bit (the device is compiled with --fmad=false too).
+#include <cstdint>
+
+#include "dedup/ownership.hpp"
+#include "hbp/cell_region.hpp"
+#include "hbp/host_device.hpp"
+
+namespace hbp::cuda {
+
+// A box whose cell range covers more than this many cells is "large": it is
+// not replicated into cells but tested against every box by the large pass,
+// so replication (and memory) stays below kMaxRefsPerBox references per box
+// whatever the scene (boxes spanning the world included).
+inline constexpr std::uint32_t kMaxRefsPerBox = 8;
+// Grid limits: cell ids fit 22 bits (the sort key's high word), each axis
+// at most 1024 cells.
+inline constexpr std::uint32_t kMaxAxisCells = 1024;
+inline constexpr std::uint32_t kMaxCells = 1u << 22;
+
+// The uniform grid of one frame (cuda/grid_plan.hpp plans it): on axis k,
+// dims[k] cells cut by dims[k] - 1 increasing interior planes. The outer
+// cells reach to infinity, so the regions tile all space and every box,
+// inside the planned bounds or not, lands in the cells its extent meets.
+struct GridView {
+  std::uint32_t dims[3];
+  const float* planes[3];  // dims[k] - 1 floats each
+};
+
+// The boxes by object index (structure of arrays).
+struct BoxLanesView {
+  const float* lo[3];
+  const float* hi[3];
+};
+
+// References sorted by (cell, min x), gathered into contiguous lanes; id is
+// the object index of each reference.
+struct SortedLanes {
+  const float* lo[3];
+  const float* hi[3];
+  const std::uint32_t* id;
+};
+
+// Number of planes <= v (binary search): the index of the cell whose
+// half-open slab [plane[c-1], plane[c]) holds v.
+HBP_HOST_DEVICE inline std::uint32_t slab_of(const float* planes, std::uint32_t count, float v) {
+  std::uint32_t first = 0;
+  while (count > 0) {
+    const std::uint32_t half = count / 2;
+    if (planes[first + half] <= v) {
+      first += half + 1;
+      count -= half + 1;
+    } else {
+      count = half;
+    }
+  }
+  return first;
+}
+
+// The cells a box meets on each axis: [first[k], last[k]], i.e. every cell
+// whose region [lo, hi) satisfies lo <= max and hi > min. The ownership point
+// of any pair holding the box lies in [min, max], so the cell that owns the
+// pair is among these.
+HBP_HOST_DEVICE inline void cell_range(const GridView& g, const BoxLanesView& b, std::uint32_t i,
+                                       std::uint32_t first[3], std::uint32_t last[3]) {
+  for (int k = 0; k < 3; ++k) {
+    first[k] = slab_of(g.planes[k], g.dims[k] - 1, b.lo[k][i]);
+    last[k] = slab_of(g.planes[k], g.dims[k] - 1, b.hi[k][i]);
+  }
+}
+
+// References of box i: the cells of its range, or 0 when it is large.
+HBP_HOST_DEVICE inline std::uint32_t reference_count(const GridView& g, const BoxLanesView& b, std::uint32_t i) {
+  std::uint32_t first[3], last[3];
+  cell_range(g, b, i, first, last);
+  std::uint64_t cells = 1;
+  for (int k = 0; k < 3; ++k) cells *= std::uint64_t{last[k] - first[k] + 1};
+  return cells > kMaxRefsPerBox ? 0u : static_cast<std::uint32_t>(cells);
+}
+
+HBP_HOST_DEVICE inline std::uint32_t cell_id(const GridView& g, std::uint32_t x, std::uint32_t y, std::uint32_t z) {
+  return (z * g.dims[1] + y) * g.dims[0] + x;
+}
+
+// The region of cell `id`: its planes, infinite at the grid's outer faces.
+HBP_HOST_DEVICE inline CellRegion cell_region(const GridView& g, std::uint32_t id) {
+  const float inf = __builtin_huge_valf();
+  std::uint32_t c[3];
+  c[0] = id % g.dims[0];
+  c[1] = (id / g.dims[0]) % g.dims[1];
+  c[2] = id / (g.dims[0] * g.dims[1]);
+  CellRegion r{};
+  for (int k = 0; k < 3; ++k) {
+    r.lo[k] = c[k] == 0 ? -inf : g.planes[k][c[k] - 1];
+    r.hi[k] = c[k] + 1 == g.dims[k] ? inf : g.planes[k][c[k]];
+  }
+  return r;
+}
+
+// A float's bits mapped so that unsigned order is float order (-0 before +0;
+// no NaN reaches here: the frame validates its boxes first).
+HBP_HOST_DEVICE inline std::uint32_t ordered_bits(float f) {
+  std::uint32_t u;
+  __builtin_memcpy(&u, &f, sizeof u);
+  return (u & 0x80000000u) ? ~u : (u | 0x80000000u);
+}
+
+// Writes box i's sort keys (cell << 32 | ordered min x) and ids from `slot`
+// on, in cell-id order.
+HBP_HOST_DEVICE inline void emit_references(const GridView& g, const BoxLanesView& b, std::uint32_t i,
+                                            std::uint64_t* keys, std::uint32_t* ids, std::uint64_t slot) {
+  std::uint32_t first[3], last[3];
+  cell_range(g, b, i, first, last);
+  const std::uint64_t x = ordered_bits(b.lo[0][i]);
+  for (std::uint32_t z = first[2]; z <= last[2]; ++z)
+    for (std::uint32_t y = first[1]; y <= last[1]; ++y)
+      for (std::uint32_t cx = first[0]; cx <= last[0]; ++cx) {
+        keys[slot] = (std::uint64_t{cell_id(g, cx, y, z)} << 32) | x;
+        ids[slot] = i;
+        ++slot;
+      }
+}
+
+// The sweep of one lane (the accelerator's row): reference r against the
+// references after it in its cell [r + 1, end), sorted by min x, until one
+// starts past r's max x. A pair is kept when the boxes overlap (closed
+// intervals; x already holds by the order) and the cell's region owns it
+// (dedup::owns_sorted_x: the later box's min x is the larger). emit(k, a, b)
+// receives the row's k-th pair (object ids, not canonical). Returns the
+// row's pair count.
+template <class Emit>
+HBP_HOST_DEVICE inline std::uint32_t sweep_row(const SortedLanes& s, std::uint32_t r, std::uint32_t end,
+                                               const CellRegion& region, Emit&& emit) {
+  const float ax1 = s.hi[0][r];
+  const float ay0 = s.lo[1][r], ay1 = s.hi[1][r];
+  const float az0 = s.lo[2][r], az1 = s.hi[2][r];
+  std::uint32_t count = 0;
+  for (std::uint32_t j = r + 1; j < end; ++j) {
+    const float bx0 = s.lo[0][j];
+    if (bx0 > ax1) break;
+    const float by0 = s.lo[1][j], bz0 = s.lo[2][j];
+    const bool overlap = (ay1 >= by0) & (ay0 <= s.hi[1][j]) & (az1 >= bz0) & (az0 <= s.hi[2][j]);
+    if (!overlap || !dedup::owns_sorted_x(region, ay0, az0, bx0, by0, bz0)) continue;
+    emit(count, s.id[r], s.id[j]);
+    ++count;
+  }
+  return count;
+}
+
+// The large pass: large box l against the boxes [j0, j1) by index. A small
+// partner is never in a cell with l, so l reports it; a large partner j is
+// reported by the smaller of the two ids only. emit as for sweep_row.
+template <class Flag, class Emit>
+HBP_HOST_DEVICE inline std::uint32_t large_row(const BoxLanesView& b, const Flag* is_large, std::uint32_t l,
+                                               std::uint32_t j0, std::uint32_t j1, Emit&& emit) {
+  const float x0 = b.lo[0][l], x1 = b.hi[0][l], y0 = b.lo[1][l], y1 = b.hi[1][l];
+  const float z0 = b.lo[2][l], z1 = b.hi[2][l];
+  std::uint32_t count = 0;
+  for (std::uint32_t j = j0; j < j1; ++j) {
+    if (j == l || (is_large[j] && j < l)) continue;
+    const bool overlap = (x1 >= b.lo[0][j]) & (x0 <= b.hi[0][j]) & (y1 >= b.lo[1][j]) & (y0 <= b.hi[1][j]) &
+                         (z1 >= b.lo[2][j]) & (z0 <= b.hi[2][j]);
+    if (!overlap) continue;
+    emit(count, l, j);
+    ++count;
+  }
+  return count;
+}
+
+// The large pass splits each large box's partners into chunks of this many
+// indices (one count slot per chunk), at least kLargeChunk, and more when
+// there are many large boxes, so the count array stays under kMaxLargeSlots.
+inline constexpr std::uint32_t kLargeChunk = 1024;
+inline constexpr std::uint64_t kMaxLargeSlots = std::uint64_t{1} << 22;
+HBP_HOST_DEVICE inline std::uint32_t large_chunk(std::uint32_t n, std::uint32_t large) {
+  const std::uint64_t need = (std::uint64_t{n} * large + kMaxLargeSlots - 1) / kMaxLargeSlots;
+  return need > kLargeChunk ? static_cast<std::uint32_t>(need) : kLargeChunk;
+}
+
+}  // namespace hbp::cuda
+
+namespace hbp::cuda {
+
+// What is wrong with box i: 0 nothing, else 1 + axis for a NaN/Inf
+// coordinate, 4 + axis for min > max. The frame rejects such boxes as the
+// CPU path does (BoxArray::validate), before any cell is chosen.
+HBP_HOST_DEVICE inline std::uint32_t box_defect(const BoxLanesView& b, std::uint32_t i) {
+  for (int k = 0; k < 3; ++k) {
+    const float lo = b.lo[k][i], hi = b.hi[k][i];
+    // x - x is 0 for finite x and NaN for NaN or Inf.
+    if (!(lo - lo == 0.0f) || !(hi - hi == 0.0f)) return 1u + static_cast<std::uint32_t>(k);
+    if (lo > hi) return 4u + static_cast<std::uint32_t>(k);
+  }
+  return 0;
+}
+
+}  // namespace hbp::cuda

@@ -1,0 +1,57 @@
+#include "hbp/cuda/frame_broadphase.hpp"
+
+#include <string>
+
+#include "cuda/frame_impl.hpp"
+#include "hbp/error.hpp"
+
+namespace hbp::cuda {
+
+DevicePairs FrameBroadPhase::Impl::run_device(const Lanes&, void*) {
+  throw InvalidInput("FrameBroadPhase::update_device needs Launcher::Device");
+}
+
+void check_object_count(std::uint32_t n) {
+  if (n > kMaxFrameObjects)
+    throw InvalidInput("FrameBroadPhase: " + std::to_string(n) + " objects, more than the limit " +
+                       std::to_string(kMaxFrameObjects));
+}
+
+void throw_box_defect(std::uint32_t i, std::uint32_t code) {
+  static const char* const axes = "xyz";
+  const char axis = axes[(code - 1) % 3];
+  const std::string what = code <= 3 ? std::string(" has a NaN or infinite coordinate on ") + axis
+                                     : std::string(" has min > max on ") + axis;
+  throw InvalidInput("boxes: object " + std::to_string(i) + what);
+}
+
+void throw_too_many_pairs(std::uint64_t total, std::uint64_t max_pairs) {
+  throw CapacityExceeded("frame has more than max_pairs = " + std::to_string(max_pairs) +
+                         " overlapping pairs (counted " + std::to_string(total) + ")");
+}
+
+FrameBroadPhase::FrameBroadPhase(const FrameOptions& options) {
+  if (options.threads == 0) throw InvalidInput("FrameOptions::threads must be >= 1");
+  if (options.boxes_per_cell == 0) throw InvalidInput("FrameOptions::boxes_per_cell must be >= 1");
+  impl_ = options.launcher == Launcher::Device ? make_device_frame(options) : make_host_frame(options);
+}
+FrameBroadPhase::~FrameBroadPhase() = default;
+FrameBroadPhase::FrameBroadPhase(FrameBroadPhase&&) noexcept = default;
+FrameBroadPhase& FrameBroadPhase::operator=(FrameBroadPhase&&) noexcept = default;
+
+const std::vector<Pair>& FrameBroadPhase::update(const Lanes& boxes) {
+  check_object_count(boxes.n);
+  impl_->run(boxes);
+  return impl_->pairs;
+}
+
+DevicePairs FrameBroadPhase::update_device(const Lanes& device_boxes, void* stream) {
+  check_object_count(device_boxes.n);
+  return impl_->run_device(device_boxes, stream);
+}
+
+const std::vector<Pair>& FrameBroadPhase::pairs() const { return impl_->pairs; }
+const FrameInfo& FrameBroadPhase::info() const { return impl_->info; }
+const FrameOptions& FrameBroadPhase::options() const { return impl_->options; }
+
+}  // namespace hbp::cuda

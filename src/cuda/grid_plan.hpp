@@ -1,0 +1,43 @@
+#pragma once
+// The frame's uniform grid, planned on the host from the boxes' bounds and
+// count and kept across frames while they stay close to what it was planned
+// for. A kept grid is always correct (its outer cells are unbounded); it is
+// replanned only for speed. The planes are floats computed once here, and
+// every launcher compares against these same values.
+#include <cstdint>
+#include <vector>
+
+#include "cuda/frame_bodies.hpp"
+
+namespace hbp::cuda {
+
+struct Bounds {
+  float lo[3];
+  float hi[3];
+};
+
+class GridPlan {
+ public:
+  GridPlan();
+  // Plans anew when there is no plan yet, n left [3/4, 4/3] of the planned
+  // count, or a bound moved by more than a tenth of the planned extent on
+  // its axis. Returns whether it planned. Deterministic in (bounds, n).
+  bool update(const Bounds& bounds, std::uint32_t n, std::uint32_t boxes_per_cell);
+  // The planes of axis k start at plane_offset(k) in planes().
+  std::uint32_t plane_offset(int k) const;
+  const std::vector<float>& planes() const { return planes_; }
+  const std::uint32_t* dims() const { return dims_; }
+  std::uint32_t cells() const { return dims_[0] * dims_[1] * dims_[2]; }
+  // The grid over `planes` (host or device copy of planes()).
+  GridView view(const float* planes) const;
+
+ private:
+  void plan(const Bounds& bounds, std::uint32_t n, std::uint32_t boxes_per_cell);
+  std::uint32_t dims_[3] = {1, 1, 1};
+  std::vector<float> planes_;  // capacity for every axis at its limit: no allocation per plan
+  Bounds planned_{};
+  std::uint32_t planned_n_ = 0;
+  bool valid_ = false;
+};
+
+}  // namespace hbp::cuda

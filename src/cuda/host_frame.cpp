@@ -1,0 +1,231 @@
+// The CPU launcher of the GPU frame: the kernels' bodies (frame_bodies.hpp)
+// run stage by stage as device_frame.cu runs them, blocks spread over
+// FrameOptions::threads CPU threads. Buffers are members kept across frames:
+// a steady frame allocates nothing (vectors only grow; see keep_bounded).
+#include <algorithm>
+#include <chrono>
+#include <cstdint>
+#include <vector>
+
+#include "cuda/frame_bodies.hpp"
+#include "cuda/frame_impl.hpp"
+#include "cuda/grid_plan.hpp"
+#include "cuda/host_blocks.hpp"
+#include "cuda/host_radix.hpp"
+
+namespace hbp::cuda {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point& t) {
+  const auto now = Clock::now();
+  const double ms = std::chrono::duration<double, std::milli>(now - t).count();
+  t = now;
+  return ms;
+}
+
+// Number of bits that hold every cell id (the sort key's high word).
+int cell_bits(std::uint32_t cells) {
+  int bits = 1;
+  while ((std::uint64_t{1} << bits) < cells) ++bits;
+  return bits;
+}
+
+class HostFrame final : public FrameBroadPhase::Impl {
+ public:
+  using Impl::Impl;
+
+  void run(const Lanes& in) override {
+    info = {};
+    const std::uint32_t n = in.n;
+    const BoxLanesView b{{in.lo[0], in.lo[1], in.lo[2]}, {in.hi[0], in.hi[1], in.hi[2]}};
+    const unsigned threads = options.threads;
+    auto t = Clock::now();
+    const auto t0 = t;
+
+    // Bounds and validation: per-thread slices, combined in slice order.
+    Bounds bounds{{0, 0, 0}, {0, 0, 0}};
+    if (n) {
+      constexpr std::uint32_t kSlices = 64;
+      Bounds part[kSlices];
+      std::uint32_t bad[kSlices];
+      for_blocks(threads, kSlices, [&](std::uint64_t s) {
+        const std::uint32_t lo = static_cast<std::uint32_t>(n * s / kSlices);
+        const std::uint32_t hi = static_cast<std::uint32_t>(n * (s + 1) / kSlices);
+        Bounds p{{__builtin_huge_valf(), __builtin_huge_valf(), __builtin_huge_valf()},
+                 {-__builtin_huge_valf(), -__builtin_huge_valf(), -__builtin_huge_valf()}};
+        bad[s] = n;
+        for (std::uint32_t i = lo; i < hi; ++i) {
+          if (box_defect(b, i)) {
+            bad[s] = i;
+            break;
+          }
+          for (int k = 0; k < 3; ++k) {
+            p.lo[k] = std::min(p.lo[k], b.lo[k][i]);
+            p.hi[k] = std::max(p.hi[k], b.hi[k][i]);
+          }
+        }
+        part[s] = p;
+      });
+      bounds = part[0];
+      for (std::uint32_t s = 0; s < kSlices; ++s) {
+        if (bad[s] < n) throw_box_defect(bad[s], box_defect(b, bad[s]));
+        for (int k = 0; k < 3; ++k) {
+          bounds.lo[k] = std::min(bounds.lo[k], part[s].lo[k]);
+          bounds.hi[k] = std::max(bounds.hi[k], part[s].hi[k]);
+        }
+      }
+    }
+    info.replanned = grid_.update(bounds, n, options.boxes_per_cell);
+    const GridView g = grid_.view(grid_.planes().data());
+    for (int k = 0; k < 3; ++k) info.grid[k] = g.dims[k];
+    info.times.bounds_ms = ms_since(t);
+
+    // References: count, scan, emit; the large boxes listed apart.
+    grow(ref_count_, n);
+    grow(is_large_, n);
+    for_blocks(threads, n, [&](std::uint64_t i) {
+      const std::uint32_t c = reference_count(g, b, static_cast<std::uint32_t>(i));
+      ref_count_[i] = c;
+      is_large_[i] = c == 0;
+    });
+    grow(ref_offset_, n);
+    std::uint32_t refs = 0;
+    large_.clear();
+    for (std::uint32_t i = 0; i < n; ++i) {
+      ref_offset_[i] = refs;
+      refs += ref_count_[i];
+      if (is_large_[i]) large_.push_back(i);
+    }
+    const auto large = static_cast<std::uint32_t>(large_.size());
+    info.references = refs;
+    info.large = large;
+    grow(keys_, refs);
+    grow(ids_, refs);
+    for_blocks(threads, n, [&](std::uint64_t i) {
+      if (!is_large_[i])
+        emit_references(g, b, static_cast<std::uint32_t>(i), keys_.data(), ids_.data(), ref_offset_[i]);
+    });
+    info.times.refs_ms = ms_since(t);
+
+    // Sort by (cell, min x), gather the sorted lanes, find the cells.
+    radix_sort(keys_, key_scratch_, &ids_, &id_scratch_, 32 + cell_bits(grid_.cells()));
+    for (auto* lane : {&s_lo_[0], &s_lo_[1], &s_lo_[2], &s_hi_[0], &s_hi_[1], &s_hi_[2]}) grow(*lane, refs);
+    for_blocks(threads, refs, [&](std::uint64_t r) {
+      for (int k = 0; k < 3; ++k) {
+        s_lo_[k][r] = b.lo[k][ids_[r]];
+        s_hi_[k][r] = b.hi[k][ids_[r]];
+      }
+    });
+    cell_begin_.clear();
+    cell_of_.clear();
+    for (std::uint32_t r = 0; r < refs; ++r)
+      if (r == 0 || (keys_[r] >> 32) != (keys_[r - 1] >> 32)) {
+        cell_begin_.push_back(r);
+        cell_of_.push_back(static_cast<std::uint32_t>(keys_[r] >> 32));
+      }
+    const auto cells = static_cast<std::uint32_t>(cell_begin_.size());
+    cell_begin_.push_back(refs);
+    info.cells = cells;
+    info.times.sort_ms = ms_since(t);
+
+    // Count: one slot per lane, then one per (large box, chunk of partners).
+    const SortedLanes s{{s_lo_[0].data(), s_lo_[1].data(), s_lo_[2].data()},
+                        {s_hi_[0].data(), s_hi_[1].data(), s_hi_[2].data()},
+                        ids_.data()};
+    const std::uint32_t chunk = large_chunk(n, large);
+    const std::uint32_t chunks = large ? (n + chunk - 1) / chunk : 0;
+    const std::uint64_t slots = std::uint64_t{refs} + std::uint64_t{large} * chunks;
+    grow(pair_offset_, slots + 1);
+    auto noop = [](std::uint32_t, std::uint32_t, std::uint32_t) {};
+    for_blocks(threads, cells, [&](std::uint64_t c) {
+      const CellRegion region = cell_region(g, cell_of_[c]);
+      for (std::uint32_t r = cell_begin_[c]; r < cell_begin_[c + 1]; ++r)
+        pair_offset_[r] = sweep_row(s, r, cell_begin_[c + 1], region, noop);
+    });
+    for_blocks(threads, std::uint64_t{large} * chunks, [&](std::uint64_t q) {
+      const std::uint32_t j0 = static_cast<std::uint32_t>(q % chunks) * chunk;
+      pair_offset_[refs + q] = large_row(b, is_large_.data(), large_[q / chunks], j0, std::min(n, j0 + chunk), noop);
+    });
+    std::uint64_t total = 0;
+    for (std::uint64_t q = 0; q < slots; ++q) total += std::exchange(pair_offset_[q], total);
+    pair_offset_[slots] = total;
+    info.times.count_ms = ms_since(t);
+    if (options.max_pairs && total > options.max_pairs) throw_too_many_pairs(total, options.max_pairs);
+
+    // Fill: the same rows, each writing from its offset.
+    grow(pairs, total);
+    Pair* out = pairs.data();
+    for_blocks(threads, cells, [&](std::uint64_t c) {
+      const CellRegion region = cell_region(g, cell_of_[c]);
+      for (std::uint32_t r = cell_begin_[c]; r < cell_begin_[c + 1]; ++r) {
+        Pair* row = out + pair_offset_[r];
+        sweep_row(s, r, cell_begin_[c + 1], region,
+                  [row](std::uint32_t k, std::uint32_t a, std::uint32_t bb) { row[k] = make_pair(a, bb); });
+      }
+    });
+    for_blocks(threads, std::uint64_t{large} * chunks, [&](std::uint64_t q) {
+      const std::uint32_t j0 = static_cast<std::uint32_t>(q % chunks) * chunk;
+      Pair* row = out + pair_offset_[refs + q];
+      large_row(b, is_large_.data(), large_[q / chunks], j0, std::min(n, j0 + chunk),
+                [row](std::uint32_t k, std::uint32_t a, std::uint32_t bb) { row[k] = make_pair(a, bb); });
+    });
+    info.pairs = total;
+    info.times.fill_ms = ms_since(t);
+
+    if (options.sorted && total > 1) {
+      grow(pair_keys_, total);
+      for_blocks(threads, total, [&](std::uint64_t p) {
+        pair_keys_[p] = (std::uint64_t{pairs[p].a} << 32) | pairs[p].b;
+      });
+      radix_sort(pair_keys_, pair_key_scratch_, nullptr, nullptr, 64);
+      for_blocks(threads, total, [&](std::uint64_t p) {
+        pairs[p] = Pair{static_cast<std::uint32_t>(pair_keys_[p] >> 32), static_cast<std::uint32_t>(pair_keys_[p])};
+      });
+    }
+    info.times.order_ms = ms_since(t);
+    info.times.frame_ms = std::chrono::duration<double, std::milli>(t - t0).count();
+    info.buffer_bytes = bytes();
+  }
+
+ private:
+  // Resizes a kept buffer to n: past its capacity it grows to n + n/8 (counted
+  // in info.allocations; the eighth absorbs the frame-to-frame jitter of the
+  // reference and pair counts), and it is given back when it holds more than
+  // four times what the frame needs beyond 1 M entries, so memory follows the
+  // current frame's needs while steady frames allocate nothing.
+  template <class V>
+  void grow(V& v, std::uint64_t n) {
+    if (v.capacity() > 4 * n + (1u << 20)) {
+      V().swap(v);
+    }
+    if (n > v.capacity()) {
+      ++info.allocations;
+      v.reserve(n + n / 8 + 64);
+    }
+    v.resize(n);
+  }
+  std::uint64_t bytes() const {
+    std::uint64_t sum = 0;
+    auto add = [&](const auto& v) { sum += v.capacity() * sizeof(v[0]); };
+    add(ref_count_), add(is_large_), add(ref_offset_), add(large_), add(keys_), add(key_scratch_), add(ids_);
+    add(id_scratch_), add(cell_begin_), add(cell_of_), add(pair_offset_), add(pair_keys_), add(pair_key_scratch_);
+    add(pairs);
+    for (int k = 0; k < 3; ++k) add(s_lo_[k]), add(s_hi_[k]);
+    return sum;
+  }
+
+  GridPlan grid_;
+  std::vector<std::uint32_t> ref_count_, ref_offset_, large_, ids_, id_scratch_, cell_begin_, cell_of_;
+  std::vector<std::uint8_t> is_large_;
+  std::vector<std::uint64_t> keys_, key_scratch_, pair_offset_, pair_keys_, pair_key_scratch_;
+  std::vector<float> s_lo_[3], s_hi_[3];
+};
+
+}  // namespace
+
+std::unique_ptr<FrameBroadPhase::Impl> make_host_frame(const FrameOptions& options) {
+  return std::make_unique<HostFrame>(options);
+}
+
+}  // namespace hbp::cuda

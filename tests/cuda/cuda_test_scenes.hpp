@@ -1,0 +1,71 @@
+#pragma once
+// Scenes for the GPU room's tests: every scenario kind and the adversarial
+// ones, as BoxArrays, and their lanes for hbp::cuda::FrameBroadPhase.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "hbp/box_array.hpp"
+#include "hbp/cuda/frame_broadphase.hpp"
+#include "hbp/pair.hpp"
+#include "hbp/scenario.hpp"
+
+namespace hbp::cuda_test {
+
+inline cuda::Lanes lanes_of(const BoxArray& b) {
+  cuda::Lanes l;
+  for (int k = 0; k < 3; ++k) {
+    l.lo[k] = b.min(k);
+    l.hi[k] = b.max(k);
+  }
+  l.n = static_cast<std::uint32_t>(b.size());
+  return l;
+}
+
+// A few frames of a scenario kind.
+inline std::vector<BoxArray> scenario_frames(ScenarioKind kind, std::uint32_t n, int frames) {
+  ScenarioParams p;
+  p.kind = kind;
+  p.n = n;
+  Scenario s(p);
+  std::vector<BoxArray> out(frames);
+  for (int f = 0; f < frames; ++f) {
+    s.compute_boxes(out[f]);
+    s.step();
+  }
+  return out;
+}
+
+inline BoxArray all_on_one_point(std::uint32_t n) {
+  BoxArray b(n);
+  for (std::uint32_t i = 0; i < n; ++i) b.set(i, Aabb{{1, 2, 3}, {1, 2, 3}});
+  return b;
+}
+
+// Every box spans the world (large on any grid), plus small ones inside.
+inline BoxArray spanning_world(std::uint32_t big, std::uint32_t small) {
+  BoxArray b(big + small);
+  for (std::uint32_t i = 0; i < big; ++i)
+    b.set(i, Aabb{{-1000.0f - i, -1000, -1000}, {1000.0f + i, 1000, 1000}});
+  for (std::uint32_t i = 0; i < small; ++i) {
+    const float x = static_cast<float>(i % 37) * 50 - 900, y = static_cast<float>(i % 29) * 60 - 900;
+    const float z = static_cast<float>(i % 23) * 70 - 800;
+    b.set(big + i, Aabb{{x, y, z}, {x + 40, y + 40, z + 40}});
+  }
+  return b;
+}
+
+// The plain all-pairs oracle, for builds without the core library.
+inline std::vector<Pair> all_pairs(const BoxArray& b) {
+  std::vector<Pair> out;
+  const auto n = static_cast<std::uint32_t>(b.size());
+  for (std::uint32_t i = 0; i < n; ++i)
+    for (std::uint32_t j = i + 1; j < n; ++j) {
+      bool hit = true;
+      for (int k = 0; k < 3; ++k) hit = hit && b.max(k)[i] >= b.min(k)[j] && b.min(k)[i] <= b.max(k)[j];
+      if (hit) out.push_back(Pair{i, j});
+    }
+  return out;
+}
+
+}  // namespace hbp::cuda_test

@@ -1,0 +1,162 @@
+// The GPU frame on a real CUDA device (ctest label "gpu"): device pairs
+// identical to the CPU launcher's (same kernel bodies: same list, same order)
+// and to the oracle, frame by frame on every scenario kind and the
+// adversarial scenes; steady frames allocate nothing; max_pairs. Without a
+// device every test SKIPS; HBP_REQUIRE_GPU=1 (set by scripts/gpu-check, the
+// device machine's script) turns that skip into a failure.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <cuda_runtime.h>
+
+#include "cuda_test_scenes.hpp"
+#include "hbp/cuda/axis_sweep.hpp"
+#include "hbp/cuda/frame_broadphase.hpp"
+#include "hbp/error.hpp"
+#ifdef HBP_TEST_CUDA_ENGINES
+#include "hbp/cell_engine.hpp"
+#include "hbp/cuda/cuda_engines.hpp"
+#include "hbp/hybrid_broadphase.hpp"
+#endif
+
+namespace hbp {
+namespace {
+
+using cuda_test::lanes_of;
+
+#define REQUIRE_DEVICE()                                                                              \
+  do {                                                                                                \
+    if (!cuda::device_available()) {                                                                  \
+      const char* required = std::getenv("HBP_REQUIRE_GPU");                                          \
+      if (required && std::strcmp(required, "1") == 0) FAIL() << "HBP_REQUIRE_GPU=1 but no CUDA device"; \
+      GTEST_SKIP() << "no CUDA device";                                                               \
+    }                                                                                                 \
+  } while (0)
+
+const ScenarioKind kKinds[] = {ScenarioKind::Paper, ScenarioKind::Clustered, ScenarioKind::Flat, ScenarioKind::Huge,
+                               ScenarioKind::Degenerate};
+
+cuda::FrameBroadPhase frame(cuda::Launcher launcher, bool sorted = true, std::uint64_t max_pairs = 0) {
+  cuda::FrameOptions o;
+  o.launcher = launcher;
+  o.threads = std::max(2u, std::thread::hardware_concurrency());  // the CPU launcher is the reference
+  o.sorted = sorted;
+  o.max_pairs = max_pairs;
+  return cuda::FrameBroadPhase(o);
+}
+
+void expect_device_matches(const std::vector<BoxArray>& frames, const std::string& what, bool oracle) {
+  for (bool sorted : {true, false}) {
+    auto device = frame(cuda::Launcher::Device, sorted);
+    auto host = frame(cuda::Launcher::Host, sorted);
+    for (std::size_t f = 0; f < frames.size(); ++f) {
+      const std::vector<Pair> expected = host.update(lanes_of(frames[f]));
+      ASSERT_EQ(device.update(lanes_of(frames[f])), expected) << what << " frame " << f << " sorted " << sorted;
+      if (oracle && sorted) {
+        ASSERT_EQ(expected, cuda_test::all_pairs(frames[f])) << what << " frame " << f;
+      }
+      EXPECT_EQ(device.info().cells, host.info().cells);
+      EXPECT_EQ(device.info().large, host.info().large);
+      if (f > 0) {
+        EXPECT_EQ(device.info().allocations, 0u) << what << " frame " << f << ": a steady frame allocated";
+      }
+    }
+  }
+}
+
+TEST(CudaDevice, EveryScenarioKindFrameByFrame) {
+  REQUIRE_DEVICE();
+  for (ScenarioKind kind : kKinds)
+    expect_device_matches(cuda_test::scenario_frames(kind, 4000, 4), scenario_kind_name(kind), true);
+}
+
+TEST(CudaDevice, LargerScenesMatchTheCpuLauncher) {
+  REQUIRE_DEVICE();
+  // Degenerate stacks a third of its objects on 8 points (pairs grow as n^2):
+  // 20,000 objects already give ~22 M pairs.
+  for (ScenarioKind kind : kKinds)
+    expect_device_matches(cuda_test::scenario_frames(kind, kind == ScenarioKind::Degenerate ? 20'000 : 200'000, 2),
+                          scenario_kind_name(kind), false);
+}
+
+TEST(CudaDevice, AdversarialScenes) {
+  REQUIRE_DEVICE();
+  expect_device_matches({cuda_test::all_on_one_point(3000)}, "one point", true);
+  expect_device_matches({cuda_test::spanning_world(300, 2000)}, "spanning the world", true);
+  expect_device_matches({BoxArray{}}, "empty", true);
+}
+
+TEST(CudaDevice, PairExplosionAgainstMaxPairs) {
+  REQUIRE_DEVICE();
+  const BoxArray boxes = cuda_test::all_on_one_point(4000);  // 7,998,000 pairs
+  auto limited = frame(cuda::Launcher::Device, true, 1'000'000);
+  EXPECT_THROW(limited.update(lanes_of(boxes)), CapacityExceeded);
+  auto unlimited = frame(cuda::Launcher::Device, true);
+  EXPECT_EQ(unlimited.update(lanes_of(boxes)).size(), 7'998'000u);
+}
+
+TEST(CudaDevice, DeviceEntryLeavesPairsOnTheDevice) {
+  REQUIRE_DEVICE();
+  const auto frames = cuda_test::scenario_frames(ScenarioKind::Paper, 20'000, 1);
+  const BoxArray& boxes = frames[0];
+  const std::size_t n = boxes.size();
+  float* d = nullptr;
+  ASSERT_EQ(cudaMalloc(&d, 6 * n * sizeof(float)), cudaSuccess);
+  cuda::Lanes lanes;
+  lanes.n = static_cast<std::uint32_t>(n);
+  for (int l = 0; l < 6; ++l) {
+    const float* src = l < 3 ? boxes.min(l) : boxes.max(l - 3);
+    ASSERT_EQ(cudaMemcpy(d + l * n, src, n * sizeof(float), cudaMemcpyHostToDevice), cudaSuccess);
+    (l < 3 ? lanes.lo[l] : lanes.hi[l - 3]) = d + l * n;
+  }
+  cudaStream_t stream;
+  ASSERT_EQ(cudaStreamCreate(&stream), cudaSuccess);
+  auto device = frame(cuda::Launcher::Device);
+  const cuda::DevicePairs got = device.update_device(lanes, stream);
+  std::vector<Pair> pairs(got.count);
+  ASSERT_EQ(cudaMemcpy(pairs.data(), got.data, got.count * sizeof(Pair), cudaMemcpyDeviceToHost), cudaSuccess);
+  EXPECT_EQ(pairs, cuda_test::all_pairs(boxes));
+  cudaStreamDestroy(stream);
+  cudaFree(d);
+}
+
+TEST(CudaDevice, AxisSweepPeerMatchesTheOracle) {
+  REQUIRE_DEVICE();
+  std::vector<BoxArray> scenes;
+  for (ScenarioKind kind : kKinds) scenes.push_back(cuda_test::scenario_frames(kind, 4000, 1)[0]);
+  scenes.push_back(cuda_test::all_on_one_point(2000));
+  scenes.push_back(cuda_test::spanning_world(300, 2000));
+  cuda::FrameOptions o;
+  o.launcher = cuda::Launcher::Device;
+  cuda::AxisSweep sweep(o);
+  for (std::size_t s = 0; s < scenes.size(); ++s)
+    ASSERT_EQ(sweep.update(lanes_of(scenes[s])), cuda_test::all_pairs(scenes[s])) << "scene " << s;
+  o.max_pairs = 1000;
+  cuda::AxisSweep limited(o);
+  EXPECT_THROW(limited.update(lanes_of(cuda_test::all_on_one_point(100))), CapacityExceeded);
+}
+
+#ifdef HBP_TEST_CUDA_ENGINES
+TEST(CudaDevice, CellEngineInTheHybridSystem) {
+  REQUIRE_DEVICE();
+  cuda::register_cell_engines();
+  for (ScenarioKind kind : kKinds) {
+    const auto frames = cuda_test::scenario_frames(kind, 3000, 2);
+    BroadPhaseOptions o;
+    o.engine = "cuda";
+    o.threads = 2;
+    HybridBroadPhase hybrid(o);
+    for (std::size_t f = 0; f < frames.size(); ++f)
+      ASSERT_EQ(hybrid.update(frames[f]), cuda_test::all_pairs(frames[f])) << scenario_kind_name(kind);
+  }
+}
+#endif
+
+}  // namespace
+}  // namespace hbp

@@ -1,0 +1,302 @@
+// The GPU frame's kernels run by the CPU launcher (Launcher::Host) and the
+// "cuda-host" cell engine, against the brute-force oracle frame by frame on
+// every scenario kind and the adversarial scenes, with 1 and 2 threads.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <string>
+#include <vector>
+
+#include "cuda_test_scenes.hpp"
+#include "dedup/ownership.hpp"
+#include "hbp/brute_force.hpp"
+#include "hbp/cell_engine.hpp"
+#include "hbp/cuda/axis_sweep.hpp"
+#include "hbp/cuda/cuda_engines.hpp"
+#include "hbp/cuda/frame_broadphase.hpp"
+#include "hbp/error.hpp"
+#include "hbp/hybrid_broadphase.hpp"
+
+namespace hbp {
+namespace {
+
+using cuda_test::lanes_of;
+
+const ScenarioKind kKinds[] = {ScenarioKind::Paper, ScenarioKind::Clustered, ScenarioKind::Flat, ScenarioKind::Huge,
+                               ScenarioKind::Degenerate};
+
+cuda::FrameBroadPhase host_frame(unsigned threads, bool sorted = true, std::uint64_t max_pairs = 0) {
+  cuda::FrameOptions o;
+  o.launcher = cuda::Launcher::Host;
+  o.threads = threads;
+  o.sorted = sorted;
+  o.max_pairs = max_pairs;
+  return cuda::FrameBroadPhase(o);
+}
+
+// The ownership rule the kernels share with the CPU is one constexpr
+// function: evaluated at compile time here, on the device in the kernels.
+static_assert(dedup::owns(CellRegion{{0, 0, 0}, {1, 1, 1}}, 0.5f, -3, 0, 0.25f, 0.5f, 0.5f));
+static_assert(!dedup::owns(CellRegion{{0, 0, 0}, {1, 1, 1}}, 1.0f, 0, 0, 0, 0, 0));  // hi is open
+static_assert(dedup::owns_sorted_x(CellRegion{{0, 0, 0}, {1, 1, 1}}, 0, 0, 0, 0.9f, 0.9f));
+
+// Sorted output equals the oracle's list; the unsorted (frame order) list is
+// canonical, duplicate-free and the same set; and both are identical for 1
+// and 2 threads.
+void expect_exact(const BoxArray& boxes, const std::string& what) {
+  const std::vector<Pair> expected = brute_force_pairs(boxes);
+  std::vector<Pair> frame_order[2];
+  for (unsigned threads : {1u, 2u}) {
+    auto sorted = host_frame(threads);
+    ASSERT_EQ(sorted.update(lanes_of(boxes)), expected) << what << " threads " << threads;
+    EXPECT_EQ(sorted.info().pairs, expected.size());
+    auto unsorted = host_frame(threads, false);
+    frame_order[threads - 1] = unsorted.update(lanes_of(boxes));
+    for (const Pair& p : frame_order[threads - 1]) ASSERT_LT(p.a, p.b) << what;
+    std::vector<Pair> copy = frame_order[threads - 1];
+    std::sort(copy.begin(), copy.end());
+    ASSERT_EQ(copy, expected) << what << " threads " << threads << " (frame order)";
+  }
+  EXPECT_EQ(frame_order[0], frame_order[1]) << what << ": order differs between 1 and 2 threads";
+}
+
+TEST(CudaHostFrame, EveryScenarioKindFrameByFrame) {
+  for (ScenarioKind kind : kKinds) {
+    const auto frames = cuda_test::scenario_frames(kind, 3000, 3);
+    // One kept frame object across the frames: the grid kept, buffers reused.
+    for (unsigned threads : {1u, 2u}) {
+      auto kept = host_frame(threads);
+      for (std::size_t f = 0; f < frames.size(); ++f) {
+        const std::vector<Pair> expected = brute_force_pairs(frames[f]);
+        ASSERT_EQ(kept.update(lanes_of(frames[f])), expected)
+            << scenario_kind_name(kind) << " frame " << f << " threads " << threads;
+      }
+      EXPECT_GT(kept.info().cells, 1u) << scenario_kind_name(kind);
+    }
+    expect_exact(frames[0], scenario_kind_name(kind));
+  }
+}
+
+TEST(CudaHostFrame, PaperSceneHasPairsAndKeepsItsGrid) {
+  const auto frames = cuda_test::scenario_frames(ScenarioKind::Paper, 5000, 4);
+  auto f = host_frame(2);
+  f.update(lanes_of(frames[0]));
+  EXPECT_TRUE(f.info().replanned);
+  EXPECT_GT(f.info().pairs, 100u);
+  EXPECT_EQ(f.info().large, 0u);
+  for (std::size_t i = 1; i < frames.size(); ++i) {
+    f.update(lanes_of(frames[i]));
+    EXPECT_FALSE(f.info().replanned) << "frame " << i;
+    EXPECT_EQ(f.info().allocations, 0u) << "frame " << i << ": a steady frame allocated";
+  }
+}
+
+TEST(CudaHostFrame, HugeSceneSendsTheHugeObjectsToTheLargePass) {
+  const auto frames = cuda_test::scenario_frames(ScenarioKind::Huge, 3000, 1);
+  auto f = host_frame(1);
+  EXPECT_EQ(f.update(lanes_of(frames[0])), brute_force_pairs(frames[0]));
+  EXPECT_GE(f.info().large, 1u);
+}
+
+TEST(CudaHostFrame, AllObjectsOnOnePoint) {
+  const BoxArray boxes = cuda_test::all_on_one_point(1500);
+  auto f = host_frame(2);
+  const auto& pairs = f.update(lanes_of(boxes));
+  EXPECT_EQ(pairs.size(), 1500u * 1499u / 2);
+  EXPECT_EQ(pairs, brute_force_pairs(boxes));
+  expect_exact(boxes, "one point");
+}
+
+TEST(CudaHostFrame, BoxesSpanningTheWorld) {
+  const BoxArray boxes = cuda_test::spanning_world(300, 1200);
+  auto f = host_frame(2);
+  EXPECT_EQ(f.update(lanes_of(boxes)), brute_force_pairs(boxes));
+  EXPECT_EQ(f.info().large, 300u);
+  expect_exact(boxes, "spanning the world");
+  expect_exact(cuda_test::spanning_world(400, 0), "only spanning boxes");
+}
+
+TEST(CudaHostFrame, EmptyAndSingleFrames) {
+  auto f = host_frame(2);
+  BoxArray none;
+  EXPECT_TRUE(f.update(lanes_of(none)).empty());
+  BoxArray one(1);
+  one.set(0, Aabb{{0, 0, 0}, {1, 1, 1}});
+  EXPECT_TRUE(f.update(lanes_of(one)).empty());
+  BoxArray two(2);
+  two.set(0, Aabb{{0, 0, 0}, {1, 1, 1}});
+  two.set(1, Aabb{{1, 1, 1}, {2, 2, 2}});  // touching corners: closed intervals overlap
+  EXPECT_EQ(f.update(lanes_of(two)), (std::vector<Pair>{Pair{0, 1}}));
+}
+
+TEST(CudaHostFrame, PairExplosionAgainstMaxPairs) {
+  const BoxArray boxes = cuda_test::all_on_one_point(2000);  // 1,999,000 pairs
+  auto limited = host_frame(2, true, 1'000'000);
+  EXPECT_THROW(limited.update(lanes_of(boxes)), CapacityExceeded);
+  try {
+    limited.update(lanes_of(boxes));
+  } catch (const CapacityExceeded& e) {
+    EXPECT_NE(std::string(e.what()).find("max_pairs = 1000000"), std::string::npos) << e.what();
+  }
+  // Exactly at the limit: no error, every pair.
+  auto exact = host_frame(1, true, 1'999'000);
+  EXPECT_EQ(exact.update(lanes_of(boxes)).size(), 1'999'000u);
+  // The same frame object recovers on a smaller scene.
+  const BoxArray small = cuda_test::all_on_one_point(100);
+  EXPECT_EQ(limited.update(lanes_of(small)).size(), 4950u);
+}
+
+TEST(CudaHostFrame, RejectsDefectiveBoxesNamingTheObject) {
+  BoxArray boxes = cuda_test::all_on_one_point(10);
+  boxes.min(1)[7] = 5.0f;  // min > max on y
+  auto f = host_frame(2);
+  try {
+    f.update(lanes_of(boxes));
+    FAIL() << "no error";
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("object 7"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("min > max on y"), std::string::npos) << e.what();
+  }
+  boxes = cuda_test::all_on_one_point(10);
+  boxes.max(2)[3] = __builtin_nanf("");
+  EXPECT_THROW(f.update(lanes_of(boxes)), InvalidInput);
+  EXPECT_THROW(cuda::FrameBroadPhase(cuda::FrameOptions{cuda::Launcher::Host, 0}), InvalidInput);
+}
+
+TEST(CudaHostFrame, DeviceLauncherWithoutADeviceSaysSo) {
+  if (cuda::device_available()) GTEST_SKIP() << "a CUDA device is present: " << cuda::device_name();
+  cuda::FrameOptions o;
+  o.launcher = cuda::Launcher::Device;
+  try {
+    cuda::FrameBroadPhase f(o);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("no CUDA device found"), std::string::npos) << e.what();
+  }
+}
+
+// ---- The one-axis sort-and-sweep peer (CPU twin) -----------------------------------
+
+TEST(CudaHostAxisSweep, EveryScenarioKindAndTheAdversarialScenes) {
+  std::vector<BoxArray> scenes;
+  for (ScenarioKind kind : kKinds) scenes.push_back(cuda_test::scenario_frames(kind, 3000, 1)[0]);
+  scenes.push_back(cuda_test::all_on_one_point(1200));
+  scenes.push_back(cuda_test::spanning_world(200, 1500));
+  for (std::size_t s = 0; s < scenes.size(); ++s) {
+    const std::vector<Pair> expected = brute_force_pairs(scenes[s]);
+    std::vector<Pair> frame_order[2];
+    for (unsigned threads : {1u, 2u}) {
+      cuda::FrameOptions o;
+      o.threads = threads;
+      cuda::AxisSweep sorted(o);
+      ASSERT_EQ(sorted.update(lanes_of(scenes[s])), expected) << "scene " << s << " threads " << threads;
+      o.sorted = false;
+      cuda::AxisSweep unsorted(o);
+      frame_order[threads - 1] = unsorted.update(lanes_of(scenes[s]));
+    }
+    EXPECT_EQ(frame_order[0], frame_order[1]) << "scene " << s;
+    std::sort(frame_order[0].begin(), frame_order[0].end());
+    EXPECT_EQ(frame_order[0], expected) << "scene " << s;
+  }
+}
+
+TEST(CudaHostAxisSweep, PicksTheAxisOfLargestVarianceAndHonoursMaxPairs) {
+  BoxArray row(100);
+  for (std::uint32_t i = 0; i < 100; ++i) {
+    const float y = static_cast<float>(i) * 3;
+    row.set(i, Aabb{{0, y, 0}, {1, y + 4, 1}});  // spread along y; neighbours overlap
+  }
+  cuda::FrameOptions o;
+  cuda::AxisSweep sweep(o);
+  EXPECT_EQ(sweep.update(lanes_of(row)), brute_force_pairs(row));
+  EXPECT_EQ(sweep.axis(), 1);
+  o.max_pairs = 1000;
+  cuda::AxisSweep limited(o);
+  EXPECT_THROW(limited.update(lanes_of(cuda_test::all_on_one_point(100))), CapacityExceeded);  // 4,950 pairs
+}
+
+// ---- The cell engines ---------------------------------------------------------
+
+class CudaHostEngine : public ::testing::Test {
+ protected:
+  void SetUp() override { cuda::register_cell_engines(); }
+};
+
+TEST_F(CudaHostEngine, RegisteredAndDescribed) {
+  cuda::register_cell_engines();  // idempotent
+  const auto names = cell_engine_names();
+  EXPECT_NE(std::find(names.begin(), names.end(), "cuda-host"), names.end());
+  EXPECT_NE(std::find(names.begin(), names.end(), "cuda"), names.end());
+  EXPECT_EQ(make_cell_engine("cuda-host")->name(), "cuda-host");
+  EXPECT_FALSE(cell_engine_description("cuda").empty());
+}
+
+TEST_F(CudaHostEngine, HybridSystemEveryScenarioKindFrameByFrame) {
+  for (ScenarioKind kind : kKinds) {
+    const auto frames = cuda_test::scenario_frames(kind, 3000, 3);
+    std::vector<Pair> first[2];
+    for (unsigned threads : {1u, 2u}) {
+      BroadPhaseOptions o;
+      o.engine = "cuda-host";
+      o.threads = threads;
+      o.cell_limit = 64;  // many cells: ownership decides many pairs
+      HybridBroadPhase hybrid(o);
+      for (std::size_t f = 0; f < frames.size(); ++f) {
+        const std::vector<Pair>& got = hybrid.update(frames[f]);
+        ASSERT_EQ(got, brute_force_pairs(frames[f]))
+            << scenario_kind_name(kind) << " frame " << f << " threads " << threads;
+        if (f == 0) first[threads - 1] = got;
+      }
+    }
+    EXPECT_EQ(first[0], first[1]);
+  }
+}
+
+TEST_F(CudaHostEngine, HybridSystemAdversarialScenes) {
+  for (unsigned threads : {1u, 2u}) {
+    BroadPhaseOptions o;
+    o.engine = "cuda-host";
+    o.threads = threads;
+    HybridBroadPhase hybrid(o);
+    const BoxArray point = cuda_test::all_on_one_point(1200);
+    EXPECT_EQ(hybrid.update(point), brute_force_pairs(point));
+    const BoxArray span = cuda_test::spanning_world(200, 1500);
+    EXPECT_EQ(hybrid.update(span), brute_force_pairs(span));
+  }
+}
+
+TEST_F(CudaHostEngine, PairLimitGivesCapacityExceeded) {
+  BroadPhaseOptions o;
+  o.engine = "cuda-host";
+  o.threads = 2;
+  o.max_pairs = 100'000;
+  HybridBroadPhase hybrid(o);
+  EXPECT_THROW(hybrid.update(cuda_test::all_on_one_point(1000)), CapacityExceeded);  // 499,500 pairs
+  auto engine = make_cell_engine("cuda-host");
+  engine->set_pair_limit(10);
+  std::vector<Pair> out;
+  EXPECT_THROW(engine->find_pairs(cuda_test::all_on_one_point(6), out), CapacityExceeded);  // 15 pairs
+  EXPECT_TRUE(out.empty()) << "nothing is appended past the limit";
+}
+
+TEST_F(CudaHostEngine, FindPairsOnAnUnsortedCell) {
+  const auto frames = cuda_test::scenario_frames(ScenarioKind::Degenerate, 800, 1);
+  auto engine = make_cell_engine("cuda-host");
+  std::vector<Pair> out;
+  engine->find_pairs(frames[0], out);
+  std::sort(out.begin(), out.end());
+  EXPECT_EQ(out, brute_force_pairs(frames[0]));
+}
+
+TEST_F(CudaHostEngine, DeviceEngineWithoutADeviceSaysSo) {
+  if (cuda::device_available()) GTEST_SKIP() << "a CUDA device is present: " << cuda::device_name();
+  try {
+    make_cell_engine("cuda");
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("no CUDA device found"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace hbp

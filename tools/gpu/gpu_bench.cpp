@@ -1,0 +1,235 @@
+// hbp-gpu-bench: the GPU frame (hbp::cuda::FrameBroadPhase), or with
+// --system axis-sweep the one-axis sort-and-sweep peer (hbp::cuda::AxisSweep),
+// on a scenario, frame by frame: device time per stage (CUDA events) with the host
+// transfers apart, checked every frame against the CPU launcher of the same
+// kernels (identical lists) and, independently, by brute force for a sample
+// of objects against all others. Writes one JSON object (--json) for
+// scripts/gpu-check's report. Exits 1 on any mismatch.
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "hbp/box_array.hpp"
+#include "hbp/cuda/axis_sweep.hpp"
+#include "hbp/cuda/frame_broadphase.hpp"
+#include "hbp/error.hpp"
+#include "hbp/scenario.hpp"
+
+namespace {
+
+struct Args {
+  std::string kind = "paper";
+  bool axis_sweep = false;  // --system axis-sweep
+  std::uint32_t n = 1'024'000;
+  std::uint32_t frames = 30;
+  std::uint32_t check_every = 1;
+  bool host = false;  // --launcher host: the CPU launcher times itself (no device)
+  bool sorted = true;
+  unsigned threads = std::max(1u, std::thread::hardware_concurrency());
+  std::string json;
+};
+
+[[noreturn]] void usage() {
+  std::fprintf(stderr,
+               "usage: hbp-gpu-bench [--system frame|axis-sweep] [--kind paper|clustered|flat|huge|degenerate]\n"
+               "                     [--n N] [--frames F]\n"
+               "                     [--check-every K] [--launcher device|host] [--unsorted] [--threads T]\n"
+               "                     [--json FILE]\n");
+  std::exit(2);
+}
+
+Args parse(int argc, char** argv) {
+  Args a;
+  for (int i = 1; i < argc; ++i) {
+    const std::string k = argv[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc) usage();
+      return argv[++i];
+    };
+    if (k == "--kind") a.kind = value();
+    else if (k == "--system") a.axis_sweep = value() == "axis-sweep";
+    else if (k == "--n") a.n = static_cast<std::uint32_t>(std::stoul(value()));
+    else if (k == "--frames") a.frames = static_cast<std::uint32_t>(std::stoul(value()));
+    else if (k == "--check-every") a.check_every = static_cast<std::uint32_t>(std::stoul(value()));
+    else if (k == "--threads") a.threads = static_cast<unsigned>(std::stoul(value()));
+    else if (k == "--launcher") a.host = value() == "host";
+    else if (k == "--unsorted") a.sorted = false;
+    else if (k == "--json") a.json = value();
+    else usage();
+  }
+  if (a.frames == 0 || a.threads == 0) usage();
+  if (a.axis_sweep) a.sorted = true;  // checked against the frame's sorted list
+  return a;
+}
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const std::size_t i = std::min(v.size() - 1, static_cast<std::size_t>(q * static_cast<double>(v.size() - 1) + 0.5));
+  return v[i];
+}
+
+hbp::cuda::Lanes lanes_of(const hbp::BoxArray& b) {
+  hbp::cuda::Lanes l;
+  for (int k = 0; k < 3; ++k) {
+    l.lo[k] = b.min(k);
+    l.hi[k] = b.max(k);
+  }
+  l.n = static_cast<std::uint32_t>(b.size());
+  return l;
+}
+
+// Every pair holding one of `sample` (sorted ids), by brute force against
+// all objects; then the same pairs taken from `pairs`. Returns whether equal.
+bool sample_check(const hbp::BoxArray& b, const std::vector<hbp::Pair>& pairs, const std::vector<std::uint32_t>& sample,
+                  unsigned threads) {
+  const auto n = static_cast<std::uint32_t>(b.size());
+  std::vector<std::vector<hbp::Pair>> found(sample.size());
+  std::vector<std::thread> pool;
+  for (unsigned w = 0; w < threads; ++w)
+    pool.emplace_back([&, w] {
+      for (std::size_t s = w; s < sample.size(); s += threads) {
+        const std::uint32_t i = sample[s];
+        for (std::uint32_t j = 0; j < n; ++j) {
+          if (j == i) continue;
+          bool hit = true;
+          for (int k = 0; k < 3; ++k) hit = hit && b.max(k)[i] >= b.min(k)[j] && b.min(k)[i] <= b.max(k)[j];
+          if (hit) found[s].push_back(i < j ? hbp::Pair{i, j} : hbp::Pair{j, i});
+        }
+      }
+    });
+  for (auto& t : pool) t.join();
+  std::vector<hbp::Pair> expected, got;
+  for (auto& f : found) expected.insert(expected.end(), f.begin(), f.end());
+  std::sort(expected.begin(), expected.end());
+  expected.erase(std::unique(expected.begin(), expected.end()), expected.end());
+  for (const hbp::Pair& p : pairs)
+    if (std::binary_search(sample.begin(), sample.end(), p.a) || std::binary_search(sample.begin(), sample.end(), p.b))
+      got.push_back(p);
+  std::sort(got.begin(), got.end());
+  return got == expected;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const Args args = parse(argc, argv);
+  try {
+    hbp::ScenarioParams params;
+    params.kind = hbp::parse_scenario_kind(args.kind);
+    params.n = args.n;
+    hbp::Scenario scenario(params);
+    hbp::BoxArray boxes;
+
+    hbp::cuda::FrameOptions o;
+    o.sorted = args.sorted;
+    o.threads = args.threads;
+    o.launcher = args.host ? hbp::cuda::Launcher::Host : hbp::cuda::Launcher::Device;
+    hbp::cuda::FrameBroadPhase frame(o);
+    hbp::cuda::AxisSweep peer(args.axis_sweep ? o : hbp::cuda::FrameOptions{});
+    hbp::cuda::FrameOptions ro = o;
+    ro.launcher = hbp::cuda::Launcher::Host;
+    hbp::cuda::FrameBroadPhase reference(ro);
+
+    std::vector<double> frame_ms, upload_ms, download_ms, reference_ms, stage[7];
+    std::vector<std::uint64_t> pairs_per_frame;
+    std::uint64_t steady_allocations = 0, buffer_bytes = 0;
+    std::uint32_t mismatches = 0, checked = 0, sample_checks = 0, sample_failures = 0;
+    hbp::cuda::FrameInfo last{};
+    for (std::uint32_t f = 0; f < args.frames; ++f) {
+      scenario.compute_boxes(boxes);
+      const std::vector<hbp::Pair>& got = args.axis_sweep ? peer.update(lanes_of(boxes)) : frame.update(lanes_of(boxes));
+      const hbp::cuda::FrameInfo& info = args.axis_sweep ? peer.info() : frame.info();
+      last = info;
+      frame_ms.push_back(info.times.frame_ms);
+      upload_ms.push_back(info.times.upload_ms);
+      download_ms.push_back(info.times.download_ms);
+      const double st[7] = {info.times.bounds_ms, info.times.refs_ms, info.times.sort_ms, info.times.count_ms,
+                            info.times.fill_ms, info.times.order_ms, 0};
+      for (int s = 0; s < 6; ++s) stage[s].push_back(st[s]);
+      pairs_per_frame.push_back(info.pairs);
+      if (f > 0) steady_allocations += info.allocations;
+      buffer_bytes = std::max<std::uint64_t>(buffer_bytes, info.buffer_bytes);
+      if (f % args.check_every == 0 || f + 1 == args.frames) {
+        const auto t0 = std::chrono::steady_clock::now();
+        const std::vector<hbp::Pair>& want = reference.update(lanes_of(boxes));
+        reference_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+        ++checked;
+        if (want != got) ++mismatches;
+      }
+      if (f == 0 || f + 1 == args.frames) {
+        std::vector<std::uint32_t> sample;
+        const std::uint32_t step = std::max<std::uint32_t>(1, args.n / 256);
+        for (std::uint32_t i = f % step; i < args.n; i += step) sample.push_back(i);
+        ++sample_checks;
+        if (!sample_check(boxes, got, sample, args.threads)) ++sample_failures;
+      }
+      std::fprintf(stderr, "frame %u: %.3f ms device, %llu pairs\n", f, info.times.frame_ms,
+                   static_cast<unsigned long long>(info.pairs));
+      scenario.step();
+    }
+
+    std::vector<double> steady(frame_ms.begin() + (frame_ms.size() > 1 ? 1 : 0), frame_ms.end());
+    const double median = percentile(steady, 0.5);
+    double mean_pairs = 0;
+    for (auto p : pairs_per_frame) mean_pairs += static_cast<double>(p);
+    mean_pairs /= static_cast<double>(pairs_per_frame.size());
+    const bool exact = mismatches == 0 && sample_failures == 0;
+
+    std::string j = "{\n";
+    auto num = [&](const char* key, double v, bool comma = true) {
+      char buf[128];
+      std::snprintf(buf, sizeof buf, "  \"%s\": %.6g%s\n", key, v, comma ? "," : "");
+      j += buf;
+    };
+    auto str = [&](const char* key, const std::string& v) { j += "  \"" + std::string(key) + "\": \"" + v + "\",\n"; };
+    str("system", args.axis_sweep ? "axis-sweep" : "frame");
+    str("launcher", args.host ? "host" : "device");
+    str("device", args.host ? "" : hbp::cuda::device_name());
+    str("kind", args.kind);
+    str("order", args.sorted ? "sorted by (a, b)" : "frame order");
+    num("objects", args.n);
+    num("frames", args.frames);
+    num("host_threads", args.threads);
+    num("first_frame_ms", frame_ms.front());
+    num("median_frame_ms", median);
+    num("p99_frame_ms", percentile(steady, 0.99));
+    num("worst_frame_ms", *std::max_element(steady.begin(), steady.end()));
+    num("median_upload_ms", percentile(upload_ms, 0.5));
+    num("median_download_ms", percentile(download_ms, 0.5));
+    const char* names[6] = {"bounds", "refs", "sort", "count", "fill", "order"};
+    for (int s = 0; s < 6; ++s) num((std::string("median_") + names[s] + "_ms").c_str(), percentile(stage[s], 0.5));
+    num("mean_pairs", mean_pairs);
+    num("pairs_per_second", median > 0 ? mean_pairs / (median / 1000) : 0);
+    num("cells", last.cells);
+    num("references", last.references);
+    num("large", last.large);
+    num("grid_x", last.grid[0]);
+    num("grid_y", last.grid[1]);
+    num("grid_z", last.grid[2]);
+    num("buffer_bytes", static_cast<double>(buffer_bytes));
+    num("steady_allocations", static_cast<double>(steady_allocations));
+    num("reference_median_ms", percentile(reference_ms, 0.5));
+    num("frames_checked", checked);
+    num("frames_mismatched", mismatches);
+    num("sample_checks", sample_checks);
+    num("sample_failures", sample_failures);
+    j += std::string("  \"exact\": ") + (exact ? "true" : "false") + "\n}\n";
+    if (!args.json.empty()) {
+      FILE* out = std::fopen(args.json.c_str(), "w");
+      if (!out) throw hbp::Error("cannot write " + args.json);
+      std::fputs(j.c_str(), out);
+      std::fclose(out);
+    }
+    std::fputs(j.c_str(), stdout);
+    return exact ? 0 : 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "hbp-gpu-bench: error: %s\n", e.what());
+    return 1;
+  }
+}
