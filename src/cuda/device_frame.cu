@@ -235,14 +235,7 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
 
     // Order by (a, b).
     if (options.sorted && total > 1) {
-      reserve(pair_keys_, total * 8);
-      reserve(pair_keys_alt_, total * 8);
-      launch_pack_pairs(out, total, pair_keys_.as<std::uint64_t>(), stream_);
-      std::uint64_t* sorted_pairs = nullptr;
-      if (sort_keys(pair_keys_.as<std::uint64_t>(), pair_keys_alt_.as<std::uint64_t>(), total, temp_, &sorted_pairs,
-                    stream_))
-        ++info.allocations;
-      launch_unpack_pairs(sorted_pairs, total, out, stream_);
+      info.allocations += sort_pairs_by_ab(out, total, pair_keys_, pair_keys_alt_, temp_, stream_);
     }
     record(kOrdered);
     info.pairs = total;

@@ -1,5 +1,6 @@
 #include "cuda/device_kernels.cuh"
 
+#include "cuda/device_primitives.cuh"
 #include "cuda/device_support.cuh"
 
 namespace hbp::cuda {
@@ -294,6 +295,16 @@ void launch_unpack_pairs(const std::uint64_t* keys, std::uint64_t count, std::ui
   if (!count) return;
   unpack_kernel<<<grid_for(count), kThreads, 0, s>>>(keys, count, pairs);
   check_cuda(cudaGetLastError(), "unpack kernel");
+}
+
+int sort_pairs_by_ab(std::uint32_t* pairs, std::uint64_t count, DeviceBuffer& keys, DeviceBuffer& keys_alt,
+                     DeviceBuffer& temp, cudaStream_t s) {
+  int allocations = int(keys.reserve(count * 8)) + int(keys_alt.reserve(count * 8));
+  launch_pack_pairs(pairs, count, keys.as<std::uint64_t>(), s);
+  std::uint64_t* sorted = nullptr;
+  allocations += sort_keys(keys.as<std::uint64_t>(), keys_alt.as<std::uint64_t>(), count, temp, &sorted, s);
+  launch_unpack_pairs(sorted, count, pairs, s);
+  return allocations;
 }
 
 }  // namespace hbp::cuda

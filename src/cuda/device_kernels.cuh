@@ -6,6 +6,7 @@
 #include <cstdint>
 
 #include "cuda/frame_bodies.hpp"
+#include "cuda/device_support.cuh"
 #include "hbp/cell_region.hpp"
 
 namespace hbp::cuda {
@@ -55,5 +56,10 @@ void launch_scene_rows(const SortedLanes& sorted, std::uint32_t n, std::uint64_t
 // Pairs <-> 64-bit keys (a << 32 | b) for sorting by (a, b).
 void launch_pack_pairs(const std::uint32_t* pairs, std::uint64_t count, std::uint64_t* keys, cudaStream_t s);
 void launch_unpack_pairs(const std::uint64_t* keys, std::uint64_t count, std::uint32_t* pairs, cudaStream_t s);
+// Orders `count` pairs (interleaved a, b words) in place by (a, b): packed
+// into keys, radix-sorted (keys_alt and temp as the sort's room), unpacked.
+// Returns how many of the three buffers it had to allocate.
+int sort_pairs_by_ab(std::uint32_t* pairs, std::uint64_t count, DeviceBuffer& keys, DeviceBuffer& keys_alt,
+                     DeviceBuffer& temp, cudaStream_t s);
 
 }  // namespace hbp::cuda

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "hbp/error.hpp"
+#include "support/retained.hpp"
 
 namespace hbp::cuda {
 
@@ -28,12 +29,14 @@ class DeviceBuffer {
   DeviceBuffer(const DeviceBuffer&) = delete;
   DeviceBuffer& operator=(const DeviceBuffer&) = delete;
   ~DeviceBuffer() { cudaFree(data_); }
-  // Makes room for `bytes`; returns whether it allocated. `trim` false for a
-  // buffer asked several times per frame for different sizes (the CUB
-  // temporary storage): it only grows, or a small request after a large one
-  // would give back and reallocate within every frame.
+  // Makes room for `bytes`; returns whether it allocated. A buffer far
+  // larger than asked is given back first (the retained rule of the CPU's
+  // buffers, support/retained.hpp). `trim` false for a buffer asked several
+  // times per frame for different sizes (the CUB temporary storage): it only
+  // grows, or a small request after a large one would give back and
+  // reallocate within every frame.
   bool reserve(std::size_t bytes, bool trim = true) {
-    if (trim && data_ && capacity_ > 4 * bytes + (std::size_t{8} << 20)) release();
+    if (trim && data_ && retained::oversized(capacity_, bytes, retained::kSlackBytes)) release();
     if (bytes <= capacity_ && data_) return false;
     release();
     // An eighth more than asked: frame-to-frame jitter of the reference and
