@@ -4,7 +4,11 @@
 // transfers apart, checked every frame against the CPU launcher of the same
 // kernels (identical lists) and, independently, by brute force for a sample
 // of objects against all others. Writes one JSON object (--json) for
-// scripts/gpu-check's report. Exits 1 on any mismatch.
+// scripts/gpu-check's report. With --sustain S, the last frame's boxes are
+// then kept in device memory and the frame re-run through the device entry
+// (update_device) back to back for S seconds, so that board power sampled in
+// that window (its wall-clock bounds are in the JSON) is the power of steady
+// frames alone. Exits 1 on any mismatch.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -13,6 +17,8 @@
 #include <string>
 #include <thread>
 #include <vector>
+
+#include <cuda_runtime.h>
 
 #include "hbp/box_array.hpp"
 #include "hbp/cuda/axis_sweep.hpp"
@@ -31,6 +37,7 @@ struct Args {
   bool host = false;  // --launcher host: the CPU launcher times itself (no device)
   bool sorted = true;
   unsigned threads = std::max(1u, std::thread::hardware_concurrency());
+  double sustain_s = 0;  // --sustain S: device-entry frames back to back for S seconds
   std::string json;
 };
 
@@ -39,7 +46,7 @@ struct Args {
                "usage: hbp-gpu-bench [--system frame|axis-sweep] [--kind paper|clustered|flat|huge|degenerate]\n"
                "                     [--n N] [--frames F]\n"
                "                     [--check-every K] [--launcher device|host] [--unsorted] [--threads T]\n"
-               "                     [--json FILE]\n");
+               "                     [--sustain SECONDS] [--json FILE]\n");
   std::exit(2);
 }
 
@@ -59,10 +66,12 @@ Args parse(int argc, char** argv) {
     else if (k == "--threads") a.threads = static_cast<unsigned>(std::stoul(value()));
     else if (k == "--launcher") a.host = value() == "host";
     else if (k == "--unsorted") a.sorted = false;
+    else if (k == "--sustain") a.sustain_s = std::stod(value());
     else if (k == "--json") a.json = value();
     else usage();
   }
   if (a.frames == 0 || a.threads == 0) usage();
+  if (a.sustain_s > 0 && (a.host || a.axis_sweep)) usage();
   if (a.axis_sweep) a.sorted = true;  // checked against the frame's sorted list
   return a;
 }
@@ -113,6 +122,53 @@ bool sample_check(const hbp::BoxArray& b, const std::vector<hbp::Pair>& pairs, c
       got.push_back(p);
   std::sort(got.begin(), got.end());
   return got == expected;
+}
+
+void check(cudaError_t e, const char* what) {
+  if (e != cudaSuccess) throw hbp::Error(std::string(what) + ": " + cudaGetErrorString(e));
+}
+
+double unix_seconds() {
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+struct Sustained {
+  std::uint64_t frames = 0;
+  double wall_ms_per_frame = 0;  // host wall clock over the loop / frames
+  double start_unix = 0, end_unix = 0;
+  bool same_pairs = true;        // every loop frame found the checked frame's count
+};
+
+// The frame over `boxes` kept in device memory, through update_device,
+// back to back for `seconds`.
+Sustained sustain(hbp::cuda::FrameBroadPhase& frame, const hbp::BoxArray& boxes, std::uint64_t pairs,
+                  double seconds) {
+  const std::size_t n = boxes.size();
+  float* device = nullptr;
+  check(cudaMalloc(&device, 6 * n * sizeof(float) + 4), "cudaMalloc");
+  hbp::cuda::Lanes lanes;
+  lanes.n = static_cast<std::uint32_t>(n);
+  for (int k = 0; k < 3; ++k) {
+    check(cudaMemcpy(device + k * n, boxes.min(k), n * sizeof(float), cudaMemcpyHostToDevice), "upload");
+    check(cudaMemcpy(device + (3 + k) * n, boxes.max(k), n * sizeof(float), cudaMemcpyHostToDevice), "upload");
+    lanes.lo[k] = device + k * n;
+    lanes.hi[k] = device + (3 + k) * n;
+  }
+  Sustained s;
+  frame.update_device(lanes);  // warm: same boxes, buffers already sized
+  s.start_unix = unix_seconds();
+  const auto t0 = std::chrono::steady_clock::now();
+  double elapsed = 0;
+  while (elapsed < seconds) {
+    const hbp::cuda::DevicePairs got = frame.update_device(lanes);
+    s.same_pairs = s.same_pairs && got.count == pairs;
+    ++s.frames;
+    elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  }
+  s.end_unix = unix_seconds();
+  s.wall_ms_per_frame = elapsed * 1000 / static_cast<double>(s.frames);
+  check(cudaFree(device), "cudaFree");
+  return s;
 }
 
 }  // namespace
@@ -174,12 +230,15 @@ int main(int argc, char** argv) {
       scenario.step();
     }
 
+    Sustained sustained;
+    if (args.sustain_s > 0) sustained = sustain(frame, boxes, pairs_per_frame.back(), args.sustain_s);
+
     std::vector<double> steady(frame_ms.begin() + (frame_ms.size() > 1 ? 1 : 0), frame_ms.end());
     const double median = percentile(steady, 0.5);
     double mean_pairs = 0;
     for (auto p : pairs_per_frame) mean_pairs += static_cast<double>(p);
     mean_pairs /= static_cast<double>(pairs_per_frame.size());
-    const bool exact = mismatches == 0 && sample_failures == 0;
+    const bool exact = mismatches == 0 && sample_failures == 0 && sustained.same_pairs;
 
     std::string j = "{\n";
     auto num = [&](const char* key, double v, bool comma = true) {
@@ -219,6 +278,18 @@ int main(int argc, char** argv) {
     num("frames_mismatched", mismatches);
     num("sample_checks", sample_checks);
     num("sample_failures", sample_failures);
+    if (args.sustain_s > 0) {
+      num("sustained_frames", static_cast<double>(sustained.frames));
+      num("sustained_wall_ms_per_frame", sustained.wall_ms_per_frame);
+      char buf[96];
+      std::snprintf(buf, sizeof buf, "  \"sustained_start_unix\": %.3f,\n  \"sustained_end_unix\": %.3f,\n",
+                    sustained.start_unix, sustained.end_unix);
+      j += buf;
+    }
+    j += "  \"pairs_per_frame\": [";
+    for (std::size_t f = 0; f < pairs_per_frame.size(); ++f)
+      j += (f ? ", " : "") + std::to_string(pairs_per_frame[f]);
+    j += "],\n";
     j += std::string("  \"exact\": ") + (exact ? "true" : "false") + "\n}\n";
     if (!args.json.empty()) {
       FILE* out = std::fopen(args.json.c_str(), "w");
