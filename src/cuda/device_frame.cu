@@ -64,7 +64,7 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     require_device();
     check_cuda(cudaStreamCreateWithFlags(&own_stream_, cudaStreamNonBlocking), "cudaStreamCreate");
     for (auto& e : events_) check_cuda(cudaEventCreate(&e), "cudaEventCreate");
-    check_cuda(cudaMallocHost(&pinned_, 16 * sizeof(std::uint64_t)), "cudaMallocHost");
+    check_cuda(cudaMallocHost(&pinned_, kBoundsWords * sizeof(std::uint32_t)), "cudaMallocHost");
   }
   ~DeviceFrame() override {
     for (auto& e : events_) cudaEventDestroy(e);
@@ -119,18 +119,23 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     const std::uint32_t n = in.n;
     const BoxLanesView b{{in.lo[0], in.lo[1], in.lo[2]}, {in.hi[0], in.hi[1], in.hi[2]}};
 
-    // Bounds and validation.
-    reserve(acc_, 8 * sizeof(std::uint32_t));
-    std::uint32_t init[7] = {~0u, ~0u, ~0u, 0, 0, 0, n};
-    std::memcpy(pinned_, init, sizeof init);
-    check_cuda(cudaMemcpyAsync(acc_.as<std::uint32_t>(), pinned_, sizeof init, cudaMemcpyHostToDevice, stream_),
+    // Bounds, extents and validation.
+    reserve(acc_, kBoundsWords * sizeof(std::uint32_t));
+    std::uint32_t* words = reinterpret_cast<std::uint32_t*>(pinned_);
+    const std::uint32_t init[8] = {~0u, ~0u, ~0u, 0, 0, 0, n, 0};
+    std::memcpy(words, init, sizeof init);
+    std::memset(words + kBoundsExtents, 0, 3 * kExtentBins * sizeof(std::uint32_t));
+    check_cuda(cudaMemcpyAsync(acc_.as<std::uint32_t>(), words, kBoundsWords * sizeof(std::uint32_t),
+                               cudaMemcpyHostToDevice, stream_),
                "bounds init");
     if (n) launch_bounds(b, n, acc_.as<std::uint32_t>(), stream_);
-    check_cuda(cudaMemcpyAsync(pinned_, acc_.as<std::uint32_t>(), sizeof init, cudaMemcpyDeviceToHost, stream_),
+    check_cuda(cudaMemcpyAsync(words, acc_.as<std::uint32_t>(), kBoundsWords * sizeof(std::uint32_t),
+                               cudaMemcpyDeviceToHost, stream_),
                "bounds read-back");
     sync();
     std::uint32_t acc[7];
-    std::memcpy(acc, pinned_, sizeof acc);
+    std::memcpy(acc, words, sizeof acc);
+    std::memcpy(&extents_, words + kBoundsExtents, sizeof extents_);
     if (acc[6] < n) report_defect(b, acc[6]);
     Bounds bounds{{0, 0, 0}, {0, 0, 0}};
     if (n)
@@ -138,7 +143,7 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
         bounds.lo[k] = from_ordered(acc[k]);
         bounds.hi[k] = from_ordered(acc[3 + k]);
       }
-    info.replanned = grid_.update(bounds, n, options.boxes_per_cell);
+    info.replanned = grid_.update(bounds, extents_, n, options.boxes_per_cell);
     reserve(planes_, 3 * kMaxAxisCells * sizeof(float));
     if (info.replanned && !grid_.planes().empty())
       check_cuda(cudaMemcpyAsync(planes_.as<float>(), grid_.planes().data(), grid_.planes().size() * sizeof(float),
@@ -235,7 +240,7 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
 
     // Order by (a, b).
     if (options.sorted && total > 1) {
-      info.allocations += sort_pairs_by_ab(out, total, pair_keys_, pair_keys_alt_, temp_, stream_);
+      info.allocations += sort_pairs_by_ab(out, total, n, pair_keys_, pair_keys_alt_, temp_, stream_);
     }
     record(kOrdered);
     info.pairs = total;
@@ -288,6 +293,7 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
   }
 
   GridPlan grid_;
+  ExtentHistogram extents_{};
   cudaStream_t own_stream_ = nullptr;
   cudaStream_t stream_ = nullptr;
   cudaEvent_t events_[kStages] = {};

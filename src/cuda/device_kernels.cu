@@ -26,6 +26,9 @@ __device__ std::uint32_t warp_max(std::uint32_t v) {
 // 0 folds into acc with atomics (min/max commute: the result is exact and
 // independent of order).
 __global__ void bounds_kernel(BoxLanesView b, std::uint32_t n, std::uint32_t* acc) {
+  __shared__ std::uint32_t extents[3 * kExtentBins];
+  for (std::uint32_t t = threadIdx.x; t < 3 * kExtentBins; t += blockDim.x) extents[t] = 0;
+  __syncthreads();
   std::uint32_t lo[3] = {~0u, ~0u, ~0u}, hi[3] = {0, 0, 0}, bad = n;
   for (std::uint32_t i = blockIdx.x * blockDim.x + threadIdx.x; i < n; i += gridDim.x * blockDim.x) {
     if (box_defect(b, i)) {
@@ -35,6 +38,7 @@ __global__ void bounds_kernel(BoxLanesView b, std::uint32_t n, std::uint32_t* ac
     for (int k = 0; k < 3; ++k) {
       lo[k] = min(lo[k], ordered_bits(b.lo[k][i]));
       hi[k] = max(hi[k], ordered_bits(b.hi[k][i]));
+      atomicAdd(extents + k * kExtentBins + extent_bin(b.lo[k][i], b.hi[k][i]), 1u);
     }
   }
   for (int k = 0; k < 3; ++k) {
@@ -49,6 +53,9 @@ __global__ void bounds_kernel(BoxLanesView b, std::uint32_t n, std::uint32_t* ac
     }
     atomicMin(acc + 6, bad);
   }
+  __syncthreads();
+  for (std::uint32_t t = threadIdx.x; t < 3 * kExtentBins; t += blockDim.x)
+    if (extents[t]) atomicAdd(acc + kBoundsExtents + t, extents[t]);
 }
 
 __global__ void reference_count_kernel(GridView g, BoxLanesView b, std::uint32_t n, std::uint32_t* count,
@@ -99,30 +106,35 @@ __global__ void cells_kernel(GridView g, const std::uint64_t* keys, const std::u
   }
 }
 
-// The accelerator: one block per cell, its boxes copied into shared memory
-// (the buffer memories), each lane sweeping its rows (r, r + kLanes, ...).
-__global__ void __launch_bounds__(kLanes) cell_rows_kernel(SortedLanes sorted, const std::uint32_t* cell_begin,
-                                                           const CellRegion* regions, const std::uint32_t* cells,
-                                                           std::uint64_t* counts, const std::uint64_t* offsets,
-                                                           std::uint32_t* out) {
-  __shared__ float buffer[6][kBlockBoxes];
-  __shared__ std::uint32_t buffer_ids[kBlockBoxes];
-  const std::uint32_t c = blockIdx.x;
-  if (c >= *cells) return;
-  const std::uint32_t begin = cell_begin[c], size = cell_begin[c + 1] - begin;
-  const CellRegion region = regions[c];
+// A cell's boxes in shared memory: the accelerator's buffer memories.
+template <std::uint32_t kBoxes>
+struct CellBuffer {
+  float lane[6][kBoxes];
+  std::uint32_t id[kBoxes];
+};
+
+// The accelerator on one cell: its boxes copied into `buffer` when they fit
+// (else swept from global memory by the same body), each thread sweeping
+// rows threadIdx.x, + blockDim.x, ...; counts[r] per row, or with `out` the
+// pairs from offsets[r]. Every thread of the block calls it (barriers).
+template <std::uint32_t kBoxes>
+__device__ void sweep_cell(const SortedLanes& sorted, std::uint32_t begin, std::uint32_t size,
+                           const CellRegion& region, CellBuffer<kBoxes>& buffer, std::uint64_t* counts,
+                           const std::uint64_t* offsets, std::uint32_t* out) {
   SortedLanes s = sorted;
   std::uint32_t base = begin;  // row r of s is reference base + r
-  if (size <= kBlockBoxes) {
+  if (size <= kBoxes) {
     for (std::uint32_t r = threadIdx.x; r < size; r += blockDim.x) {
       for (int k = 0; k < 3; ++k) {
-        buffer[k][r] = sorted.lo[k][begin + r];
-        buffer[3 + k][r] = sorted.hi[k][begin + r];
+        buffer.lane[k][r] = sorted.lo[k][begin + r];
+        buffer.lane[3 + k][r] = sorted.hi[k][begin + r];
       }
-      buffer_ids[r] = sorted.id[begin + r];
+      buffer.id[r] = sorted.id[begin + r];
     }
     __syncthreads();
-    s = SortedLanes{{buffer[0], buffer[1], buffer[2]}, {buffer[3], buffer[4], buffer[5]}, buffer_ids};
+    s = SortedLanes{{buffer.lane[0], buffer.lane[1], buffer.lane[2]},
+                    {buffer.lane[3], buffer.lane[4], buffer.lane[5]},
+                    buffer.id};
     base = 0;
   }
   for (std::uint32_t r = threadIdx.x; r < size; r += blockDim.x) {
@@ -135,6 +147,38 @@ __global__ void __launch_bounds__(kLanes) cell_rows_kernel(SortedLanes sorted, c
         row[2 * k + 1] = a < b ? b : a;
       });
     }
+  }
+}
+
+// Cells of up to kBlockBoxes boxes: a block of kLanes threads each.
+__global__ void __launch_bounds__(kLanes) cell_rows_kernel(SortedLanes sorted, const std::uint32_t* cell_begin,
+                                                           const CellRegion* regions, const std::uint32_t* cells,
+                                                           std::uint64_t* counts, const std::uint64_t* offsets,
+                                                           std::uint32_t* out) {
+  __shared__ CellBuffer<kBlockBoxes> buffer;
+  const std::uint32_t c = blockIdx.x;
+  if (c >= *cells) return;
+  const std::uint32_t begin = cell_begin[c], size = cell_begin[c + 1] - begin;
+  if (size > kBlockBoxes) return;
+  sweep_cell(sorted, begin, size, regions[c], buffer, counts, offsets, out);
+}
+
+// The larger cells (dense regions of a clustered scene): a fixed grid of
+// kBigLanes-thread blocks, each taking cells c = blockIdx.x, + gridDim.x, ...
+// and skipping those the small kernel swept, with a larger buffer. Which
+// block sweeps a cell changes no count and no pair's place (offsets are per
+// row), so the result is the same as one block per cell.
+__global__ void __launch_bounds__(kBigLanes) big_cell_rows_kernel(SortedLanes sorted, const std::uint32_t* cell_begin,
+                                                                  const CellRegion* regions,
+                                                                  const std::uint32_t* cells, std::uint64_t* counts,
+                                                                  const std::uint64_t* offsets, std::uint32_t* out) {
+  __shared__ CellBuffer<kBigCellBoxes> buffer;
+  const std::uint32_t cell_count = *cells;
+  for (std::uint32_t c = blockIdx.x; c < cell_count; c += gridDim.x) {
+    const std::uint32_t begin = cell_begin[c], size = cell_begin[c + 1] - begin;
+    if (size <= kBlockBoxes) continue;
+    sweep_cell(sorted, begin, size, regions[c], buffer, counts, offsets, out);
+    __syncthreads();  // the buffer is refilled for the next cell
   }
 }
 
@@ -158,16 +202,20 @@ __global__ void large_rows_kernel(BoxLanesView b, std::uint32_t n, const std::ui
   }
 }
 
-__global__ void pack_kernel(const std::uint32_t* pairs, std::uint64_t count, std::uint64_t* keys) {
-  const std::uint64_t p = std::uint64_t{blockIdx.x} * blockDim.x + threadIdx.x;
-  if (p < count) keys[p] = (std::uint64_t{pairs[2 * p]} << 32) | pairs[2 * p + 1];
-}
-
-__global__ void unpack_kernel(const std::uint64_t* keys, std::uint64_t count, std::uint32_t* pairs) {
+__global__ void pack_kernel(const std::uint32_t* pairs, std::uint64_t count, int id_bits, std::uint64_t* keys) {
   const std::uint64_t p = std::uint64_t{blockIdx.x} * blockDim.x + threadIdx.x;
   if (p < count) {
-    pairs[2 * p] = static_cast<std::uint32_t>(keys[p] >> 32);
-    pairs[2 * p + 1] = static_cast<std::uint32_t>(keys[p]);
+    const uint2 pair = reinterpret_cast<const uint2*>(pairs)[p];
+    keys[p] = (std::uint64_t{pair.x} << id_bits) | pair.y;
+  }
+}
+
+__global__ void unpack_kernel(const std::uint64_t* keys, std::uint64_t count, int id_bits, std::uint32_t* pairs) {
+  const std::uint64_t p = std::uint64_t{blockIdx.x} * blockDim.x + threadIdx.x;
+  if (p < count) {
+    const std::uint64_t key = keys[p];
+    reinterpret_cast<uint2*>(pairs)[p] =
+        make_uint2(static_cast<std::uint32_t>(key >> id_bits), static_cast<std::uint32_t>(key & ((1ull << id_bits) - 1)));
   }
 }
 
@@ -253,6 +301,9 @@ void launch_cell_rows(const SortedLanes& sorted, const std::uint32_t* cell_begin
   if (!blocks) return;
   cell_rows_kernel<<<blocks, kLanes, 0, s>>>(sorted, cell_begin, regions, cells, counts, offsets, out);
   check_cuda(cudaGetLastError(), "cell rows kernel");
+  big_cell_rows_kernel<<<blocks < kBigCellBlocks ? blocks : kBigCellBlocks, kBigLanes, 0, s>>>(
+      sorted, cell_begin, regions, cells, counts, offsets, out);
+  check_cuda(cudaGetLastError(), "big cell rows kernel");
 }
 
 void launch_large_rows(const BoxLanesView& b, std::uint32_t n, const std::uint32_t* is_large,
@@ -285,25 +336,29 @@ void launch_scene_rows(const SortedLanes& sorted, std::uint32_t n, std::uint64_t
   check_cuda(cudaGetLastError(), "scene rows kernel");
 }
 
-void launch_pack_pairs(const std::uint32_t* pairs, std::uint64_t count, std::uint64_t* keys, cudaStream_t s) {
+void launch_pack_pairs(const std::uint32_t* pairs, std::uint64_t count, int id_bits, std::uint64_t* keys,
+                       cudaStream_t s) {
   if (!count) return;
-  pack_kernel<<<grid_for(count), kThreads, 0, s>>>(pairs, count, keys);
+  pack_kernel<<<grid_for(count), kThreads, 0, s>>>(pairs, count, id_bits, keys);
   check_cuda(cudaGetLastError(), "pack kernel");
 }
 
-void launch_unpack_pairs(const std::uint64_t* keys, std::uint64_t count, std::uint32_t* pairs, cudaStream_t s) {
+void launch_unpack_pairs(const std::uint64_t* keys, std::uint64_t count, int id_bits, std::uint32_t* pairs,
+                         cudaStream_t s) {
   if (!count) return;
-  unpack_kernel<<<grid_for(count), kThreads, 0, s>>>(keys, count, pairs);
+  unpack_kernel<<<grid_for(count), kThreads, 0, s>>>(keys, count, id_bits, pairs);
   check_cuda(cudaGetLastError(), "unpack kernel");
 }
 
-int sort_pairs_by_ab(std::uint32_t* pairs, std::uint64_t count, DeviceBuffer& keys, DeviceBuffer& keys_alt,
-                     DeviceBuffer& temp, cudaStream_t s) {
+int sort_pairs_by_ab(std::uint32_t* pairs, std::uint64_t count, std::uint32_t objects, DeviceBuffer& keys,
+                     DeviceBuffer& keys_alt, DeviceBuffer& temp, cudaStream_t s) {
+  int id_bits = 1;
+  while ((std::uint64_t{1} << id_bits) < objects) ++id_bits;
   int allocations = int(keys.reserve(count * 8)) + int(keys_alt.reserve(count * 8));
-  launch_pack_pairs(pairs, count, keys.as<std::uint64_t>(), s);
+  launch_pack_pairs(pairs, count, id_bits, keys.as<std::uint64_t>(), s);
   std::uint64_t* sorted = nullptr;
-  allocations += sort_keys(keys.as<std::uint64_t>(), keys_alt.as<std::uint64_t>(), count, temp, &sorted, s);
-  launch_unpack_pairs(sorted, count, pairs, s);
+  allocations += sort_keys(keys.as<std::uint64_t>(), keys_alt.as<std::uint64_t>(), count, 2 * id_bits, temp, &sorted, s);
+  launch_unpack_pairs(sorted, count, id_bits, pairs, s);
   return allocations;
 }
 

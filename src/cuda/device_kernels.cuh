@@ -12,15 +12,25 @@
 namespace hbp::cuda {
 
 // Boxes that fit the accelerator's buffer memories (shared memory) are
-// swept there; a larger cell is swept from global memory by the same body.
-// 256 boxes (7 KiB) and 64 lanes per block: the grid targets ~16 boxes per
+// swept there; a cell larger than the big-cell buffer is swept from global
+// memory by the same body. 256 boxes (7 KiB) and 64 lanes per block: the grid targets ~16 boxes per
 // cell (~35 references), and 32 such blocks fill an SM's 2048 threads
 // within its shared memory.
 inline constexpr std::uint32_t kBlockBoxes = 256;
 inline constexpr std::uint32_t kLanes = 64;
+// Larger cells, from dense regions: 256 lanes, up to 1536 boxes in shared
+// memory (42 KiB, under the 48 KiB a block gets without opting in), on a
+// fixed grid of kBigCellBlocks blocks (two per SM of an H100/H200).
+inline constexpr std::uint32_t kBigLanes = 256;
+inline constexpr std::uint32_t kBigCellBoxes = 1536;
+inline constexpr std::uint32_t kBigCellBlocks = 264;
 
 // acc[0..2] ordered min of lo, acc[3..5] ordered max of hi, acc[6] the first
-// defective object (n when none); acc must hold {~0 x3, 0 x3, n} before.
+// defective object (n when none), from acc[kBoundsExtents] the extent
+// histogram (ExtentHistogram's layout, 3 * kExtentBins counts); acc must hold
+// {~0 x3, 0 x3, n} and zero counts before.
+inline constexpr std::uint32_t kBoundsExtents = 8;
+inline constexpr std::uint32_t kBoundsWords = kBoundsExtents + 3 * kExtentBins;
 void launch_bounds(const BoxLanesView& b, std::uint32_t n, std::uint32_t* acc, cudaStream_t s);
 void launch_reference_count(const GridView& g, const BoxLanesView& b, std::uint32_t n, std::uint32_t* count,
                             std::uint32_t* is_large, cudaStream_t s);
@@ -34,8 +44,10 @@ void launch_gather(const BoxLanesView& b, const std::uint64_t* keys, const std::
 // From the inclusive scan of head: cell_begin (cells + 1), regions, *cells.
 void launch_cells(const GridView& g, const std::uint64_t* keys, const std::uint32_t* head_scan, std::uint32_t refs,
                   std::uint32_t* cell_begin, CellRegion* regions, std::uint32_t* cells, cudaStream_t s);
-// A block per cell (blocks past *cells return): counts[r] for each lane, or
-// with `out` the pairs (two uint32 each) from offsets[r].
+// The accelerator over `blocks` >= *cells cells: a block per cell of up to
+// kBlockBoxes boxes (blocks past *cells return), the larger cells on the
+// fixed grid of big-cell blocks; counts[r] for each lane, or with `out` the
+// pairs (two uint32 each) from offsets[r].
 void launch_cell_rows(const SortedLanes& sorted, const std::uint32_t* cell_begin, const CellRegion* regions,
                       const std::uint32_t* cells, std::uint32_t blocks, std::uint64_t* counts,
                       const std::uint64_t* offsets, std::uint32_t* out, cudaStream_t s);
@@ -53,13 +65,17 @@ void launch_axis_keys(const BoxLanesView& b, std::uint32_t n, std::uint64_t* key
 void launch_scene_rows(const SortedLanes& sorted, std::uint32_t n, std::uint64_t* counts, const std::uint64_t* offsets,
                        std::uint32_t* out, cudaStream_t s);
 
-// Pairs <-> 64-bit keys (a << 32 | b) for sorting by (a, b).
-void launch_pack_pairs(const std::uint32_t* pairs, std::uint64_t count, std::uint64_t* keys, cudaStream_t s);
-void launch_unpack_pairs(const std::uint64_t* keys, std::uint64_t count, std::uint32_t* pairs, cudaStream_t s);
-// Orders `count` pairs (interleaved a, b words) in place by (a, b): packed
-// into keys, radix-sorted (keys_alt and temp as the sort's room), unpacked.
-// Returns how many of the three buffers it had to allocate.
-int sort_pairs_by_ab(std::uint32_t* pairs, std::uint64_t count, DeviceBuffer& keys, DeviceBuffer& keys_alt,
-                     DeviceBuffer& temp, cudaStream_t s);
+// Pairs <-> 64-bit keys (a << id_bits | b, ids below 2^id_bits) for sorting
+// by (a, b) over 2 * id_bits bits only.
+void launch_pack_pairs(const std::uint32_t* pairs, std::uint64_t count, int id_bits, std::uint64_t* keys,
+                       cudaStream_t s);
+void launch_unpack_pairs(const std::uint64_t* keys, std::uint64_t count, int id_bits, std::uint32_t* pairs,
+                         cudaStream_t s);
+// Orders `count` pairs of ids below `objects` (interleaved a, b words) in
+// place by (a, b): packed into keys, radix-sorted over the bits ids use
+// (keys_alt and temp as the sort's room), unpacked. Returns how many of the
+// three buffers it had to allocate.
+int sort_pairs_by_ab(std::uint32_t* pairs, std::uint64_t count, std::uint32_t objects, DeviceBuffer& keys,
+                     DeviceBuffer& keys_alt, DeviceBuffer& temp, cudaStream_t s);
 
 }  // namespace hbp::cuda

@@ -22,15 +22,15 @@ bool sort_pairs(std::uint64_t* keys, std::uint64_t* keys_alt, std::uint32_t* ids
   return grew;
 }
 
-bool sort_keys(std::uint64_t* keys, std::uint64_t* keys_alt, std::uint64_t n, DeviceBuffer& temp, std::uint64_t** out,
-               cudaStream_t s) {
+bool sort_keys(std::uint64_t* keys, std::uint64_t* keys_alt, std::uint64_t n, int end_bit, DeviceBuffer& temp,
+               std::uint64_t** out, cudaStream_t s) {
   cub::DoubleBuffer<std::uint64_t> k(keys, keys_alt);
   bool grew = false;
   if (n) {
     std::size_t bytes = 0;
-    check_cuda(cub::DeviceRadixSort::SortKeys(nullptr, bytes, k, n, 0, 64, s), "sort size");
+    check_cuda(cub::DeviceRadixSort::SortKeys(nullptr, bytes, k, n, 0, end_bit, s), "sort size");
     grew = temp.reserve(bytes, false);
-    check_cuda(cub::DeviceRadixSort::SortKeys(temp.as<void>(), bytes, k, n, 0, 64, s), "sort keys");
+    check_cuda(cub::DeviceRadixSort::SortKeys(temp.as<void>(), bytes, k, n, 0, end_bit, s), "sort keys");
   }
   *out = k.Current();
   return grew;

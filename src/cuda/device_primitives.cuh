@@ -15,9 +15,10 @@ namespace hbp::cuda {
 bool sort_pairs(std::uint64_t* keys, std::uint64_t* keys_alt, std::uint32_t* ids, std::uint32_t* ids_alt,
                 std::uint32_t n, int end_bit, DeviceBuffer& temp, std::uint64_t** keys_out, std::uint32_t** ids_out,
                 cudaStream_t s);
-// Sort of 64-bit keys; the sorted keys end in *out (keys or keys_alt).
-bool sort_keys(std::uint64_t* keys, std::uint64_t* keys_alt, std::uint64_t n, DeviceBuffer& temp, std::uint64_t** out,
-               cudaStream_t s);
+// Sort of 64-bit keys by bits [0, end_bit); the sorted keys end in *out
+// (keys or keys_alt).
+bool sort_keys(std::uint64_t* keys, std::uint64_t* keys_alt, std::uint64_t n, int end_bit, DeviceBuffer& temp,
+               std::uint64_t** out, cudaStream_t s);
 // out[0] = 0, out[1 + i] = in[0] + ... + in[i] (n + 1 entries).
 bool inclusive_sum(const std::uint32_t* in, std::uint32_t* out, std::uint64_t n, DeviceBuffer& temp, cudaStream_t s);
 bool inclusive_sum(const std::uint64_t* in, std::uint64_t* out, std::uint64_t n, DeviceBuffer& temp, cudaStream_t s);

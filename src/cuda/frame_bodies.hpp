@@ -23,6 +23,20 @@ inline constexpr std::uint32_t kMaxRefsPerBox = 8;
 inline constexpr std::uint32_t kMaxAxisCells = 1024;
 inline constexpr std::uint32_t kMaxCells = 1u << 22;
 
+// Box extents by binary order of magnitude, per axis: an extent's bin is its
+// float's biased exponent. The histogram is exact integer counts, the same on
+// every launcher and in any order of accumulation, and bounds each bin's
+// extents within a factor of two; the grid plans cells no narrower than
+// nearly every box (grid_plan.hpp), so replication stays low and the large
+// pass rare in dense and flat scenes alike.
+inline constexpr std::uint32_t kExtentBins = 256;
+HBP_HOST_DEVICE inline std::uint32_t extent_bin(float lo, float hi) {
+  const float e = hi - lo;  // >= 0 for a valid box; +inf past the float range (bin 255)
+  std::uint32_t u;
+  __builtin_memcpy(&u, &e, sizeof u);
+  return (u >> 23) & 0xffu;
+}
+
 // The uniform grid of one frame (cuda/grid_plan.hpp plans it): on axis k,
 // dims[k] cells cut by dims[k] - 1 increasing interior planes. The outer
 // cells reach to infinity, so the regions tile all space and every box,

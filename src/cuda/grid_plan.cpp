@@ -7,36 +7,87 @@ namespace hbp::cuda {
 
 GridPlan::GridPlan() { planes_.reserve(3 * kMaxAxisCells); }
 
-bool GridPlan::update(const Bounds& b, std::uint32_t n, std::uint32_t boxes_per_cell) {
+namespace {
+
+// Boxes a cell should be at least as wide as, on each axis: all but this
+// fraction (they may span more cells, or go to the large pass).
+constexpr double kFloorQuantile = 0.99;
+
+// The extent bin holding the kFloorQuantile-th box's extent on each axis.
+void floor_bins(const ExtentHistogram& h, std::uint32_t n, std::uint32_t out[3]) {
+  const auto need = static_cast<std::uint64_t>(kFloorQuantile * n);
+  for (int k = 0; k < 3; ++k) {
+    std::uint64_t seen = 0;
+    out[k] = 0;
+    for (std::uint32_t bin = 0; bin < kExtentBins; ++bin) {
+      seen += h.count[k][bin];
+      if (seen >= need) {
+        out[k] = bin;
+        break;
+      }
+    }
+  }
+}
+
+// The largest extent in a bin: below 2^(bin - 126) (bin 255, infinite
+// extents, gives no floor: such boxes go to the large pass).
+double bin_ceiling(std::uint32_t bin) { return bin >= 255 ? 0.0 : std::ldexp(1.0, static_cast<int>(bin) - 126); }
+
+}  // namespace
+
+bool GridPlan::update(const Bounds& b, const ExtentHistogram& extents, std::uint32_t n,
+                      std::uint32_t boxes_per_cell) {
+  std::uint32_t floor_bin[3];
+  floor_bins(extents, n, floor_bin);
   bool keep = valid_ && 4ull * n >= 3ull * planned_n_ && 3ull * n <= 4ull * planned_n_;
   for (int k = 0; keep && k < 3; ++k) {
     const double extent = static_cast<double>(planned_.hi[k]) - planned_.lo[k];
     const double slack = extent / 10;
     keep = std::fabs(static_cast<double>(b.lo[k]) - planned_.lo[k]) <= slack &&
-           std::fabs(static_cast<double>(b.hi[k]) - planned_.hi[k]) <= slack;
+           std::fabs(static_cast<double>(b.hi[k]) - planned_.hi[k]) <= slack &&
+           floor_bin[k] + 1 >= planned_floor_bin_[k] && floor_bin[k] <= planned_floor_bin_[k] + 1;
   }
   if (keep) return false;
-  plan(b, n, boxes_per_cell);
+  plan(b, floor_bin, n, boxes_per_cell);
   return true;
 }
 
-void GridPlan::plan(const Bounds& b, std::uint32_t n, std::uint32_t boxes_per_cell) {
+void GridPlan::plan(const Bounds& b, const std::uint32_t floor_bin[3], std::uint32_t n,
+                    std::uint32_t boxes_per_cell) {
   const double target = std::clamp(static_cast<double>(n) / boxes_per_cell, 1.0, static_cast<double>(kMaxCells));
-  double extent[3];
-  double volume = 1;
-  int active = 0;
+  double extent[3], floor[3];
+  bool active[3];
   for (int k = 0; k < 3; ++k) {
     extent[k] = static_cast<double>(b.hi[k]) - b.lo[k];
-    if (extent[k] > 0) {
-      volume *= extent[k];
-      ++active;
-    }
+    floor[k] = bin_ceiling(floor_bin[k]);
+    active[k] = extent[k] > 0;
   }
-  // Cubic cells of the edge that gives `target` cells over the extent of the
-  // axes that have one (a flat scene gets a 2-D grid).
-  const double edge = active ? std::pow(volume / target, 1.0 / active) : 1.0;
+  // Cubic cells of the edge that gives `target` cells over the axes still
+  // active; an axis whose extent is no more than two cells (its edge or its
+  // floor) is not cut, and the edge is found again over the others, so a
+  // flat scene gets a 2-D grid. Cells are never narrower than the floor, so
+  // there are at most `target` of them.
+  double edge = 1;
+  for (bool changed = true; changed;) {
+    changed = false;
+    double volume = 1;
+    int axes = 0;
+    for (int k = 0; k < 3; ++k)
+      if (active[k]) {
+        volume *= extent[k];
+        ++axes;
+      }
+    edge = axes ? std::pow(volume / target, 1.0 / axes) : 1.0;
+    for (int k = 0; k < 3; ++k)
+      if (active[k] && extent[k] < 2 * std::max(edge, floor[k])) {
+        active[k] = false;
+        changed = true;
+      }
+  }
   for (int k = 0; k < 3; ++k) {
-    const double d = extent[k] > 0 ? std::ceil(extent[k] / edge) : 1.0;
+    // As many cells as the edge asks (rounded up), but none narrower than
+    // the floor (rounded down).
+    const double d = active[k] ? std::min(std::ceil(extent[k] / edge), std::floor(extent[k] / floor[k])) : 1.0;
     dims_[k] = static_cast<std::uint32_t>(std::clamp(d, 1.0, static_cast<double>(kMaxAxisCells)));
   }
   while (std::uint64_t{dims_[0]} * dims_[1] * dims_[2] > kMaxCells) {
@@ -49,6 +100,7 @@ void GridPlan::plan(const Bounds& b, std::uint32_t n, std::uint32_t boxes_per_ce
       planes_.push_back(static_cast<float>(b.lo[k] + extent[k] * i / dims_[k]));
   planned_ = b;
   planned_n_ = n;
+  for (int k = 0; k < 3; ++k) planned_floor_bin_[k] = floor_bin[k];
   valid_ = true;
 }
 

@@ -16,13 +16,20 @@ struct Bounds {
   float hi[3];
 };
 
+// How many boxes have their extent on axis k in each extent_bin.
+struct ExtentHistogram {
+  std::uint32_t count[3][kExtentBins];
+};
+
 class GridPlan {
  public:
   GridPlan();
   // Plans anew when there is no plan yet, n left [3/4, 4/3] of the planned
-  // count, or a bound moved by more than a tenth of the planned extent on
-  // its axis. Returns whether it planned. Deterministic in (bounds, n).
-  bool update(const Bounds& bounds, std::uint32_t n, std::uint32_t boxes_per_cell);
+  // count, a bound moved by more than a tenth of the planned extent on its
+  // axis, or the boxes' typical extent (extent_floor) moved by more than a
+  // factor of two. Returns whether it planned. Deterministic in (bounds,
+  // extents, n).
+  bool update(const Bounds& bounds, const ExtentHistogram& extents, std::uint32_t n, std::uint32_t boxes_per_cell);
   // The planes of axis k start at plane_offset(k) in planes().
   std::uint32_t plane_offset(int k) const;
   const std::vector<float>& planes() const { return planes_; }
@@ -32,11 +39,12 @@ class GridPlan {
   GridView view(const float* planes) const;
 
  private:
-  void plan(const Bounds& bounds, std::uint32_t n, std::uint32_t boxes_per_cell);
+  void plan(const Bounds& bounds, const std::uint32_t floor_bin[3], std::uint32_t n, std::uint32_t boxes_per_cell);
   std::uint32_t dims_[3] = {1, 1, 1};
   std::vector<float> planes_;  // capacity for every axis at its limit: no allocation per plan
   Bounds planned_{};
   std::uint32_t planned_n_ = 0;
+  std::uint32_t planned_floor_bin_[3] = {0, 0, 0};
   bool valid_ = false;
 };
 

@@ -43,13 +43,17 @@ class HostFrame final : public FrameBroadPhase::Impl {
     auto t = Clock::now();
     const auto t0 = t;
 
-    // Bounds and validation: per-thread slices, combined in slice order.
+    // Bounds, extents and validation: per-thread slices, combined in slice
+    // order.
     Bounds bounds{{0, 0, 0}, {0, 0, 0}};
+    ExtentHistogram& extents = slice_extents_[kSlices];
+    extents = {};
     if (n) {
-      constexpr std::uint32_t kSlices = 64;
       Bounds part[kSlices];
       std::uint32_t bad[kSlices];
       for_blocks(threads, kSlices, [&](std::uint64_t s) {
+        ExtentHistogram& h = slice_extents_[s];
+        h = {};
         const std::uint32_t lo = static_cast<std::uint32_t>(n * s / kSlices);
         const std::uint32_t hi = static_cast<std::uint32_t>(n * (s + 1) / kSlices);
         Bounds p{{__builtin_huge_valf(), __builtin_huge_valf(), __builtin_huge_valf()},
@@ -63,6 +67,7 @@ class HostFrame final : public FrameBroadPhase::Impl {
           for (int k = 0; k < 3; ++k) {
             p.lo[k] = std::min(p.lo[k], b.lo[k][i]);
             p.hi[k] = std::max(p.hi[k], b.hi[k][i]);
+            ++h.count[k][extent_bin(b.lo[k][i], b.hi[k][i])];
           }
         }
         part[s] = p;
@@ -73,10 +78,11 @@ class HostFrame final : public FrameBroadPhase::Impl {
         for (int k = 0; k < 3; ++k) {
           bounds.lo[k] = std::min(bounds.lo[k], part[s].lo[k]);
           bounds.hi[k] = std::max(bounds.hi[k], part[s].hi[k]);
+          for (std::uint32_t bin = 0; bin < kExtentBins; ++bin) extents.count[k][bin] += slice_extents_[s].count[k][bin];
         }
       }
     }
-    info.replanned = grid_.update(bounds, n, options.boxes_per_cell);
+    info.replanned = grid_.update(bounds, extents, n, options.boxes_per_cell);
     const GridView g = grid_.view(grid_.planes().data());
     for (int k = 0; k < 3; ++k) info.grid[k] = g.dims[k];
     info.times.bounds_ms = ms_since(t);
@@ -215,7 +221,9 @@ class HostFrame final : public FrameBroadPhase::Impl {
     return sum;
   }
 
+  static constexpr std::uint32_t kSlices = 64;
   GridPlan grid_;
+  std::vector<ExtentHistogram> slice_extents_ = std::vector<ExtentHistogram>(kSlices + 1);  // + the total
   std::vector<std::uint32_t> ref_count_, ref_offset_, large_, ids_, id_scratch_, cell_begin_, cell_of_;
   std::vector<std::uint8_t> is_large_;
   std::vector<std::uint64_t> keys_, key_scratch_, pair_offset_, pair_keys_, pair_key_scratch_;

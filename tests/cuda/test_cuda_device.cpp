@@ -89,6 +89,7 @@ TEST(CudaDevice, AdversarialScenes) {
   REQUIRE_DEVICE();
   expect_device_matches({cuda_test::all_on_one_point(3000)}, "one point", true);
   expect_device_matches({cuda_test::spanning_world(300, 2000)}, "spanning the world", true);
+  expect_device_matches({cuda_test::spanning_world(16, 2000)}, "a few spanning the world (large pass)", true);
   expect_device_matches({BoxArray{}}, "empty", true);
 }
 

@@ -91,6 +91,20 @@ TEST(CudaHostFrame, PaperSceneHasPairsAndKeepsItsGrid) {
   }
 }
 
+TEST(CudaHostFrame, FlatSceneGetsATwoDimensionalGridOfCellsAsWideAsItsBoxes) {
+  // All boxes straddle one plane: the thin axis is not cut, and cells are
+  // no narrower than the boxes, so no box is large and replication is low.
+  const auto frames = cuda_test::scenario_frames(ScenarioKind::Flat, 20000, 2);
+  auto f = host_frame(2);
+  for (const BoxArray& boxes : frames) {
+    EXPECT_EQ(f.update(lanes_of(boxes)), brute_force_pairs(boxes));
+    EXPECT_EQ(f.info().grid[2], 1u);
+    EXPECT_GT(f.info().grid[0], 4u);
+    EXPECT_EQ(f.info().large, 0u);
+    EXPECT_LT(f.info().references, 4u * 20000);
+  }
+}
+
 TEST(CudaHostFrame, HugeSceneSendsTheHugeObjectsToTheLargePass) {
   const auto frames = cuda_test::scenario_frames(ScenarioKind::Huge, 3000, 1);
   auto f = host_frame(1);
@@ -108,11 +122,16 @@ TEST(CudaHostFrame, AllObjectsOnOnePoint) {
 }
 
 TEST(CudaHostFrame, BoxesSpanningTheWorld) {
-  const BoxArray boxes = cuda_test::spanning_world(300, 1200);
+  // A few spanning boxes among many small ones go to the large pass; the
+  // grid's cells stay as wide as the small boxes, not the spanning ones.
+  const BoxArray boxes = cuda_test::spanning_world(12, 1200);
   auto f = host_frame(2);
   EXPECT_EQ(f.update(lanes_of(boxes)), brute_force_pairs(boxes));
-  EXPECT_EQ(f.info().large, 300u);
+  EXPECT_EQ(f.info().large, 12u);
+  EXPECT_GT(f.info().cells, 8u);
   expect_exact(boxes, "spanning the world");
+  // A quarter spanning: the cells widen to them (no large pass), still exact.
+  expect_exact(cuda_test::spanning_world(300, 1200), "a quarter spanning the world");
   expect_exact(cuda_test::spanning_world(400, 0), "only spanning boxes");
 }
 

@@ -37,6 +37,7 @@ struct Args {
   bool host = false;  // --launcher host: the CPU launcher times itself (no device)
   bool sorted = true;
   unsigned threads = std::max(1u, std::thread::hardware_concurrency());
+  std::uint32_t boxes_per_cell = hbp::cuda::FrameOptions{}.boxes_per_cell;
   double sustain_s = 0;  // --sustain S: device-entry frames back to back for S seconds
   std::string json;
 };
@@ -46,7 +47,7 @@ struct Args {
                "usage: hbp-gpu-bench [--system frame|axis-sweep] [--kind paper|clustered|flat|huge|degenerate]\n"
                "                     [--n N] [--frames F]\n"
                "                     [--check-every K] [--launcher device|host] [--unsorted] [--threads T]\n"
-               "                     [--sustain SECONDS] [--json FILE]\n");
+               "                     [--boxes-per-cell B] [--sustain SECONDS] [--json FILE]\n");
   std::exit(2);
 }
 
@@ -66,6 +67,7 @@ Args parse(int argc, char** argv) {
     else if (k == "--threads") a.threads = static_cast<unsigned>(std::stoul(value()));
     else if (k == "--launcher") a.host = value() == "host";
     else if (k == "--unsorted") a.sorted = false;
+    else if (k == "--boxes-per-cell") a.boxes_per_cell = static_cast<std::uint32_t>(std::stoul(value()));
     else if (k == "--sustain") a.sustain_s = std::stod(value());
     else if (k == "--json") a.json = value();
     else usage();
@@ -184,6 +186,7 @@ int main(int argc, char** argv) {
 
     hbp::cuda::FrameOptions o;
     o.sorted = args.sorted;
+    o.boxes_per_cell = args.boxes_per_cell;
     o.threads = args.threads;
     o.launcher = args.host ? hbp::cuda::Launcher::Host : hbp::cuda::Launcher::Device;
     hbp::cuda::FrameBroadPhase frame(o);
