@@ -52,7 +52,8 @@ def power_samples(path):
 
 
 def scene_of(name):
-    """('paper', 1024000) from 'paper-1024000', 'axis-sweep-paper-1024000', 'paper-1024000-frame-order'."""
+    """('paper', 1024000) from 'paper-1024000', 'axis-sweep-paper-1024000', 'lbvh-paper-1024000',
+    'paper-1024000-frame-order'."""
     parts = name.split("-")
     for i, p in enumerate(parts):
         if p.isdigit():
@@ -154,6 +155,7 @@ def main():
         })
     paper = next((r for r in runs if r["name"] == "paper-1024000"), None)
     peer = next((r for r in runs if r["name"] == "axis-sweep-paper-1024000"), None)
+    lbvh = next((r for r in runs if r["name"] == "lbvh-paper-1024000"), None)
     cells = next((c for c in cpu_runs if c["name"] == "paper-1024000-cuda-cells"), None)
 
     report = {
@@ -189,6 +191,9 @@ def main():
         if peer and peer.get("median_frame_ms"):
             block["axis_sweep_ms"] = peer["median_frame_ms"]
             block["axis_sweep_over_frame"] = peer["median_frame_ms"] / paper["median_frame_ms"]
+        if lbvh and lbvh.get("median_frame_ms"):
+            block["lbvh_ms"] = lbvh["median_frame_ms"]
+            block["lbvh_over_frame"] = lbvh["median_frame_ms"] / paper["median_frame_ms"]
         cpu = next((c for c in comparisons if c["scene"] == "paper" and c["objects"] == 1024000), None)
         if cpu:
             block["cpu_sw_ms"] = cpu["cpu_median_ms"]
@@ -261,6 +266,8 @@ def main():
         if "axis_sweep_ms" in p:
             md.append(f"| our GPU one-axis sort and sweep (same run) | {p['axis_sweep_ms']:.3f} | "
                       f"{p['axis_sweep_over_frame']:.1f} |")
+        if "lbvh_ms" in p:
+            md.append(f"| our GPU LBVH (same run) | {p['lbvh_ms']:.3f} | {p['lbvh_over_frame']:.1f} |")
         if "cpu_sw_ms" in p:
             md.append(f"| our CPU engine, same machine (same run) | {p['cpu_sw_ms']:.3f} | {p['cpu_over_gpu']:.1f} |")
         md += [f"| paper: accelerator (modelled) | {PAPER_ACCELERATOR_MS} | {p['over_paper_accelerator']:.1f} |",

@@ -2,6 +2,7 @@
 // Scenes for the GPU room's tests: every scenario kind and the adversarial
 // ones, as BoxArrays, and their lanes for hbp::cuda::FrameBroadPhase.
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -51,6 +52,28 @@ inline BoxArray spanning_world(std::uint32_t big, std::uint32_t small) {
     const float x = static_cast<float>(i % 37) * 50 - 900, y = static_cast<float>(i % 29) * 60 - 900;
     const float z = static_cast<float>(i % 23) * 70 - 800;
     b.set(big + i, Aabb{{x, y, z}, {x + 40, y + 40, z + 40}});
+  }
+  return b;
+}
+
+// Boxes at the ends of the float range among small ones: some span
+// [-FLT_MAX, FLT_MAX] or [-1e30, 1e30] on every axis, some fill a corner up
+// to +-FLT_MAX, some are points or flat boxes at +-FLT_MAX. Centres and
+// extents then overflow a naive quantisation.
+inline BoxArray extreme_boxes(std::uint32_t small) {
+  const float m = std::numeric_limits<float>::max(), h = m / 2;
+  const Aabb big[] = {
+      {{-m, -m, -m}, {m, m, m}},       {{-m, -m, -m}, {m, m, m}},       {{-1e30f, -1e30f, -1e30f}, {1e30f, 1e30f, 1e30f}},
+      {{-1e30f, -5, -5}, {1e30f, 5, 5}}, {{h, h, h}, {m, m, m}},         {{-m, -m, -m}, {-h, -h, -h}},
+      {{m, m, m}, {m, m, m}},          {{m, m, m}, {m, m, m}},          {{-m, 0, 0}, {-m, 1, 1}},
+      {{-m, -m, 0}, {m, m, 0}},        {{0, -m, 0}, {0, m, 0}},         {{-1e30f, -1e30f, 1e30f}, {-1e30f, -1e30f, 1e30f}}};
+  const auto count = static_cast<std::uint32_t>(sizeof big / sizeof big[0]);
+  BoxArray b(count + small);
+  for (std::uint32_t i = 0; i < count; ++i) b.set(i, big[i]);
+  for (std::uint32_t i = 0; i < small; ++i) {
+    const float x = static_cast<float>(i % 31) * 3 - 45, y = static_cast<float>(i % 17) * 4 - 30;
+    const float z = static_cast<float>(i % 13) * 5 - 30;
+    b.set(count + i, Aabb{{x, y, z}, {x + 4, y + 4, z + 4}});
   }
   return b;
 }

@@ -18,6 +18,7 @@
 #include "cuda_test_scenes.hpp"
 #include "hbp/cuda/axis_sweep.hpp"
 #include "hbp/cuda/frame_broadphase.hpp"
+#include "hbp/cuda/lbvh.hpp"
 #include "hbp/error.hpp"
 #ifdef HBP_TEST_CUDA_ENGINES
 #include "hbp/cell_engine.hpp"
@@ -141,6 +142,49 @@ TEST(CudaDevice, AxisSweepPeerMatchesTheOracle) {
   o.max_pairs = 1000;
   cuda::AxisSweep limited(o);
   EXPECT_THROW(limited.update(lanes_of(cuda_test::all_on_one_point(100))), CapacityExceeded);
+}
+
+TEST(CudaDevice, LbvhPeerMatchesTheOracle) {
+  REQUIRE_DEVICE();
+  std::vector<std::vector<BoxArray>> runs;
+  for (ScenarioKind kind : kKinds) runs.push_back(cuda_test::scenario_frames(kind, 4000, 3));
+  runs.push_back({cuda_test::all_on_one_point(2000), cuda_test::all_on_one_point(2000)});
+  runs.push_back({cuda_test::spanning_world(300, 2000), cuda_test::spanning_world(300, 2000)});
+  runs.push_back({cuda_test::extreme_boxes(2000), cuda_test::extreme_boxes(2000)});
+  BoxArray one(1), two(2);
+  one.set(0, Aabb{{0, 0, 0}, {1, 1, 1}});
+  two.set(0, Aabb{{1, 1, 1}, {2, 2, 2}});
+  two.set(1, Aabb{{0, 0, 0}, {1, 1, 1}});
+  runs.push_back({BoxArray{}, one, two});
+  for (bool sorted : {true, false}) {
+    cuda::FrameOptions o;
+    o.sorted = sorted;
+    o.threads = std::max(2u, std::thread::hardware_concurrency());
+    for (std::size_t r = 0; r < runs.size(); ++r) {
+      o.launcher = cuda::Launcher::Host;
+      cuda::Lbvh host(o);
+      o.launcher = cuda::Launcher::Device;
+      cuda::Lbvh device(o);
+      for (std::size_t f = 0; f < runs[r].size(); ++f) {
+        const BoxArray& boxes = runs[r][f];
+        const std::vector<Pair> expected = host.update(lanes_of(boxes));
+        ASSERT_EQ(device.update(lanes_of(boxes)), expected) << "run " << r << " frame " << f << " sorted " << sorted;
+        EXPECT_EQ(device.info().pairs, expected.size());
+        if (sorted) {
+          ASSERT_EQ(expected, cuda_test::all_pairs(boxes)) << "run " << r << " frame " << f;
+        }
+        if (f > 0 && boxes.size() == runs[r][f - 1].size()) {
+          EXPECT_EQ(device.info().allocations, 0u) << "run " << r << " frame " << f << ": a steady frame allocated";
+        }
+      }
+    }
+  }
+  cuda::FrameOptions o;
+  o.launcher = cuda::Launcher::Device;
+  o.max_pairs = 1000;
+  cuda::Lbvh limited(o);
+  EXPECT_THROW(limited.update(lanes_of(cuda_test::all_on_one_point(100))), CapacityExceeded);  // 4,950 pairs
+  EXPECT_EQ(limited.update(lanes_of(cuda_test::all_on_one_point(45))).size(), 990u);
 }
 
 #ifdef HBP_TEST_CUDA_ENGINES

@@ -4,9 +4,11 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <limits>
 #include <string>
 #include <vector>
 
+#include "cuda/lbvh_bodies.hpp"
 #include "cuda_test_scenes.hpp"
 #include "dedup/ownership.hpp"
 #include "hbp/brute_force.hpp"
@@ -14,6 +16,7 @@
 #include "hbp/cuda/axis_sweep.hpp"
 #include "hbp/cuda/cuda_engines.hpp"
 #include "hbp/cuda/frame_broadphase.hpp"
+#include "hbp/cuda/lbvh.hpp"
 #include "hbp/error.hpp"
 #include "hbp/hybrid_broadphase.hpp"
 
@@ -232,6 +235,215 @@ TEST(CudaHostAxisSweep, PicksTheAxisOfLargestVarianceAndHonoursMaxPairs) {
   o.max_pairs = 1000;
   cuda::AxisSweep limited(o);
   EXPECT_THROW(limited.update(lanes_of(cuda_test::all_on_one_point(100))), CapacityExceeded);  // 4,950 pairs
+}
+
+// ---- The Karras-style LBVH peer (CPU twin) ----------------------------------------
+
+cuda::Lbvh host_lbvh(unsigned threads, bool sorted = true, std::uint64_t max_pairs = 0) {
+  cuda::FrameOptions o;
+  o.launcher = cuda::Launcher::Host;
+  o.threads = threads;
+  o.sorted = sorted;
+  o.max_pairs = max_pairs;
+  return cuda::Lbvh(o);
+}
+
+// Sorted output equals the oracle's list; the traversal-order list is
+// canonical, the same set, and identical for 1 and 2 threads.
+void expect_lbvh_exact(const BoxArray& boxes, const std::string& what) {
+  const std::vector<Pair> expected = brute_force_pairs(boxes);
+  std::vector<Pair> traversal_order[2];
+  for (unsigned threads : {1u, 2u}) {
+    auto sorted = host_lbvh(threads);
+    ASSERT_EQ(sorted.update(lanes_of(boxes)), expected) << what << " threads " << threads;
+    EXPECT_EQ(sorted.info().pairs, expected.size()) << what;
+    auto unsorted = host_lbvh(threads, false);
+    traversal_order[threads - 1] = unsorted.update(lanes_of(boxes));
+    for (const Pair& p : traversal_order[threads - 1]) ASSERT_LT(p.a, p.b) << what;
+    std::vector<Pair> copy = traversal_order[threads - 1];
+    std::sort(copy.begin(), copy.end());
+    ASSERT_EQ(copy, expected) << what << " threads " << threads << " (traversal order)";
+  }
+  EXPECT_EQ(traversal_order[0], traversal_order[1]) << what << ": order differs between 1 and 2 threads";
+}
+
+// The radix tree of build_node over sorted unique keys: every node but the
+// root has one parent, an in-order walk meets the leaves 0..n-1 once each,
+// each node's `last` is its rightmost leaf, and no path is deeper than the
+// traversal's stack.
+void expect_radix_tree(const std::vector<std::uint64_t>& keys, const std::string& what) {
+  const auto n = static_cast<std::uint32_t>(keys.size());
+  ASSERT_TRUE(std::is_sorted(keys.begin(), keys.end())) << what;
+  std::vector<std::uint32_t> left(n - 1), right(n - 1), last(n - 1), node_parent(n - 1, 7), leaf_parent(n, 7);
+  std::vector<float> unused(6 * n);
+  const cuda::LbvhNodes t{left.data(), right.data(), last.data(), node_parent.data(), leaf_parent.data(),
+                          {unused.data(), unused.data(), unused.data()}, {unused.data(), unused.data(), unused.data()}};
+  for (std::uint32_t i = 0; i + 1 < n; ++i) cuda::build_node(keys.data(), n, i, t);
+  std::vector<std::uint32_t> leaves;
+  int deepest = 0;
+  // A child reference c of `parent` at `depth`; returns the rightmost leaf under c.
+  auto walk = [&](auto&& self, std::uint32_t c, std::uint32_t parent, int depth) -> std::uint32_t {
+    if (c & cuda::kLeafBit) {
+      EXPECT_EQ(leaf_parent[c & ~cuda::kLeafBit], parent) << what;
+      leaves.push_back(c & ~cuda::kLeafBit);
+      return c & ~cuda::kLeafBit;
+    }
+    deepest = std::max(deepest, depth + 1);
+    EXPECT_EQ(node_parent[c], parent) << what;
+    self(self, left[c], c, depth + 1);
+    const std::uint32_t rightmost = self(self, right[c], c, depth + 1);
+    EXPECT_EQ(last[c], rightmost) << what << " node " << c;
+    return rightmost;
+  };
+  walk(walk, 0, cuda::kNoParent, 0);
+  ASSERT_EQ(leaves.size(), n) << what;
+  for (std::uint32_t q = 0; q < n; ++q) ASSERT_EQ(leaves[q], q) << what;
+  EXPECT_LE(deepest, 62) << what;
+}
+
+TEST(CudaHostLbvh, RadixTreeCoversEveryLeafOnceInOrder) {
+  // Morton codes from a small alphabet (many equal codes, split by the index
+  // word), all equal (one point: a balanced tree over the indices), and two.
+  std::vector<std::uint64_t> keys;
+  for (std::uint32_t i = 0; i < 3000; ++i) keys.push_back((std::uint64_t{(i * 7919u) % 61u * 9973u} << 32) | i);
+  std::sort(keys.begin(), keys.end());
+  expect_radix_tree(keys, "repeated codes");
+  keys.clear();
+  for (std::uint32_t i = 0; i < 1000; ++i) keys.push_back((std::uint64_t{0x2AAAAAAAu} << 32) | i);
+  expect_radix_tree(keys, "one code");
+  expect_radix_tree({5, 9}, "two leaves");
+  // Codes at both ends of the 30-bit range with indices at both ends of 28 bits.
+  expect_radix_tree({0, (std::uint64_t{0x3FFFFFFFu} << 32) | 0, (std::uint64_t{0x3FFFFFFFu} << 32) | 0x0FFFFFFFu},
+                    "extreme keys");
+  EXPECT_EQ(cuda::spread_bits(1023u), 0x09249249u);
+  EXPECT_EQ(cuda::quantize(0.0f, 0.0f, 0.0f), 0u);  // a flat axis: 0 / 0
+  EXPECT_EQ(cuda::quantize(std::numeric_limits<float>::max(), -std::numeric_limits<float>::max(),
+                           std::numeric_limits<float>::max()),
+            1023u);
+  EXPECT_EQ(cuda::quantize(0.0f, -std::numeric_limits<float>::max(), std::numeric_limits<float>::max()), 512u);
+}
+
+TEST(CudaHostLbvh, EveryScenarioKindFrameByFrame) {
+  for (ScenarioKind kind : kKinds) {
+    const auto frames = cuda_test::scenario_frames(kind, 3000, 3);
+    for (unsigned threads : {1u, 2u}) {
+      auto kept = host_lbvh(threads);  // one object across the frames: buffers reused
+      for (std::size_t f = 0; f < frames.size(); ++f)
+        ASSERT_EQ(kept.update(lanes_of(frames[f])), brute_force_pairs(frames[f]))
+            << scenario_kind_name(kind) << " frame " << f << " threads " << threads;
+    }
+    expect_lbvh_exact(frames[0], scenario_kind_name(kind));
+  }
+}
+
+TEST(CudaHostLbvh, AllObjectsOnOnePoint) {
+  // Every Morton code equal: the tree is split by the index bits alone.
+  const BoxArray boxes = cuda_test::all_on_one_point(1500);
+  auto lbvh = host_lbvh(2);
+  EXPECT_EQ(lbvh.update(lanes_of(boxes)).size(), 1500u * 1499u / 2);
+  expect_lbvh_exact(boxes, "one point");
+}
+
+TEST(CudaHostLbvh, BoxesSpanningTheWorldAndTheFloatRange) {
+  expect_lbvh_exact(cuda_test::spanning_world(300, 1200), "spanning the world");
+  expect_lbvh_exact(cuda_test::spanning_world(400, 0), "only spanning boxes");
+  const BoxArray extreme = cuda_test::extreme_boxes(1500);
+  auto lbvh = host_lbvh(1);
+  const std::vector<Pair>& pairs = lbvh.update(lanes_of(extreme));
+  // The two [-FLT_MAX, FLT_MAX] boxes meet every box: 2 * 1511 - 1 pairs at least.
+  EXPECT_GE(pairs.size(), 2u * 1511u - 1u);
+  EXPECT_EQ(pairs, brute_force_pairs(extreme));
+  expect_lbvh_exact(extreme, "float range");
+  expect_lbvh_exact(cuda_test::extreme_boxes(0), "float range, no small boxes");
+}
+
+TEST(CudaHostLbvh, FlatAxesAndSmallFrames) {
+  // Every box on the plane z = 5: that axis has no extent to quantize in.
+  BoxArray flat = cuda_test::scenario_frames(ScenarioKind::Paper, 2000, 1)[0];
+  for (std::size_t i = 0; i < flat.size(); ++i) flat.min(2)[i] = flat.max(2)[i] = 5.0f;
+  expect_lbvh_exact(flat, "flat on z");
+  auto lbvh = host_lbvh(2);
+  EXPECT_TRUE(lbvh.update(lanes_of(BoxArray{})).empty());
+  EXPECT_EQ(lbvh.info().pairs, 0u);
+  BoxArray one(1);
+  one.set(0, Aabb{{0, 0, 0}, {1, 1, 1}});
+  EXPECT_TRUE(lbvh.update(lanes_of(one)).empty());
+  BoxArray two(2);
+  two.set(0, Aabb{{1, 1, 1}, {2, 2, 2}});
+  two.set(1, Aabb{{0, 0, 0}, {1, 1, 1}});  // touching corners: closed intervals overlap
+  EXPECT_EQ(lbvh.update(lanes_of(two)), (std::vector<Pair>{Pair{0, 1}}));
+  two.set(1, Aabb{{0, 0, 0}, {1, 1, 0.99f}});
+  EXPECT_TRUE(lbvh.update(lanes_of(two)).empty());
+  BoxArray three(3);
+  for (std::uint32_t i = 0; i < 3; ++i) three.set(i, Aabb{{0, 0, 0}, {0, 0, 0}});
+  EXPECT_EQ(lbvh.update(lanes_of(three)), (std::vector<Pair>{Pair{0, 1}, Pair{0, 2}, Pair{1, 2}}));
+}
+
+TEST(CudaHostLbvh, PairExplosionAgainstMaxPairs) {
+  const BoxArray boxes = cuda_test::all_on_one_point(2000);  // 1,999,000 pairs
+  auto limited = host_lbvh(2, true, 1'000'000);
+  try {
+    limited.update(lanes_of(boxes));
+    FAIL() << "no error";
+  } catch (const CapacityExceeded& e) {
+    EXPECT_NE(std::string(e.what()).find("max_pairs = 1000000"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("counted 1999000"), std::string::npos) << e.what();
+  }
+  auto exact = host_lbvh(1, true, 1'999'000);
+  EXPECT_EQ(exact.update(lanes_of(boxes)).size(), 1'999'000u);
+  EXPECT_EQ(limited.update(lanes_of(cuda_test::all_on_one_point(100))).size(), 4950u);  // recovers
+}
+
+TEST(CudaHostLbvh, RejectsDefectiveBoxesNamingTheObject) {
+  BoxArray boxes = cuda_test::all_on_one_point(10);
+  boxes.min(1)[7] = 5.0f;  // min > max on y
+  boxes.max(0)[8] = __builtin_inff();
+  auto lbvh = host_lbvh(2);
+  try {
+    lbvh.update(lanes_of(boxes));
+    FAIL() << "no error";
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("object 7 has min > max on y"), std::string::npos) << e.what();
+  }
+  boxes = cuda_test::all_on_one_point(10);
+  boxes.max(2)[3] = __builtin_nanf("");
+  try {
+    lbvh.update(lanes_of(boxes));
+    FAIL() << "no error";
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("object 3 has a NaN or infinite coordinate on z"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_THROW(cuda::Lbvh(cuda::FrameOptions{cuda::Launcher::Host, 0}), InvalidInput);
+}
+
+TEST(CudaHostLbvh, SteadyFramesAllocateNothing) {
+  const auto frames = cuda_test::scenario_frames(ScenarioKind::Paper, 5000, 4);
+  auto lbvh = host_lbvh(2);
+  lbvh.update(lanes_of(frames[0]));
+  EXPECT_GT(lbvh.info().allocations, 0u);
+  EXPECT_GT(lbvh.info().pairs, 100u);
+  EXPECT_GE(lbvh.info().buffer_bytes, 5000u * (6 * 4 + 8));  // sorted boxes and keys at least
+  for (std::size_t f = 1; f < frames.size(); ++f) {
+    EXPECT_EQ(lbvh.update(lanes_of(frames[f])), brute_force_pairs(frames[f])) << "frame " << f;
+    EXPECT_EQ(lbvh.info().allocations, 0u) << "frame " << f << ": a steady frame allocated";
+  }
+  for (int repeat = 0; repeat < 2; ++repeat) {
+    lbvh.update(lanes_of(frames[3]));
+    EXPECT_EQ(lbvh.info().allocations, 0u) << "the same frame again allocated";
+  }
+}
+
+TEST(CudaHostLbvh, DeviceLauncherWithoutADeviceSaysSo) {
+  if (cuda::device_available()) GTEST_SKIP() << "a CUDA device is present: " << cuda::device_name();
+  cuda::FrameOptions o;
+  o.launcher = cuda::Launcher::Device;
+  try {
+    cuda::Lbvh lbvh(o);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("no CUDA device found"), std::string::npos) << e.what();
+  }
 }
 
 // ---- The cell engines ---------------------------------------------------------

@@ -1,6 +1,7 @@
 // hbp-gpu-bench: the GPU frame (hbp::cuda::FrameBroadPhase), or with
-// --system axis-sweep the one-axis sort-and-sweep peer (hbp::cuda::AxisSweep),
-// on a scenario, frame by frame: device time per stage (CUDA events) with the host
+// --system axis-sweep the one-axis sort-and-sweep peer (hbp::cuda::AxisSweep)
+// or --system lbvh the Karras-style LBVH peer (hbp::cuda::Lbvh), on a
+// scenario, frame by frame: device time per stage (CUDA events) with the host
 // transfers apart, checked every frame against the CPU launcher of the same
 // kernels (identical lists) and, independently, by brute force for a sample
 // of objects against all others. Writes one JSON object (--json) for
@@ -23,6 +24,7 @@
 #include "hbp/box_array.hpp"
 #include "hbp/cuda/axis_sweep.hpp"
 #include "hbp/cuda/frame_broadphase.hpp"
+#include "hbp/cuda/lbvh.hpp"
 #include "hbp/error.hpp"
 #include "hbp/scenario.hpp"
 
@@ -31,6 +33,7 @@ namespace {
 struct Args {
   std::string kind = "paper";
   bool axis_sweep = false;  // --system axis-sweep
+  bool lbvh = false;        // --system lbvh
   std::uint32_t n = 1'024'000;
   std::uint32_t frames = 30;
   std::uint32_t check_every = 1;
@@ -44,7 +47,7 @@ struct Args {
 
 [[noreturn]] void usage() {
   std::fprintf(stderr,
-               "usage: hbp-gpu-bench [--system frame|axis-sweep] [--kind paper|clustered|flat|huge|degenerate]\n"
+               "usage: hbp-gpu-bench [--system frame|axis-sweep|lbvh] [--kind paper|clustered|flat|huge|degenerate]\n"
                "                     [--n N] [--frames F]\n"
                "                     [--check-every K] [--launcher device|host] [--unsorted] [--threads T]\n"
                "                     [--boxes-per-cell B] [--sustain SECONDS] [--json FILE]\n");
@@ -60,7 +63,11 @@ Args parse(int argc, char** argv) {
       return argv[++i];
     };
     if (k == "--kind") a.kind = value();
-    else if (k == "--system") a.axis_sweep = value() == "axis-sweep";
+    else if (k == "--system") {
+      const std::string system = value();
+      a.axis_sweep = system == "axis-sweep";
+      a.lbvh = system == "lbvh";
+    }
     else if (k == "--n") a.n = static_cast<std::uint32_t>(std::stoul(value()));
     else if (k == "--frames") a.frames = static_cast<std::uint32_t>(std::stoul(value()));
     else if (k == "--check-every") a.check_every = static_cast<std::uint32_t>(std::stoul(value()));
@@ -73,8 +80,8 @@ Args parse(int argc, char** argv) {
     else usage();
   }
   if (a.frames == 0 || a.threads == 0) usage();
-  if (a.sustain_s > 0 && (a.host || a.axis_sweep)) usage();
-  if (a.axis_sweep) a.sorted = true;  // checked against the frame's sorted list
+  if (a.sustain_s > 0 && (a.host || a.axis_sweep || a.lbvh)) usage();
+  if (a.axis_sweep || a.lbvh) a.sorted = true;  // checked against the frame's sorted list
   return a;
 }
 
@@ -191,6 +198,7 @@ int main(int argc, char** argv) {
     o.launcher = args.host ? hbp::cuda::Launcher::Host : hbp::cuda::Launcher::Device;
     hbp::cuda::FrameBroadPhase frame(o);
     hbp::cuda::AxisSweep peer(args.axis_sweep ? o : hbp::cuda::FrameOptions{});
+    hbp::cuda::Lbvh lbvh(args.lbvh ? o : hbp::cuda::FrameOptions{});
     hbp::cuda::FrameOptions ro = o;
     ro.launcher = hbp::cuda::Launcher::Host;
     hbp::cuda::FrameBroadPhase reference(ro);
@@ -202,8 +210,10 @@ int main(int argc, char** argv) {
     hbp::cuda::FrameInfo last{};
     for (std::uint32_t f = 0; f < args.frames; ++f) {
       scenario.compute_boxes(boxes);
-      const std::vector<hbp::Pair>& got = args.axis_sweep ? peer.update(lanes_of(boxes)) : frame.update(lanes_of(boxes));
-      const hbp::cuda::FrameInfo& info = args.axis_sweep ? peer.info() : frame.info();
+      const std::vector<hbp::Pair>& got = args.axis_sweep ? peer.update(lanes_of(boxes))
+                                          : args.lbvh     ? lbvh.update(lanes_of(boxes))
+                                                          : frame.update(lanes_of(boxes));
+      const hbp::cuda::FrameInfo& info = args.axis_sweep ? peer.info() : args.lbvh ? lbvh.info() : frame.info();
       last = info;
       frame_ms.push_back(info.times.frame_ms);
       upload_ms.push_back(info.times.upload_ms);
@@ -250,7 +260,7 @@ int main(int argc, char** argv) {
       j += buf;
     };
     auto str = [&](const char* key, const std::string& v) { j += "  \"" + std::string(key) + "\": \"" + v + "\",\n"; };
-    str("system", args.axis_sweep ? "axis-sweep" : "frame");
+    str("system", args.axis_sweep ? "axis-sweep" : args.lbvh ? "lbvh" : "frame");
     str("launcher", args.host ? "host" : "device");
     str("device", args.host ? "" : hbp::cuda::device_name());
     str("kind", args.kind);
