@@ -109,11 +109,15 @@ class DeviceLbvh final : public Lbvh::Impl {
 
     // Bounds: launch_bounds' accumulator, read by the Morton kernel in place.
     const BoxLanesView b{{lanes[0], lanes[1], lanes[2]}, {lanes[3], lanes[4], lanes[5]}};
-    reserve(acc_, 8 * sizeof(std::uint32_t));
+    // (kBoundsWords: the extent histogram the kernel also fills, unused here.)
+    reserve(acc_, kBoundsWords * sizeof(std::uint32_t));
     const std::uint32_t init[7] = {~0u, ~0u, ~0u, 0, 0, 0, n};
     std::memcpy(pinned_, init, sizeof init);
     check_cuda(cudaMemcpyAsync(acc_.as<std::uint32_t>(), pinned_, sizeof init, cudaMemcpyHostToDevice, stream_),
                "bounds init");
+    check_cuda(cudaMemsetAsync(acc_.as<std::uint32_t>() + kBoundsExtents, 0, 3 * kExtentBins * sizeof(std::uint32_t),
+                               stream_),
+               "extents init");
     if (n) launch_bounds(b, n, acc_.as<std::uint32_t>(), stream_);
     record(kBounds);
 
@@ -125,7 +129,7 @@ class DeviceLbvh final : public Lbvh::Impl {
       check_cuda(cudaGetLastError(), "morton kernel");
     }
     std::uint64_t* keys = keys_.as<std::uint64_t>();
-    if (sort_keys(keys_.as<std::uint64_t>(), keys_alt_.as<std::uint64_t>(), n, temp_, &keys, stream_))
+    if (sort_keys(keys_.as<std::uint64_t>(), keys_alt_.as<std::uint64_t>(), n, 64, temp_, &keys, stream_))
       ++info.allocations;
     reserve(sorted_, std::size_t{6} * (n + 1) * sizeof(float));
     reserve(ids_, (std::size_t{n} + 1) * 4);
@@ -175,7 +179,7 @@ class DeviceLbvh final : public Lbvh::Impl {
     record(kFilled);
     std::uint32_t* out = pairs_.as<std::uint32_t>();
     if (options.sorted && total > 1)
-      info.allocations += sort_pairs_by_ab(out, total, pair_keys_, pair_keys_alt_, temp_, stream_);
+      info.allocations += sort_pairs_by_ab(out, total, n, pair_keys_, pair_keys_alt_, temp_, stream_);
     record(kOrdered);
     pairs.resize(total);
     if (total)
