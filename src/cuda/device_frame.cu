@@ -77,7 +77,7 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     stream_ = own_stream_;
     record(kStart);
     const std::uint32_t n = in.n;
-    reserve(boxes_, std::size_t{6} * n * sizeof(float));
+    size_uploads(n);
     Lanes d{};
     d.n = n;
     for (int l = 0; l < 6; ++l) {
@@ -95,6 +95,26 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     record(kDownloaded);
     sync();
     times(true);
+  }
+
+  void reserve(std::uint32_t n) override {
+    // Three overlapping boxes: a frame that launches the frame's kernels
+    // (the large pass aside), so none is loaded in a timed frame.
+    static const float lo[3] = {0, 0.25f, 0.5f}, hi[3] = {1, 1.25f, 1.5f};
+    const Lanes tiny{{lo, lo, lo}, {hi, hi, hi}, 3};
+    run(tiny);
+    grid_ = GridPlan();
+    info = {};
+    // The typical frame: about two references and under two pairs per
+    // object (a frame that needs more grows its buffers then).
+    const std::uint64_t refs = std::min<std::uint64_t>(2ull * n, 0xffffffffu);
+    size_uploads(n);
+    size_objects(n);
+    size_references(static_cast<std::uint32_t>(refs), 0, static_cast<std::uint32_t>(std::min<std::uint64_t>(refs, kMaxCells)),
+                    refs);
+    size_pairs(2ull * n);
+    pairs.clear();  // no frame yet
+    info = {};
   }
 
   DevicePairs run_device(const Lanes& in, void* stream) override {
@@ -154,10 +174,7 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     record(kBounds);
 
     // References: count, scan, emit.
-    reserve(ref_count_, (std::size_t{n} + 1) * 4);
-    reserve(is_large_, (std::size_t{n} + 1) * 4);
-    reserve(ref_offset_, (std::size_t{n} + 1) * 4);
-    reserve(large_offset_, (std::size_t{n} + 1) * 4);
+    size_objects(n);
     launch_reference_count(g, b, n, ref_count_.as<std::uint32_t>(), is_large_.as<std::uint32_t>(), stream_);
     scan(ref_count_.as<std::uint32_t>(), ref_offset_.as<std::uint32_t>(), n);
     scan(is_large_.as<std::uint32_t>(), large_offset_.as<std::uint32_t>(), n);
@@ -170,11 +187,11 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     const std::uint32_t large = reinterpret_cast<std::uint32_t*>(pinned_)[1];
     info.references = refs;
     info.large = large;
-    reserve(keys_, (std::size_t{refs} + 1) * 8);
-    reserve(keys_alt_, (std::size_t{refs} + 1) * 8);
-    reserve(ids_, (std::size_t{refs} + 1) * 4);
-    reserve(ids_alt_, (std::size_t{refs} + 1) * 4);
-    reserve(large_list_, (std::size_t{large} + 1) * 4);
+    const std::uint32_t chunk = large_chunk(n, large);
+    const std::uint32_t chunks = large ? (n + chunk - 1) / chunk : 0;
+    const std::uint64_t slots = std::uint64_t{refs} + std::uint64_t{large} * chunks;
+    const std::uint32_t max_cells = std::min(refs, grid_.cells());
+    size_references(refs, large, max_cells, slots);
     launch_emit(g, b, n, is_large_.as<std::uint32_t>(), ref_offset_.as<std::uint32_t>(),
                 large_offset_.as<std::uint32_t>(), keys_.as<std::uint64_t>(), ids_.as<std::uint32_t>(),
                 large_list_.as<std::uint32_t>(), stream_);
@@ -187,13 +204,6 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
                    ids_alt_.as<std::uint32_t>(), refs, 32 + cell_bits(grid_.cells()), temp_, &sorted_keys,
                    &sorted_ids, stream_))
       ++info.allocations;
-    reserve(lanes_, std::size_t{6} * (refs + 1) * sizeof(float));
-    reserve(head_, (std::size_t{refs} + 1) * 4);
-    reserve(head_scan_, (std::size_t{refs} + 1) * 4);
-    const std::uint32_t max_cells = std::min(refs, grid_.cells());
-    reserve(cell_begin_, (std::size_t{max_cells} + 2) * 4);
-    reserve(regions_, (std::size_t{max_cells} + 1) * sizeof(CellRegion));
-    reserve(cells_, 4);
     check_cuda(cudaMemsetAsync(cells_.as<std::uint32_t>(), 0, 4, stream_), "cells");
     launch_gather(b, sorted_keys, sorted_ids, refs, lanes_.as<float>(), head_.as<std::uint32_t>(), stream_);
     scan(head_.as<std::uint32_t>(), head_scan_.as<std::uint32_t>(), refs);
@@ -208,11 +218,6 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     const SortedLanes s{{lanes, lanes + stride, lanes + 2 * stride},
                         {lanes + 3 * stride, lanes + 4 * stride, lanes + 5 * stride},
                         sorted_ids};
-    const std::uint32_t chunk = large_chunk(n, large);
-    const std::uint32_t chunks = large ? (n + chunk - 1) / chunk : 0;
-    const std::uint64_t slots = std::uint64_t{refs} + std::uint64_t{large} * chunks;
-    reserve(counts_, (slots + 1) * 8);
-    reserve(offsets_, (slots + 1) * 8);
     std::uint64_t* counts = counts_.as<std::uint64_t>();
     launch_cell_rows(s, cell_begin_.as<std::uint32_t>(), regions_.as<CellRegion>(), cells_.as<std::uint32_t>(),
                      max_cells, counts, nullptr, nullptr, stream_);
@@ -229,7 +234,7 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     if (options.max_pairs && total > options.max_pairs) throw_too_many_pairs(total, options.max_pairs);
 
     // Fill.
-    reserve(pair_out_, (total + 1) * 8);
+    size_pairs(total);
     std::uint32_t* out = pair_out_.as<std::uint32_t>();
     const std::uint64_t* offsets = offsets_.as<std::uint64_t>();
     launch_cell_rows(s, cell_begin_.as<std::uint32_t>(), regions_.as<CellRegion>(), cells_.as<std::uint32_t>(),
@@ -245,6 +250,29 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     record(kOrdered);
     info.pairs = total;
     return total;
+  }
+
+  // The kept buffers, sized in one place for a frame's counts: objects (and
+  // the upload of update()), references, pairs. reserve() sizes them from
+  // an estimate before the first frame, the frames from their counts.
+  void size_uploads(std::uint32_t n) { reserve(boxes_, std::size_t{6} * n * sizeof(float)); }
+  void size_objects(std::uint32_t n) {
+    for (DeviceBuffer* d : {&ref_count_, &is_large_, &ref_offset_, &large_offset_}) reserve(*d, (std::size_t{n} + 1) * 4);
+  }
+  void size_references(std::uint32_t refs, std::uint32_t large, std::uint32_t max_cells, std::uint64_t slots) {
+    for (DeviceBuffer* d : {&keys_, &keys_alt_}) reserve(*d, (std::size_t{refs} + 1) * 8);
+    for (DeviceBuffer* d : {&ids_, &ids_alt_, &head_, &head_scan_}) reserve(*d, (std::size_t{refs} + 1) * 4);
+    reserve(large_list_, (std::size_t{large} + 1) * 4);
+    reserve(lanes_, std::size_t{6} * (refs + 1) * sizeof(float));
+    reserve(cell_begin_, (std::size_t{max_cells} + 2) * 4);
+    reserve(regions_, (std::size_t{max_cells} + 1) * sizeof(CellRegion));
+    reserve(cells_, 4);
+    for (DeviceBuffer* d : {&counts_, &offsets_}) reserve(*d, (slots + 1) * 8);
+  }
+  void size_pairs(std::uint64_t total) {
+    reserve(pair_out_, (total + 1) * 8);
+    if (options.sorted)
+      for (DeviceBuffer* d : {&pair_keys_, &pair_keys_alt_}) reserve(*d, total * 8);
   }
 
   // out[0] = 0, out[1 + i] = in[0] + ... + in[i] (n + 1 entries).

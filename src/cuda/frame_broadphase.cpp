@@ -45,6 +45,11 @@ const std::vector<Pair>& FrameBroadPhase::update(const Lanes& boxes) {
   return impl_->pairs;
 }
 
+void FrameBroadPhase::reserve(std::uint32_t objects) {
+  check_object_count(objects);
+  impl_->reserve(objects);
+}
+
 DevicePairs FrameBroadPhase::update_device(const Lanes& device_boxes, void* stream) {
   check_object_count(device_boxes.n);
   return impl_->run_device(device_boxes, stream);

@@ -194,6 +194,20 @@ class HostFrame final : public FrameBroadPhase::Impl {
     info.buffer_bytes = bytes();
   }
 
+ void reserve(std::uint32_t n) override {
+    // The typical frame's sizes (device_frame.cu's estimate): about two
+    // references and under two pairs per object.
+    const std::uint64_t refs = 2ull * n;
+    grow(ref_count_, n), grow(is_large_, n), grow(ref_offset_, n);
+    grow(keys_, refs), grow(key_scratch_, refs), grow(ids_, refs), grow(id_scratch_, refs);
+    for (int k = 0; k < 3; ++k) grow(s_lo_[k], refs), grow(s_hi_[k], refs);
+    grow(pair_offset_, refs + 1);
+    grow(pairs, refs);
+    pairs.clear();  // no frame yet
+    if (options.sorted) grow(pair_keys_, refs), grow(pair_key_scratch_, refs);
+    info = {};
+  }
+
  private:
   // Resizes a kept buffer to n: past its capacity it grows to n + n/8 (counted
   // in info.allocations; the eighth absorbs the frame-to-frame jitter of the

@@ -128,6 +128,27 @@ TEST(CudaDevice, DeviceEntryLeavesPairsOnTheDevice) {
   cudaFree(d);
 }
 
+TEST(CudaDevice, ReserveProvisionsTheFirstFrame) {
+  REQUIRE_DEVICE();
+  const auto frames = cuda_test::scenario_frames(ScenarioKind::Paper, 50'000, 2);
+  auto cold = frame(cuda::Launcher::Device);
+  auto reserved = frame(cuda::Launcher::Device);
+  reserved.reserve(50'000);
+  EXPECT_TRUE(reserved.pairs().empty());
+  for (const BoxArray& boxes : frames) {
+    const std::vector<Pair> expected = cold.update(lanes_of(boxes));
+    EXPECT_EQ(reserved.update(lanes_of(boxes)), expected);
+  }
+  EXPECT_EQ(reserved.pairs(), cuda_test::all_pairs(frames.back()));
+  auto again = frame(cuda::Launcher::Device);
+  const std::uint64_t cold_allocations = (again.update(lanes_of(frames[0])), again.info().allocations);
+  auto provisioned = frame(cuda::Launcher::Device);
+  provisioned.reserve(50'000);
+  provisioned.update(lanes_of(frames[0]));
+  EXPECT_LT(provisioned.info().allocations, cold_allocations);
+  EXPECT_LE(provisioned.info().allocations, 2u) << "reserve left most of the first frame's buffers to it";
+}
+
 TEST(CudaDevice, AxisSweepPeerMatchesTheOracle) {
   REQUIRE_DEVICE();
   std::vector<BoxArray> scenes;

@@ -108,6 +108,26 @@ TEST(CudaHostFrame, FlatSceneGetsATwoDimensionalGridOfCellsAsWideAsItsBoxes) {
   }
 }
 
+TEST(CudaHostFrame, ReserveProvisionsTheFirstFrame) {
+  const auto frames = cuda_test::scenario_frames(ScenarioKind::Paper, 20000, 2);
+  auto cold = host_frame(2);
+  auto reserved = host_frame(2);
+  reserved.reserve(20000);
+  EXPECT_TRUE(reserved.pairs().empty());
+  EXPECT_EQ(reserved.info().allocations, 0u);
+  for (const BoxArray& boxes : frames) {
+    EXPECT_EQ(reserved.update(lanes_of(boxes)), cold.update(lanes_of(boxes)));
+    EXPECT_EQ(reserved.info().pairs, cold.info().pairs);
+  }
+  auto again = host_frame(2);
+  again.update(lanes_of(frames[0]));
+  auto provisioned = host_frame(2);
+  provisioned.reserve(20000);
+  provisioned.update(lanes_of(frames[0]));
+  EXPECT_LT(provisioned.info().allocations, again.info().allocations);
+  EXPECT_THROW(provisioned.reserve((1u << 28) + 1), InvalidInput);
+}
+
 TEST(CudaHostFrame, HugeSceneSendsTheHugeObjectsToTheLargePass) {
   const auto frames = cuda_test::scenario_frames(ScenarioKind::Huge, 3000, 1);
   auto f = host_frame(1);

@@ -86,6 +86,12 @@ class FrameBroadPhase {
   // object with a NaN/Inf coordinate or min > max, CapacityExceeded when the
   // frame has more than max_pairs pairs (found before any pair is written).
   const std::vector<Pair>& update(const Lanes& boxes);
+  // Provisions the frame for `objects` objects before its first frame, so
+  // that frame runs as a steady one does: the device launcher loads its
+  // kernels (one frame over three boxes) and both launchers size their
+  // buffers for the typical frame (about two cell references and two pairs
+  // per object; a frame that needs more grows them then). Optional.
+  void reserve(std::uint32_t objects);
   // Device entry (Launcher::Device only): lanes in device memory, pairs left
   // in device memory; the work is queued on `stream` (a cudaStream_t, null:
   // the default stream) and finished when this returns.
