@@ -166,7 +166,8 @@ def main():
         "environment": env,
         "build_ok": build_ok,
         "build_seconds": a.build_s,
-        "gpu_tests": {"exit_code": a.tests_rc, "summary": test_summary("tests.log"), "required_device": not dry},
+        "gpu_tests": {"exit_code": a.tests_rc, "summary": test_summary("tests.log"),
+                      "peers_summary": test_summary("tests-peers.log"), "required_device": not dry},
         "engine_tests": ({"exit_code": int(a.engine_tests_rc), "summary": test_summary("engine-tests.log")}
                          if a.engine_tests_rc != "none" else {"exit_code": None, "summary": "not run"}),
         "runs": runs,
@@ -180,6 +181,8 @@ def main():
     report["ok"] = ok
     if not dry and paper and paper.get("exact") and paper.get("median_frame_ms"):
         block = {"frame_ms": paper["median_frame_ms"], "first_frame_ms": paper["first_frame_ms"],
+                 "first_frame": paper.get("first_frame"), "reserve_ms": paper.get("reserve_ms"),
+                 "first_over_median": paper["first_frame_ms"] / paper["median_frame_ms"],
                  "with_transfers_ms": paper["median_frame_ms"] + paper["median_upload_ms"] + paper["median_download_ms"],
                  "over_paper_accelerator": PAPER_ACCELERATOR_MS / paper["median_frame_ms"],
                  "over_paper_gpu_sap": PAPER_GPU_SAP_MS / paper["median_frame_ms"],
@@ -212,9 +215,11 @@ def main():
            if dry else [f"GPU: **{gpu or 'unknown'}**, {report['date']}; {cores}.", ""])
     md += ["```", env.strip(), "```", "",
            f"- build: {'ok' if build_ok else 'FAILED'} ({a.build_s} s from the start)",
-           f"- gpu-labelled tests (tools/gpu build): exit {a.tests_rc}; {report['gpu_tests']['summary']}",
+           f"- gpu-labelled tests (tools/gpu build): exit {a.tests_rc}; frame: {report['gpu_tests']['summary']}; "
+           f"peers: {report['gpu_tests']['peers_summary']}",
            f"- device tests of the main build (the `cuda` cell engine too): {report['engine_tests']['summary']}", ""]
-    cols = [("objects", "objects", "{:.0f}"), ("order", "order", "{}"), ("first", "first_frame_ms", "{:.3f}"),
+    cols = [("objects", "objects", "{:.0f}"), ("order", "order", "{}"), ("reserve", "reserve_ms", "{:.1f}"),
+            ("first frame", "first_frame", "{}"), ("first", "first_frame_ms", "{:.3f}"),
             ("median", "median_frame_ms", "{:.3f}"), ("p99", "p99_frame_ms", "{:.3f}"),
             ("worst", "worst_frame_ms", "{:.3f}"), ("upload", "median_upload_ms", "{:.3f}"),
             ("download", "median_download_ms", "{:.3f}"), ("pairs", "mean_pairs", "{:.0f}"),
