@@ -13,7 +13,7 @@ namespace hbp::cuda {
 
 struct DeviceCell::State {
   cudaStream_t stream = nullptr;
-  DeviceBuffer lanes, ids, meta, counts, offsets, pairs;
+  DeviceBuffer lanes, ids, counts, offsets, pairs;
   ~State() {
     if (stream) cudaStreamDestroy(stream);
   }
@@ -34,8 +34,6 @@ void DeviceCell::run(const CellSweep& sorted, const CellRegion& region, std::uin
   const cudaStream_t s = st.stream;
   st.lanes.reserve(std::size_t{6} * n * sizeof(float));
   st.ids.reserve(std::size_t{n} * 4);
-  // meta: cell_begin {0, n}, the cell count 1, then the region.
-  st.meta.reserve(4 * sizeof(std::uint32_t) + sizeof(CellRegion));
   st.counts.reserve(std::size_t{n} * 8);
   st.offsets.reserve(std::size_t{n} * 8);
   float* lanes = st.lanes.as<float>();
@@ -44,16 +42,10 @@ void DeviceCell::run(const CellSweep& sorted, const CellRegion& region, std::uin
                                cudaMemcpyHostToDevice, s),
                "cell upload");
   check_cuda(cudaMemcpyAsync(st.ids.as<std::uint32_t>(), sorted.ids(), n * 4, cudaMemcpyHostToDevice, s), "ids upload");
-  const std::uint32_t meta[4] = {0, n, 1, 0};
-  check_cuda(cudaMemcpyAsync(st.meta.as<std::uint32_t>(), meta, sizeof meta, cudaMemcpyHostToDevice, s), "meta");
-  auto* d_region = reinterpret_cast<CellRegion*>(st.meta.as<std::uint32_t>() + 4);
-  check_cuda(cudaMemcpyAsync(d_region, &region, sizeof region, cudaMemcpyHostToDevice, s), "region");
   const SortedLanes lanes_view{{lanes, lanes + n, lanes + 2 * std::size_t{n}},
                                {lanes + 3 * std::size_t{n}, lanes + 4 * std::size_t{n}, lanes + 5 * std::size_t{n}},
                                st.ids.as<std::uint32_t>()};
-  const std::uint32_t* begin = st.meta.as<std::uint32_t>();
-  const std::uint32_t* cells = begin + 2;
-  launch_cell_rows(lanes_view, begin, d_region, cells, 1, st.counts.as<std::uint64_t>(), nullptr, nullptr, s);
+  launch_sorted_cell_rows(lanes_view, n, region, st.counts.as<std::uint64_t>(), nullptr, nullptr, s);
   counts_.resize(n);
   check_cuda(cudaMemcpyAsync(counts_.data(), st.counts.as<std::uint64_t>(), n * 8, cudaMemcpyDeviceToHost, s), "counts");
   check_cuda(cudaStreamSynchronize(s), "cell count");
@@ -66,8 +58,8 @@ void DeviceCell::run(const CellSweep& sorted, const CellRegion& region, std::uin
   st.pairs.reserve(total * 8);
   check_cuda(cudaMemcpyAsync(st.offsets.as<std::uint64_t>(), counts_.data(), n * 8, cudaMemcpyHostToDevice, s),
              "offsets");
-  launch_cell_rows(lanes_view, begin, d_region, cells, 1, nullptr, st.offsets.as<std::uint64_t>(),
-                   st.pairs.as<std::uint32_t>(), s);
+  launch_sorted_cell_rows(lanes_view, n, region, nullptr, st.offsets.as<std::uint64_t>(), st.pairs.as<std::uint32_t>(),
+                          s);
   const std::size_t base = out.size();
   out.resize(base + total);
   check_cuda(cudaMemcpyAsync(out.data() + base, st.pairs.as<std::uint32_t>(), total * 8, cudaMemcpyDeviceToHost, s),

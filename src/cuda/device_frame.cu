@@ -50,12 +50,6 @@ float from_ordered(std::uint32_t u) {
   return f;
 }
 
-int cell_bits(std::uint32_t cells) {
-  int bits = 1;
-  while ((std::uint64_t{1} << bits) < cells) ++bits;
-  return bits;
-}
-
 enum Stage { kStart, kUploaded, kBounds, kRefs, kSorted, kCounted, kFilled, kOrdered, kDownloaded, kStages };
 
 class DeviceFrame final : public FrameBroadPhase::Impl {
@@ -110,8 +104,9 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     const std::uint64_t refs = std::min<std::uint64_t>(2ull * n, 0xffffffffu);
     size_uploads(n);
     size_objects(n);
-    size_references(static_cast<std::uint32_t>(refs), 0, static_cast<std::uint32_t>(std::min<std::uint64_t>(refs, kMaxCells)),
-                    refs);
+    // Cells: the grid's target count (grid_plan.hpp).
+    const std::uint64_t cells = std::min<std::uint64_t>(n / options.boxes_per_cell + 1, kMaxCells);
+    size_references(static_cast<std::uint32_t>(refs), 0, static_cast<std::uint32_t>(std::min(refs, cells)), refs);
     size_pairs(2ull * n);
     pairs.clear();  // no frame yet
     info = {};
@@ -192,35 +187,38 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     const std::uint64_t slots = std::uint64_t{refs} + std::uint64_t{large} * chunks;
     const std::uint32_t max_cells = std::min(refs, grid_.cells());
     size_references(refs, large, max_cells, slots);
-    launch_emit(g, b, n, is_large_.as<std::uint32_t>(), ref_offset_.as<std::uint32_t>(),
-                large_offset_.as<std::uint32_t>(), keys_.as<std::uint64_t>(), ids_.as<std::uint32_t>(),
+    const int bits = position_bits(grid_.cells());
+    launch_emit(g, b, n, bits, is_large_.as<std::uint32_t>(), ref_offset_.as<std::uint32_t>(),
+                large_offset_.as<std::uint32_t>(), keys_.as<std::uint32_t>(), ids_.as<std::uint32_t>(),
                 large_list_.as<std::uint32_t>(), stream_);
     record(kRefs);
 
-    // Sort by (cell, min x) (stable), gather, cells.
-    std::uint64_t* sorted_keys = nullptr;
+    // Sort by key (cell, position of min x) (stable), gather, cells.
+    std::uint32_t* sorted_keys = nullptr;
     std::uint32_t* sorted_ids = nullptr;
-    if (sort_pairs(keys_.as<std::uint64_t>(), keys_alt_.as<std::uint64_t>(), ids_.as<std::uint32_t>(),
-                   ids_alt_.as<std::uint32_t>(), refs, 32 + cell_bits(grid_.cells()), temp_, &sorted_keys,
-                   &sorted_ids, stream_))
+    if (sort_pairs(keys_.as<std::uint32_t>(), keys_alt_.as<std::uint32_t>(), ids_.as<std::uint32_t>(),
+                   ids_alt_.as<std::uint32_t>(), refs, 32, temp_, &sorted_keys, &sorted_ids, stream_))
       ++info.allocations;
     check_cuda(cudaMemsetAsync(cells_.as<std::uint32_t>(), 0, 4, stream_), "cells");
-    launch_gather(b, sorted_keys, sorted_ids, refs, lanes_.as<float>(), head_.as<std::uint32_t>(), stream_);
+    launch_gather_cells(b, sorted_keys, sorted_ids, refs, bits, lanes_.as<float>(), positions_.as<std::uint32_t>(),
+                        head_.as<std::uint32_t>(), stream_);
     scan(head_.as<std::uint32_t>(), head_scan_.as<std::uint32_t>(), refs);
     // The scan is written to out[1..refs]: the cells kernel reads it from there.
-    launch_cells(g, sorted_keys, head_scan_.as<std::uint32_t>() + 1, refs, cell_begin_.as<std::uint32_t>(),
-                 regions_.as<CellRegion>(), cells_.as<std::uint32_t>(), stream_);
+    launch_cells(g, sorted_keys, bits, head_scan_.as<std::uint32_t>() + 1, refs, cell_begin_.as<std::uint32_t>(),
+                 cell_ids_.as<std::uint32_t>(), regions_.as<CellRegion>(), cells_.as<std::uint32_t>(), stream_);
     record(kSorted);
 
     // Count, scan.
     const float* lanes = lanes_.as<float>();
     const std::size_t stride = refs;
-    const SortedLanes s{{lanes, lanes + stride, lanes + 2 * stride},
-                        {lanes + 3 * stride, lanes + 4 * stride, lanes + 5 * stride},
-                        sorted_ids};
+    const CellLanes s{{lanes, lanes + stride, lanes + 2 * stride},
+                      {lanes + 3 * stride, lanes + 4 * stride, lanes + 5 * stride},
+                      sorted_ids,
+                      positions_.as<std::uint32_t>()};
     std::uint64_t* counts = counts_.as<std::uint64_t>();
-    launch_cell_rows(s, cell_begin_.as<std::uint32_t>(), regions_.as<CellRegion>(), cells_.as<std::uint32_t>(),
-                     max_cells, counts, nullptr, nullptr, stream_);
+    launch_cell_rows(g, s, bits, cell_begin_.as<std::uint32_t>(), cell_ids_.as<std::uint32_t>(),
+                     regions_.as<CellRegion>(), cells_.as<std::uint32_t>(), max_cells, big_cells_.as<std::uint32_t>(),
+                     counts, nullptr, nullptr, stream_);
     launch_large_rows(b, n, is_large_.as<std::uint32_t>(), large_list_.as<std::uint32_t>(), large, chunk,
                       counts + refs, nullptr, nullptr, stream_);
     scan(counts, offsets_.as<std::uint64_t>(), slots);
@@ -237,8 +235,9 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     size_pairs(total);
     std::uint32_t* out = pair_out_.as<std::uint32_t>();
     const std::uint64_t* offsets = offsets_.as<std::uint64_t>();
-    launch_cell_rows(s, cell_begin_.as<std::uint32_t>(), regions_.as<CellRegion>(), cells_.as<std::uint32_t>(),
-                     max_cells, nullptr, offsets, out, stream_);
+    launch_cell_rows(g, s, bits, cell_begin_.as<std::uint32_t>(), cell_ids_.as<std::uint32_t>(),
+                     regions_.as<CellRegion>(), cells_.as<std::uint32_t>(), max_cells, big_cells_.as<std::uint32_t>(),
+                     nullptr, offsets, out, stream_);
     launch_large_rows(b, n, is_large_.as<std::uint32_t>(), large_list_.as<std::uint32_t>(), large, chunk, nullptr,
                       offsets + refs, out, stream_);
     record(kFilled);
@@ -260,11 +259,12 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     for (DeviceBuffer* d : {&ref_count_, &is_large_, &ref_offset_, &large_offset_}) reserve(*d, (std::size_t{n} + 1) * 4);
   }
   void size_references(std::uint32_t refs, std::uint32_t large, std::uint32_t max_cells, std::uint64_t slots) {
-    for (DeviceBuffer* d : {&keys_, &keys_alt_}) reserve(*d, (std::size_t{refs} + 1) * 8);
-    for (DeviceBuffer* d : {&ids_, &ids_alt_, &head_, &head_scan_}) reserve(*d, (std::size_t{refs} + 1) * 4);
+    for (DeviceBuffer* d : {&keys_, &keys_alt_, &ids_, &ids_alt_, &positions_, &head_, &head_scan_})
+      reserve(*d, (std::size_t{refs} + 1) * 4);
     reserve(large_list_, (std::size_t{large} + 1) * 4);
     reserve(lanes_, std::size_t{6} * (refs + 1) * sizeof(float));
     reserve(cell_begin_, (std::size_t{max_cells} + 2) * 4);
+    for (DeviceBuffer* d : {&cell_ids_, &big_cells_}) reserve(*d, (std::size_t{max_cells} + 1) * 4);
     reserve(regions_, (std::size_t{max_cells} + 1) * sizeof(CellRegion));
     reserve(cells_, 4);
     for (DeviceBuffer* d : {&counts_, &offsets_}) reserve(*d, (slots + 1) * 8);
@@ -313,8 +313,8 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     t.frame_ms = between(kUploaded, kOrdered);
     std::size_t held = 0;
     for (const DeviceBuffer* d : {&boxes_, &acc_, &planes_, &ref_count_, &is_large_, &ref_offset_, &large_offset_,
-                                  &keys_, &keys_alt_, &ids_, &ids_alt_, &large_list_, &lanes_, &head_, &head_scan_,
-                                  &cell_begin_, &regions_, &cells_, &counts_, &offsets_, &pair_out_, &pair_keys_,
+                                  &keys_, &keys_alt_, &ids_, &ids_alt_, &large_list_, &lanes_, &positions_, &head_,
+                                  &head_scan_, &cell_begin_, &cell_ids_, &big_cells_, &regions_, &cells_, &counts_, &offsets_, &pair_out_, &pair_keys_,
                                   &pair_keys_alt_, &temp_})
       held += d->capacity();
     info.buffer_bytes = held;
@@ -327,8 +327,8 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
   cudaEvent_t events_[kStages] = {};
   std::uint64_t* pinned_ = nullptr;
   DeviceBuffer boxes_, acc_, planes_, ref_count_, is_large_, ref_offset_, large_offset_, keys_, keys_alt_, ids_,
-      ids_alt_, large_list_, lanes_, head_, head_scan_, cell_begin_, regions_, cells_, counts_, offsets_, pair_out_,
-      pair_keys_, pair_keys_alt_, temp_;
+      ids_alt_, large_list_, lanes_, positions_, head_, head_scan_, cell_begin_, cell_ids_, big_cells_, regions_, cells_,
+      counts_, offsets_, pair_out_, pair_keys_, pair_keys_alt_, temp_;
 };
 
 }  // namespace

@@ -67,15 +67,15 @@ __global__ void reference_count_kernel(GridView g, BoxLanesView b, std::uint32_t
   is_large[i] = c == 0;
 }
 
-__global__ void emit_kernel(GridView g, BoxLanesView b, std::uint32_t n, const std::uint32_t* is_large,
-                            const std::uint32_t* ref_offset, const std::uint32_t* large_offset, std::uint64_t* keys,
+__global__ void emit_kernel(GridView g, BoxLanesView b, std::uint32_t n, int bits, const std::uint32_t* is_large,
+                            const std::uint32_t* ref_offset, const std::uint32_t* large_offset, std::uint32_t* keys,
                             std::uint32_t* ids, std::uint32_t* large_list) {
   const std::uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= n) return;
   if (is_large[i])
     large_list[large_offset[i]] = i;
   else
-    emit_references(g, b, i, keys, ids, ref_offset[i]);
+    emit_references(g, b, i, bits, keys, ids, ref_offset[i]);
 }
 
 __global__ void gather_kernel(BoxLanesView b, const std::uint64_t* keys, const std::uint32_t* ids,
@@ -90,15 +90,34 @@ __global__ void gather_kernel(BoxLanesView b, const std::uint64_t* keys, const s
   head[r] = r == 0 || (keys[r] >> 32) != (keys[r - 1] >> 32);
 }
 
-__global__ void cells_kernel(GridView g, const std::uint64_t* keys, const std::uint32_t* head_scan,
-                             std::uint32_t refs, std::uint32_t* cell_begin, CellRegion* regions,
-                             std::uint32_t* cells) {
+// The frame's gather: sorted lanes, positions (the keys' low bits), and
+// head[r] = 1 where a cell starts.
+__global__ void gather_cells_kernel(BoxLanesView b, const std::uint32_t* keys, const std::uint32_t* ids,
+                                    std::uint32_t refs, int bits, float* lanes, std::uint32_t* positions,
+                                    std::uint32_t* head) {
+  const std::uint32_t r = blockIdx.x * blockDim.x + threadIdx.x;
+  if (r >= refs) return;
+  const std::uint32_t i = ids[r];
+  for (int k = 0; k < 3; ++k) {
+    lanes[static_cast<std::size_t>(k) * refs + r] = b.lo[k][i];
+    lanes[static_cast<std::size_t>(3 + k) * refs + r] = b.hi[k][i];
+  }
+  const std::uint32_t key = keys[r];
+  positions[r] = key & static_cast<std::uint32_t>((std::uint64_t{1} << bits) - 1);
+  head[r] = r == 0 || (key >> bits) != (keys[r - 1] >> bits);
+}
+
+__global__ void cells_kernel(GridView g, const std::uint32_t* keys, int bits, const std::uint32_t* head_scan,
+                             std::uint32_t refs, std::uint32_t* cell_begin, std::uint32_t* cell_ids,
+                             CellRegion* regions, std::uint32_t* cells) {
   const std::uint32_t r = blockIdx.x * blockDim.x + threadIdx.x;
   if (r >= refs) return;
   if (r == 0 || head_scan[r] != head_scan[r - 1]) {
     const std::uint32_t c = head_scan[r] - 1;
+    const std::uint32_t id = keys[r] >> bits;
     cell_begin[c] = r;
-    regions[c] = cell_region(g, static_cast<std::uint32_t>(keys[r] >> 32));
+    cell_ids[c] = id;
+    regions[c] = cell_region(g, id);
   }
   if (r + 1 == refs) {
     cell_begin[head_scan[r]] = refs;
@@ -111,6 +130,7 @@ template <std::uint32_t kBoxes>
 struct CellBuffer {
   float lane[6][kBoxes];
   std::uint32_t id[kBoxes];
+  std::uint32_t position[kBoxes];
 };
 
 // The accelerator on one cell: its boxes copied into `buffer` when they fit
@@ -118,10 +138,11 @@ struct CellBuffer {
 // rows threadIdx.x, + blockDim.x, ...; counts[r] per row, or with `out` the
 // pairs from offsets[r]. Every thread of the block calls it (barriers).
 template <std::uint32_t kBoxes>
-__device__ void sweep_cell(const SortedLanes& sorted, std::uint32_t begin, std::uint32_t size,
-                           const CellRegion& region, CellBuffer<kBoxes>& buffer, std::uint64_t* counts,
-                           const std::uint64_t* offsets, std::uint32_t* out) {
-  SortedLanes s = sorted;
+__device__ void sweep_cell(const GridView& g, const CellLanes& sorted, int bits, std::uint32_t begin,
+                           std::uint32_t size, std::uint32_t cell_id, const CellRegion& region,
+                           CellBuffer<kBoxes>& buffer, std::uint64_t* counts, const std::uint64_t* offsets,
+                           std::uint32_t* out) {
+  CellLanes s = sorted;
   std::uint32_t base = begin;  // row r of s is reference base + r
   if (size <= kBoxes) {
     for (std::uint32_t r = threadIdx.x; r < size; r += blockDim.x) {
@@ -130,55 +151,97 @@ __device__ void sweep_cell(const SortedLanes& sorted, std::uint32_t begin, std::
         buffer.lane[3 + k][r] = sorted.hi[k][begin + r];
       }
       buffer.id[r] = sorted.id[begin + r];
+      buffer.position[r] = sorted.position[begin + r];
     }
     __syncthreads();
-    s = SortedLanes{{buffer.lane[0], buffer.lane[1], buffer.lane[2]},
-                    {buffer.lane[3], buffer.lane[4], buffer.lane[5]},
-                    buffer.id};
+    s = CellLanes{{buffer.lane[0], buffer.lane[1], buffer.lane[2]},
+                  {buffer.lane[3], buffer.lane[4], buffer.lane[5]},
+                  buffer.id,
+                  buffer.position};
     base = 0;
   }
   for (std::uint32_t r = threadIdx.x; r < size; r += blockDim.x) {
+    const std::uint32_t stop = row_stop(g, cell_id, s.hi[0][base + r], bits);
     if (!out) {
-      counts[begin + r] = sweep_row(s, base + r, base + size, region, [](std::uint32_t, std::uint32_t, std::uint32_t) {});
+      counts[begin + r] =
+          cell_row(s, base + r, base + size, region, stop, [](std::uint32_t, std::uint32_t, std::uint32_t) {});
     } else {
-      std::uint32_t* row = out + 2 * offsets[begin + r];
-      sweep_row(s, base + r, base + size, region, [row](std::uint32_t k, std::uint32_t a, std::uint32_t b) {
-        row[2 * k] = a < b ? a : b;
-        row[2 * k + 1] = a < b ? b : a;
+      uint2* row = reinterpret_cast<uint2*>(out) + offsets[begin + r];
+      cell_row(s, base + r, base + size, region, stop, [row](std::uint32_t k, std::uint32_t a, std::uint32_t b) {
+        row[k] = a < b ? make_uint2(a, b) : make_uint2(b, a);
       });
     }
   }
 }
 
-// Cells of up to kBlockBoxes boxes: a block of kLanes threads each.
-__global__ void __launch_bounds__(kLanes) cell_rows_kernel(SortedLanes sorted, const std::uint32_t* cell_begin,
-                                                           const CellRegion* regions, const std::uint32_t* cells,
+// Cells of up to kBlockBoxes boxes: a block of kLanes threads each; a larger
+// cell is put on the big-cell list for big_cell_rows_kernel (which block
+// takes which big cell changes no count and no pair's place: offsets are
+// per row).
+__global__ void __launch_bounds__(kLanes) cell_rows_kernel(GridView g, CellLanes sorted, int bits,
+                                                           const std::uint32_t* cell_begin,
+                                                           const std::uint32_t* cell_ids, const CellRegion* regions,
+                                                           const std::uint32_t* cells, std::uint32_t* big_cells,
                                                            std::uint64_t* counts, const std::uint64_t* offsets,
                                                            std::uint32_t* out) {
   __shared__ CellBuffer<kBlockBoxes> buffer;
   const std::uint32_t c = blockIdx.x;
   if (c >= *cells) return;
   const std::uint32_t begin = cell_begin[c], size = cell_begin[c + 1] - begin;
-  if (size > kBlockBoxes) return;
-  sweep_cell(sorted, begin, size, regions[c], buffer, counts, offsets, out);
+  if (size > kBlockBoxes) {
+    if (threadIdx.x == 0) big_cells[1 + atomicAdd(big_cells, 1u)] = c;
+    return;
+  }
+  sweep_cell(g, sorted, bits, begin, size, cell_ids[c], regions[c], buffer, counts, offsets, out);
 }
 
-// The larger cells (dense regions of a clustered scene): a fixed grid of
-// kBigLanes-thread blocks, each taking cells c = blockIdx.x, + gridDim.x, ...
-// and skipping those the small kernel swept, with a larger buffer. Which
-// block sweeps a cell changes no count and no pair's place (offsets are per
-// row), so the result is the same as one block per cell.
-__global__ void __launch_bounds__(kBigLanes) big_cell_rows_kernel(SortedLanes sorted, const std::uint32_t* cell_begin,
-                                                                  const CellRegion* regions,
-                                                                  const std::uint32_t* cells, std::uint64_t* counts,
-                                                                  const std::uint64_t* offsets, std::uint32_t* out) {
+// The big cells (dense regions of a clustered scene), listed by
+// cell_rows_kernel (big_cells[0] of them from big_cells[1]): a fixed grid of
+// kBigLanes-thread blocks with a larger buffer, each taking list entries
+// blockIdx.x, + gridDim.x, ...
+__global__ void __launch_bounds__(kBigLanes)
+    big_cell_rows_kernel(GridView g, CellLanes sorted, int bits, const std::uint32_t* cell_begin,
+                         const std::uint32_t* cell_ids, const CellRegion* regions, const std::uint32_t* big_cells,
+                         std::uint64_t* counts, const std::uint64_t* offsets, std::uint32_t* out) {
   __shared__ CellBuffer<kBigCellBoxes> buffer;
-  const std::uint32_t cell_count = *cells;
-  for (std::uint32_t c = blockIdx.x; c < cell_count; c += gridDim.x) {
+  const std::uint32_t listed = big_cells[0];
+  for (std::uint32_t q = blockIdx.x; q < listed; q += gridDim.x) {
+    const std::uint32_t c = big_cells[1 + q];
     const std::uint32_t begin = cell_begin[c], size = cell_begin[c + 1] - begin;
-    if (size <= kBlockBoxes) continue;
-    sweep_cell(sorted, begin, size, regions[c], buffer, counts, offsets, out);
+    sweep_cell(g, sorted, bits, begin, size, cell_ids[c], regions[c], buffer, counts, offsets, out);
     __syncthreads();  // the buffer is refilled for the next cell
+  }
+}
+
+// One cell sorted by exact min x (the "cuda" cell engine's cell): a block
+// of kBigLanes threads sweeping with sweep_row, its boxes in shared memory
+// when they fit.
+__global__ void __launch_bounds__(kBigLanes)
+    sorted_cell_rows_kernel(SortedLanes sorted, std::uint32_t size, CellRegion region, std::uint64_t* counts,
+                            const std::uint64_t* offsets, std::uint32_t* out) {
+  __shared__ float lane[6][kBigCellBoxes];
+  __shared__ std::uint32_t id[kBigCellBoxes];
+  SortedLanes s = sorted;
+  if (size <= kBigCellBoxes) {
+    for (std::uint32_t r = threadIdx.x; r < size; r += blockDim.x) {
+      for (int k = 0; k < 3; ++k) {
+        lane[k][r] = sorted.lo[k][r];
+        lane[3 + k][r] = sorted.hi[k][r];
+      }
+      id[r] = sorted.id[r];
+    }
+    __syncthreads();
+    s = SortedLanes{{lane[0], lane[1], lane[2]}, {lane[3], lane[4], lane[5]}, id};
+  }
+  for (std::uint32_t r = threadIdx.x; r < size; r += blockDim.x) {
+    if (!out) {
+      counts[r] = sweep_row(s, r, size, region, [](std::uint32_t, std::uint32_t, std::uint32_t) {});
+    } else {
+      uint2* row = reinterpret_cast<uint2*>(out) + offsets[r];
+      sweep_row(s, r, size, region, [row](std::uint32_t k, std::uint32_t a, std::uint32_t b) {
+        row[k] = a < b ? make_uint2(a, b) : make_uint2(b, a);
+      });
+    }
   }
 }
 
@@ -273,11 +336,12 @@ void launch_reference_count(const GridView& g, const BoxLanesView& b, std::uint3
   check_cuda(cudaGetLastError(), "reference count kernel");
 }
 
-void launch_emit(const GridView& g, const BoxLanesView& b, std::uint32_t n, const std::uint32_t* is_large,
-                 const std::uint32_t* ref_offset, const std::uint32_t* large_offset, std::uint64_t* keys,
+void launch_emit(const GridView& g, const BoxLanesView& b, std::uint32_t n, int bits, const std::uint32_t* is_large,
+                 const std::uint32_t* ref_offset, const std::uint32_t* large_offset, std::uint32_t* keys,
                  std::uint32_t* ids, std::uint32_t* large_list, cudaStream_t s) {
   if (!n) return;
-  emit_kernel<<<grid_for(n), kThreads, 0, s>>>(g, b, n, is_large, ref_offset, large_offset, keys, ids, large_list);
+  emit_kernel<<<grid_for(n), kThreads, 0, s>>>(g, b, n, bits, is_large, ref_offset, large_offset, keys, ids,
+                                               large_list);
   check_cuda(cudaGetLastError(), "emit kernel");
 }
 
@@ -288,22 +352,41 @@ void launch_gather(const BoxLanesView& b, const std::uint64_t* keys, const std::
   check_cuda(cudaGetLastError(), "gather kernel");
 }
 
-void launch_cells(const GridView& g, const std::uint64_t* keys, const std::uint32_t* head_scan, std::uint32_t refs,
-                  std::uint32_t* cell_begin, CellRegion* regions, std::uint32_t* cells, cudaStream_t s) {
+void launch_gather_cells(const BoxLanesView& b, const std::uint32_t* keys, const std::uint32_t* ids, std::uint32_t refs,
+                         int bits, float* lanes, std::uint32_t* positions, std::uint32_t* head, cudaStream_t s) {
   if (!refs) return;
-  cells_kernel<<<grid_for(refs), kThreads, 0, s>>>(g, keys, head_scan, refs, cell_begin, regions, cells);
+  gather_cells_kernel<<<grid_for(refs), kThreads, 0, s>>>(b, keys, ids, refs, bits, lanes, positions, head);
+  check_cuda(cudaGetLastError(), "gather cells kernel");
+}
+
+void launch_cells(const GridView& g, const std::uint32_t* keys, int bits, const std::uint32_t* head_scan,
+                  std::uint32_t refs, std::uint32_t* cell_begin, std::uint32_t* cell_ids, CellRegion* regions,
+                  std::uint32_t* cells, cudaStream_t s) {
+  if (!refs) return;
+  cells_kernel<<<grid_for(refs), kThreads, 0, s>>>(g, keys, bits, head_scan, refs, cell_begin, cell_ids, regions,
+                                                   cells);
   check_cuda(cudaGetLastError(), "cells kernel");
 }
 
-void launch_cell_rows(const SortedLanes& sorted, const std::uint32_t* cell_begin, const CellRegion* regions,
-                      const std::uint32_t* cells, std::uint32_t blocks, std::uint64_t* counts,
+void launch_cell_rows(const GridView& g, const CellLanes& sorted, int bits, const std::uint32_t* cell_begin,
+                      const std::uint32_t* cell_ids, const CellRegion* regions, const std::uint32_t* cells,
+                      std::uint32_t blocks, std::uint32_t* big_cells, std::uint64_t* counts,
                       const std::uint64_t* offsets, std::uint32_t* out, cudaStream_t s) {
   if (!blocks) return;
-  cell_rows_kernel<<<blocks, kLanes, 0, s>>>(sorted, cell_begin, regions, cells, counts, offsets, out);
+  check_cuda(cudaMemsetAsync(big_cells, 0, sizeof(std::uint32_t), s), "big cells");
+  cell_rows_kernel<<<blocks, kLanes, 0, s>>>(g, sorted, bits, cell_begin, cell_ids, regions, cells, big_cells, counts,
+                                             offsets, out);
   check_cuda(cudaGetLastError(), "cell rows kernel");
   big_cell_rows_kernel<<<blocks < kBigCellBlocks ? blocks : kBigCellBlocks, kBigLanes, 0, s>>>(
-      sorted, cell_begin, regions, cells, counts, offsets, out);
+      g, sorted, bits, cell_begin, cell_ids, regions, big_cells, counts, offsets, out);
   check_cuda(cudaGetLastError(), "big cell rows kernel");
+}
+
+void launch_sorted_cell_rows(const SortedLanes& sorted, std::uint32_t size, const CellRegion& region,
+                             std::uint64_t* counts, const std::uint64_t* offsets, std::uint32_t* out, cudaStream_t s) {
+  if (!size) return;
+  sorted_cell_rows_kernel<<<1, kBigLanes, 0, s>>>(sorted, size, region, counts, offsets, out);
+  check_cuda(cudaGetLastError(), "sorted cell rows kernel");
 }
 
 void launch_large_rows(const BoxLanesView& b, std::uint32_t n, const std::uint32_t* is_large,

@@ -18,11 +18,11 @@ namespace hbp::cuda {
 // within its shared memory.
 inline constexpr std::uint32_t kBlockBoxes = 256;
 inline constexpr std::uint32_t kLanes = 64;
-// Larger cells, from dense regions: 256 lanes, up to 1536 boxes in shared
-// memory (42 KiB, under the 48 KiB a block gets without opting in), on a
+// Larger cells, from dense regions: 256 lanes, up to 1280 boxes in shared
+// memory (40 KiB, under the 48 KiB a block gets without opting in), on a
 // fixed grid of kBigCellBlocks blocks (two per SM of an H100/H200).
 inline constexpr std::uint32_t kBigLanes = 256;
-inline constexpr std::uint32_t kBigCellBoxes = 1536;
+inline constexpr std::uint32_t kBigCellBoxes = 1280;
 inline constexpr std::uint32_t kBigCellBlocks = 264;
 
 // acc[0..2] ordered min of lo, acc[3..5] ordered max of hi, acc[6] the first
@@ -35,22 +35,36 @@ void launch_bounds(const BoxLanesView& b, std::uint32_t n, std::uint32_t* acc, c
 void launch_reference_count(const GridView& g, const BoxLanesView& b, std::uint32_t n, std::uint32_t* count,
                             std::uint32_t* is_large, cudaStream_t s);
 // ref_offset / large_offset: exclusive offsets (n + 1 entries).
-void launch_emit(const GridView& g, const BoxLanesView& b, std::uint32_t n, const std::uint32_t* is_large,
-                 const std::uint32_t* ref_offset, const std::uint32_t* large_offset, std::uint64_t* keys,
+// Keys of position_bits `bits` (frame_bodies.hpp).
+void launch_emit(const GridView& g, const BoxLanesView& b, std::uint32_t n, int bits, const std::uint32_t* is_large,
+                 const std::uint32_t* ref_offset, const std::uint32_t* large_offset, std::uint32_t* keys,
                  std::uint32_t* ids, std::uint32_t* large_list, cudaStream_t s);
-// Sorted lanes from the sorted ids; head[r] = 1 where a cell starts.
+// Sorted lanes from the sorted ids (64-bit keys, the high word a group such
+// as the axis sweep's); head[r] = 1 where the high word changes.
 void launch_gather(const BoxLanesView& b, const std::uint64_t* keys, const std::uint32_t* ids, std::uint32_t refs,
                    float* lanes, std::uint32_t* head, cudaStream_t s);
-// From the inclusive scan of head: cell_begin (cells + 1), regions, *cells.
-void launch_cells(const GridView& g, const std::uint64_t* keys, const std::uint32_t* head_scan, std::uint32_t refs,
-                  std::uint32_t* cell_begin, CellRegion* regions, std::uint32_t* cells, cudaStream_t s);
+// The frame's gather: sorted lanes and positions from the sorted keys and
+// ids; head[r] = 1 where a cell starts.
+void launch_gather_cells(const BoxLanesView& b, const std::uint32_t* keys, const std::uint32_t* ids, std::uint32_t refs,
+                         int bits, float* lanes, std::uint32_t* positions, std::uint32_t* head, cudaStream_t s);
+// From the inclusive scan of head: cell_begin (cells + 1), cell ids,
+// regions, *cells.
+void launch_cells(const GridView& g, const std::uint32_t* keys, int bits, const std::uint32_t* head_scan,
+                  std::uint32_t refs, std::uint32_t* cell_begin, std::uint32_t* cell_ids, CellRegion* regions,
+                  std::uint32_t* cells, cudaStream_t s);
 // The accelerator over `blocks` >= *cells cells: a block per cell of up to
-// kBlockBoxes boxes (blocks past *cells return), the larger cells on the
-// fixed grid of big-cell blocks; counts[r] for each lane, or with `out` the
-// pairs (two uint32 each) from offsets[r].
-void launch_cell_rows(const SortedLanes& sorted, const std::uint32_t* cell_begin, const CellRegion* regions,
-                      const std::uint32_t* cells, std::uint32_t blocks, std::uint64_t* counts,
+// kBlockBoxes boxes (blocks past *cells return), the larger cells listed in
+// big_cells (1 + cells words) and swept on the fixed grid of big-cell
+// blocks; counts[r] for each lane, or with `out` the pairs (two uint32
+// each) from offsets[r].
+void launch_cell_rows(const GridView& g, const CellLanes& sorted, int bits, const std::uint32_t* cell_begin,
+                      const std::uint32_t* cell_ids, const CellRegion* regions, const std::uint32_t* cells,
+                      std::uint32_t blocks, std::uint32_t* big_cells, std::uint64_t* counts,
                       const std::uint64_t* offsets, std::uint32_t* out, cudaStream_t s);
+// One cell of `size` boxes sorted by exact min x (the "cuda" cell engine),
+// swept by one block with sweep_row; counts and pairs as above.
+void launch_sorted_cell_rows(const SortedLanes& sorted, std::uint32_t size, const CellRegion& region,
+                             std::uint64_t* counts, const std::uint64_t* offsets, std::uint32_t* out, cudaStream_t s);
 // The large pass: slot q = (large index) * chunks + chunk, as cell rows.
 void launch_large_rows(const BoxLanesView& b, std::uint32_t n, const std::uint32_t* is_large,
                        const std::uint32_t* large_list, std::uint32_t large, std::uint32_t chunk, std::uint64_t* counts,

@@ -5,10 +5,11 @@
 
 namespace hbp::cuda {
 
-bool sort_pairs(std::uint64_t* keys, std::uint64_t* keys_alt, std::uint32_t* ids, std::uint32_t* ids_alt,
-                std::uint32_t n, int end_bit, DeviceBuffer& temp, std::uint64_t** keys_out, std::uint32_t** ids_out,
-                cudaStream_t s) {
-  cub::DoubleBuffer<std::uint64_t> k(keys, keys_alt);
+namespace {
+template <class Key>
+bool sort_pairs_of(Key* keys, Key* keys_alt, std::uint32_t* ids, std::uint32_t* ids_alt, std::uint32_t n,
+                   int end_bit, DeviceBuffer& temp, Key** keys_out, std::uint32_t** ids_out, cudaStream_t s) {
+  cub::DoubleBuffer<Key> k(keys, keys_alt);
   cub::DoubleBuffer<std::uint32_t> v(ids, ids_alt);
   bool grew = false;
   if (n) {
@@ -20,6 +21,19 @@ bool sort_pairs(std::uint64_t* keys, std::uint64_t* keys_alt, std::uint32_t* ids
   *keys_out = k.Current();
   *ids_out = v.Current();
   return grew;
+}
+}  // namespace
+
+bool sort_pairs(std::uint64_t* keys, std::uint64_t* keys_alt, std::uint32_t* ids, std::uint32_t* ids_alt,
+                std::uint32_t n, int end_bit, DeviceBuffer& temp, std::uint64_t** keys_out, std::uint32_t** ids_out,
+                cudaStream_t s) {
+  return sort_pairs_of(keys, keys_alt, ids, ids_alt, n, end_bit, temp, keys_out, ids_out, s);
+}
+
+bool sort_pairs(std::uint32_t* keys, std::uint32_t* keys_alt, std::uint32_t* ids, std::uint32_t* ids_alt,
+                std::uint32_t n, int end_bit, DeviceBuffer& temp, std::uint32_t** keys_out, std::uint32_t** ids_out,
+                cudaStream_t s) {
+  return sort_pairs_of(keys, keys_alt, ids, ids_alt, n, end_bit, temp, keys_out, ids_out, s);
 }
 
 bool sort_keys(std::uint64_t* keys, std::uint64_t* keys_alt, std::uint64_t n, int end_bit, DeviceBuffer& temp,

@@ -15,6 +15,9 @@ namespace hbp::cuda {
 bool sort_pairs(std::uint64_t* keys, std::uint64_t* keys_alt, std::uint32_t* ids, std::uint32_t* ids_alt,
                 std::uint32_t n, int end_bit, DeviceBuffer& temp, std::uint64_t** keys_out, std::uint32_t** ids_out,
                 cudaStream_t s);
+bool sort_pairs(std::uint32_t* keys, std::uint32_t* keys_alt, std::uint32_t* ids, std::uint32_t* ids_alt,
+                std::uint32_t n, int end_bit, DeviceBuffer& temp, std::uint32_t** keys_out, std::uint32_t** ids_out,
+                cudaStream_t s);
 // Sort of 64-bit keys by bits [0, end_bit); the sorted keys end in *out
 // (keys or keys_alt).
 bool sort_keys(std::uint64_t* keys, std::uint64_t* keys_alt, std::uint64_t n, int end_bit, DeviceBuffer& temp,

@@ -44,6 +44,7 @@ HBP_HOST_DEVICE inline std::uint32_t extent_bin(float lo, float hi) {
 struct GridView {
   std::uint32_t dims[3];
   const float* planes[3];  // dims[k] - 1 floats each
+  float x_lo, x_hi;        // the planned bounds on x: the outer x slabs' finite ends for slab_position
 };
 
 // The boxes by object index (structure of arrays).
@@ -58,6 +59,15 @@ struct SortedLanes {
   const float* lo[3];
   const float* hi[3];
   const std::uint32_t* id;
+};
+
+// The frame's references in key order (cell, slab_position of min x),
+// gathered into lanes, with each reference's position (its key's low bits).
+struct CellLanes {
+  const float* lo[3];
+  const float* hi[3];
+  const std::uint32_t* id;
+  const std::uint32_t* position;
 };
 
 // Number of planes <= v (binary search): the index of the cell whose
@@ -124,20 +134,86 @@ HBP_HOST_DEVICE inline std::uint32_t ordered_bits(float f) {
   return (u & 0x80000000u) ? ~u : (u | 0x80000000u);
 }
 
-// Writes box i's sort keys (cell << 32 | ordered min x) and ids from `slot`
-// on, in cell-id order.
-HBP_HOST_DEVICE inline void emit_references(const GridView& g, const BoxLanesView& b, std::uint32_t i,
-                                            std::uint64_t* keys, std::uint32_t* ids, std::uint64_t slot) {
+// A reference's sort key is 32 bits: its cell id above position_bits bits
+// of where its box's min x lies in the cell's x slab. The sweep needs its
+// cell's boxes ordered by min x only up to a monotone map (cell_row), and a
+// quantised position is one: half the key of (cell, exact min x), so the
+// sort moves half the bytes in half the passes.
+HBP_HOST_DEVICE inline int position_bits(std::uint32_t cells) {
+  int bits = 1;
+  while ((std::uint64_t{1} << bits) < cells) ++bits;
+  return 32 - bits;
+}
+
+// floor((x - lo) / (hi - lo) * 2^bits), clamped to [0, 2^bits - 1] (0 for
+// an empty or unbounded slab): non-decreasing in x, as each IEEE operation
+// is, and computed by the same operations on every launcher.
+HBP_HOST_DEVICE inline std::uint32_t slab_position(float x, float lo, float hi, int bits) {
+  const std::uint32_t top = (bits >= 32 ? 0u : (1u << bits)) - 1u;
+  const float width = hi - lo;
+  if (!(width > 0.0f)) return 0;
+  const float t = (x - lo) / width * static_cast<float>(std::uint64_t{1} << bits);
+  if (!(t > 0.0f)) return 0;  // before the slab (a box reaching in from an earlier cell), or unbounded
+  return t >= static_cast<float>(top) ? top : static_cast<std::uint32_t>(t);
+}
+
+// The finite x slab of column cx: its planes, the planned bounds outside.
+HBP_HOST_DEVICE inline void x_slab(const GridView& g, std::uint32_t cx, float& lo, float& hi) {
+  lo = cx == 0 ? g.x_lo : g.planes[0][cx - 1];
+  hi = cx + 1 == g.dims[0] ? g.x_hi : g.planes[0][cx];
+}
+
+// Writes box i's sort keys and ids from `slot` on, in cell-id order.
+template <class Key>
+HBP_HOST_DEVICE inline void emit_references(const GridView& g, const BoxLanesView& b, std::uint32_t i, int bits,
+                                            Key* keys, std::uint32_t* ids, std::uint64_t slot) {
   std::uint32_t first[3], last[3];
   cell_range(g, b, i, first, last);
-  const std::uint64_t x = ordered_bits(b.lo[0][i]);
+  const float x = b.lo[0][i];
   for (std::uint32_t z = first[2]; z <= last[2]; ++z)
     for (std::uint32_t y = first[1]; y <= last[1]; ++y)
       for (std::uint32_t cx = first[0]; cx <= last[0]; ++cx) {
-        keys[slot] = (std::uint64_t{cell_id(g, cx, y, z)} << 32) | x;
+        float lo, hi;
+        x_slab(g, cx, lo, hi);
+        keys[slot] = static_cast<Key>((cell_id(g, cx, y, z) << bits) | slab_position(x, lo, hi, bits));
         ids[slot] = i;
         ++slot;
       }
+}
+
+// The accelerator's row on the frame's cells: reference r against the
+// references after it in its cell [r + 1, end), in key order. Positions
+// are a monotone map of min x, so once a reference's position passes that
+// of r's max x every later one starts past it too: the sweep stops there.
+// Before that, the x overlap is tested with the other axes (equal
+// positions do not order min x). A pair is kept when the boxes overlap
+// (closed intervals) and the cell's region owns it (dedup::owns). emit(k,
+// a, b) receives the row's k-th pair (object ids, not canonical); returns
+// the row's pair count.
+template <class Emit>
+HBP_HOST_DEVICE inline std::uint32_t cell_row(const CellLanes& s, std::uint32_t r, std::uint32_t end,
+                                              const CellRegion& region, std::uint32_t stop, Emit&& emit) {
+  const float ax0 = s.lo[0][r], ax1 = s.hi[0][r];
+  const float ay0 = s.lo[1][r], ay1 = s.hi[1][r];
+  const float az0 = s.lo[2][r], az1 = s.hi[2][r];
+  std::uint32_t count = 0;
+  for (std::uint32_t j = r + 1; j < end; ++j) {
+    if (s.position[j] > stop) break;
+    const float bx0 = s.lo[0][j], by0 = s.lo[1][j], bz0 = s.lo[2][j];
+    const bool overlap = (ax1 >= bx0) & (ax0 <= s.hi[0][j]) & (ay1 >= by0) & (ay0 <= s.hi[1][j]) & (az1 >= bz0) &
+                         (az0 <= s.hi[2][j]);
+    if (!overlap || !dedup::owns(region, ax0, ay0, az0, bx0, by0, bz0)) continue;
+    emit(count, s.id[r], s.id[j]);
+    ++count;
+  }
+  return count;
+}
+
+// cell_row's stop for row r of a cell in x column cx: the position of r's max x.
+HBP_HOST_DEVICE inline std::uint32_t row_stop(const GridView& g, std::uint32_t cell, float max_x, int bits) {
+  float lo, hi;
+  x_slab(g, cell % g.dims[0], lo, hi);
+  return slab_position(max_x, lo, hi, bits);
 }
 
 // The sweep of one lane (the accelerator's row): reference r against the

@@ -116,6 +116,8 @@ GridView GridPlan::view(const float* planes) const {
     g.dims[k] = dims_[k];
     g.planes[k] = planes + plane_offset(k);
   }
+  g.x_lo = planned_.lo[0];
+  g.x_hi = planned_.hi[0];
   return g;
 }
 

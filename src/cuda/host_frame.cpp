@@ -24,13 +24,6 @@ double ms_since(Clock::time_point& t) {
   return ms;
 }
 
-// Number of bits that hold every cell id (the sort key's high word).
-int cell_bits(std::uint32_t cells) {
-  int bits = 1;
-  while ((std::uint64_t{1} << bits) < cells) ++bits;
-  return bits;
-}
-
 class HostFrame final : public FrameBroadPhase::Impl {
  public:
   using Impl::Impl;
@@ -108,27 +101,32 @@ class HostFrame final : public FrameBroadPhase::Impl {
     info.large = large;
     grow(keys_, refs);
     grow(ids_, refs);
+    const int bits = position_bits(grid_.cells());
     for_blocks(threads, n, [&](std::uint64_t i) {
       if (!is_large_[i])
-        emit_references(g, b, static_cast<std::uint32_t>(i), keys_.data(), ids_.data(), ref_offset_[i]);
+        emit_references(g, b, static_cast<std::uint32_t>(i), bits, keys_.data(), ids_.data(), ref_offset_[i]);
     });
     info.times.refs_ms = ms_since(t);
 
-    // Sort by (cell, min x), gather the sorted lanes, find the cells.
-    radix_sort(keys_, key_scratch_, &ids_, &id_scratch_, 32 + cell_bits(grid_.cells()));
+    // Sort by key (cell, position of min x), gather the sorted lanes and
+    // positions, find the cells.
+    radix_sort(keys_, key_scratch_, &ids_, &id_scratch_, 32);
     for (auto* lane : {&s_lo_[0], &s_lo_[1], &s_lo_[2], &s_hi_[0], &s_hi_[1], &s_hi_[2]}) grow(*lane, refs);
+    grow(positions_, refs);
+    const std::uint32_t position_mask = static_cast<std::uint32_t>((std::uint64_t{1} << bits) - 1);
     for_blocks(threads, refs, [&](std::uint64_t r) {
       for (int k = 0; k < 3; ++k) {
         s_lo_[k][r] = b.lo[k][ids_[r]];
         s_hi_[k][r] = b.hi[k][ids_[r]];
       }
+      positions_[r] = static_cast<std::uint32_t>(keys_[r]) & position_mask;
     });
     cell_begin_.clear();
     cell_of_.clear();
     for (std::uint32_t r = 0; r < refs; ++r)
-      if (r == 0 || (keys_[r] >> 32) != (keys_[r - 1] >> 32)) {
+      if (r == 0 || (keys_[r] >> bits) != (keys_[r - 1] >> bits)) {
         cell_begin_.push_back(r);
-        cell_of_.push_back(static_cast<std::uint32_t>(keys_[r] >> 32));
+        cell_of_.push_back(static_cast<std::uint32_t>(keys_[r] >> bits));
       }
     const auto cells = static_cast<std::uint32_t>(cell_begin_.size());
     cell_begin_.push_back(refs);
@@ -136,9 +134,10 @@ class HostFrame final : public FrameBroadPhase::Impl {
     info.times.sort_ms = ms_since(t);
 
     // Count: one slot per lane, then one per (large box, chunk of partners).
-    const SortedLanes s{{s_lo_[0].data(), s_lo_[1].data(), s_lo_[2].data()},
-                        {s_hi_[0].data(), s_hi_[1].data(), s_hi_[2].data()},
-                        ids_.data()};
+    const CellLanes s{{s_lo_[0].data(), s_lo_[1].data(), s_lo_[2].data()},
+                      {s_hi_[0].data(), s_hi_[1].data(), s_hi_[2].data()},
+                      ids_.data(),
+                      positions_.data()};
     const std::uint32_t chunk = large_chunk(n, large);
     const std::uint32_t chunks = large ? (n + chunk - 1) / chunk : 0;
     const std::uint64_t slots = std::uint64_t{refs} + std::uint64_t{large} * chunks;
@@ -147,7 +146,7 @@ class HostFrame final : public FrameBroadPhase::Impl {
     for_blocks(threads, cells, [&](std::uint64_t c) {
       const CellRegion region = cell_region(g, cell_of_[c]);
       for (std::uint32_t r = cell_begin_[c]; r < cell_begin_[c + 1]; ++r)
-        pair_offset_[r] = sweep_row(s, r, cell_begin_[c + 1], region, noop);
+        pair_offset_[r] = cell_row(s, r, cell_begin_[c + 1], region, row_stop(g, cell_of_[c], s.hi[0][r], bits), noop);
     });
     for_blocks(threads, std::uint64_t{large} * chunks, [&](std::uint64_t q) {
       const std::uint32_t j0 = static_cast<std::uint32_t>(q % chunks) * chunk;
@@ -166,8 +165,8 @@ class HostFrame final : public FrameBroadPhase::Impl {
       const CellRegion region = cell_region(g, cell_of_[c]);
       for (std::uint32_t r = cell_begin_[c]; r < cell_begin_[c + 1]; ++r) {
         Pair* row = out + pair_offset_[r];
-        sweep_row(s, r, cell_begin_[c + 1], region,
-                  [row](std::uint32_t k, std::uint32_t a, std::uint32_t bb) { row[k] = make_pair(a, bb); });
+        cell_row(s, r, cell_begin_[c + 1], region, row_stop(g, cell_of_[c], s.hi[0][r], bits),
+                 [row](std::uint32_t k, std::uint32_t a, std::uint32_t bb) { row[k] = make_pair(a, bb); });
       }
     });
     for_blocks(threads, std::uint64_t{large} * chunks, [&](std::uint64_t q) {
@@ -201,6 +200,7 @@ class HostFrame final : public FrameBroadPhase::Impl {
     grow(ref_count_, n), grow(is_large_, n), grow(ref_offset_, n);
     grow(keys_, refs), grow(key_scratch_, refs), grow(ids_, refs), grow(id_scratch_, refs);
     for (int k = 0; k < 3; ++k) grow(s_lo_[k], refs), grow(s_hi_[k], refs);
+    grow(positions_, refs);
     grow(pair_offset_, refs + 1);
     grow(pairs, refs);
     pairs.clear();  // no frame yet
@@ -229,7 +229,7 @@ class HostFrame final : public FrameBroadPhase::Impl {
     std::uint64_t sum = 0;
     auto add = [&](const auto& v) { sum += v.capacity() * sizeof(v[0]); };
     add(ref_count_), add(is_large_), add(ref_offset_), add(large_), add(keys_), add(key_scratch_), add(ids_);
-    add(id_scratch_), add(cell_begin_), add(cell_of_), add(pair_offset_), add(pair_keys_), add(pair_key_scratch_);
+    add(id_scratch_), add(cell_begin_), add(cell_of_), add(positions_), add(pair_offset_), add(pair_keys_), add(pair_key_scratch_);
     add(pairs);
     for (int k = 0; k < 3; ++k) add(s_lo_[k]), add(s_hi_[k]);
     return sum;
@@ -238,7 +238,7 @@ class HostFrame final : public FrameBroadPhase::Impl {
   static constexpr std::uint32_t kSlices = 64;
   GridPlan grid_;
   std::vector<ExtentHistogram> slice_extents_ = std::vector<ExtentHistogram>(kSlices + 1);  // + the total
-  std::vector<std::uint32_t> ref_count_, ref_offset_, large_, ids_, id_scratch_, cell_begin_, cell_of_;
+  std::vector<std::uint32_t> ref_count_, ref_offset_, large_, ids_, id_scratch_, cell_begin_, cell_of_, positions_;
   std::vector<std::uint8_t> is_large_;
   std::vector<std::uint64_t> keys_, key_scratch_, pair_offset_, pair_keys_, pair_key_scratch_;
   std::vector<float> s_lo_[3], s_hi_[3];
