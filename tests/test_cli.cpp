@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The `hbp` tool refuses bad input up front: each case runs the real binary
 // (HBP_CLI_PATH, built with the tests) and expects a non-zero exit and a
 // message naming the offending option, value or limit — never std::bad_alloc,

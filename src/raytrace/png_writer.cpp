@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/raytrace/png_writer.hpp"
 
 #include <png.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // hbp-gpu-bench: the GPU frame (hbp::cuda::FrameBroadPhase), or with
 // --system axis-sweep the one-axis sort-and-sweep peer (hbp::cuda::AxisSweep),
 // on a scenario, frame by frame: device time per stage (CUDA events) with the host

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // `hbp bench` output: Table-4-shaped tables (medians in ms, measured and
 // modelled columns labelled), acceleration factors against Bullet DBVT, the

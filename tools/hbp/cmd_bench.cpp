@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // hbp bench paper | kind KIND | scene FILE: the paper's evaluation (Table 4,
 // Fig. 4) and every other scene kind against real baselines on the same
 // frames, with exact pair sets checked every frame, Table-4-shaped output,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // hbp render: ray-traced images of a scene through the two-level hierarchy
 // the collision partition shares (paper section 3.2, Fig. 3).
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // hbp: the hybrid-broadphase command-line tool.
 #include <cstdio>
 #include <exception>
