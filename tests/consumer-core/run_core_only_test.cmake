@@ -3,7 +3,8 @@
 # ODE, Eigen, libpng, CLI11, nlohmann_json, GoogleTest, MPI and Verilator
 # invisible; then tests/consumer-core built against the install with
 # find_package(hybrid_broadphase) (no components) and with pkg-config, on
-# the same hidden tree, and run.
+# the same hidden tree, and run; and tests/capi/test_capi.c (C99) against the
+# installed shared library through hybrid_broadphase-c.pc.
 # Inputs: HBP_SOURCE_DIR, HBP_CONSUMER_SOURCE, HBP_WORK_DIR, HBP_GENERATOR, HBP_CXX, HBP_C.
 function(run)
   execute_process(COMMAND ${ARGN} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
@@ -94,3 +95,19 @@ separate_arguments(flags UNIX_COMMAND "${flags}")
 run(${HBP_CXX} -O1 ${HBP_CONSUMER_SOURCE}/main.cpp -o ${HBP_WORK_DIR}/core_consumer_pc ${flags})
 run(${HBP_WORK_DIR}/core_consumer_pc)
 message(STATUS "${last_output}")
+
+# The C API from the install: the C99 test program against the shared library
+# through hybrid_broadphase-c.pc.
+if(HBP_C AND EXISTS ${prefix}/lib/pkgconfig/hybrid_broadphase-c.pc)
+  run(${PKG_CONFIG} --cflags --libs hybrid_broadphase-c)
+  string(STRIP "${last_output}" flags)
+  separate_arguments(flags UNIX_COMMAND "${flags}")
+  run(${HBP_C} -std=c99 -Wall -Wextra -Werror -pedantic -O1 ${HBP_SOURCE_DIR}/tests/capi/test_capi.c
+      -o ${HBP_WORK_DIR}/test_capi_installed ${flags} -lm -Wl,-rpath,${prefix}/lib)
+  run(${HBP_WORK_DIR}/test_capi_installed 3 10)
+  message(STATUS "${last_output}")
+  execute_process(COMMAND readelf -d ${HBP_WORK_DIR}/test_capi_installed OUTPUT_VARIABLE needed)
+  if(NOT needed MATCHES "libhybrid_broadphase\\.so\\.0\\.1")
+    message(FATAL_ERROR "the C program does not load libhybrid_broadphase.so.0.1:\n${needed}")
+  endif()
+endif()
