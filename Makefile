@@ -44,9 +44,9 @@ FUZZ_SECONDS ?= 60
 FUZZ_TARGETS = scene_native scene_broadmark cli broadphase
 HARDEN_FLAGS = -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1" \
   -DHBP_WERROR=OFF -DHBP_BUILD_RTL=OFF -DHBP_BUILD_BENCH=OFF -DHBP_CUDA=OFF
-# The installed-package consumer test builds an uninstrumented project
+# The installed-package consumer tests build uninstrumented projects
 # against the instrumented library: not meaningful here.
-SANITIZE_EXCLUDE = ^bullet_consumer_package$$
+SANITIZE_EXCLUDE = ^(bullet_consumer_package|core_only_package)$$
 
 test-sanitize: deps
 	cmake -S . -B $(ASAN_BUILD) -G Ninja $(HARDEN_FLAGS) -DHBP_SANITIZE=ON

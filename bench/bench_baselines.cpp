@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Google Benchmark of each baseline's per-frame update on the paper's scene
 // (proxies created once, outside the timing; scene stepping paused). For the
 // full comparison with our engines use `hbp bench paper`.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // hbp::BroadPhase measured beside btDbvtBroadphase and the whole-frame
 // HybridBroadPhase, each pair of systems on the same boxes in the same run
 // (issue 15):

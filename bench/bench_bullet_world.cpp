@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Step time of the example Bullet world (spheres, boxes, cylinders, cones
 // falling into a container) with each broad phase: hbp::bullet::HybridBroadphase
 // (1 and 2 threads) and btDbvtBroadphase (Bullet's default). One iteration is

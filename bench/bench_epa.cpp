@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // EPA alone on the paper scene's colliding curved pairs (the pairs that reach
 // EPA in `hbp bench narrow`: no closed form, GJK says intersecting), one
 // thread. Frame 3 of the scene (seed 0); frame 2's contact normals are the

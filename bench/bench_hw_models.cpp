@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Speed of the microarchitecture models: the cycle-level simulators
 // (simulated comparator slots per second) against the path benchmarks use
 // (hardware-order scalar all-pairs for the pairs, analytic cycles).

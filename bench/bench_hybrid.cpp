@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The hybrid system on the paper's scene: median time per frame of
 // HybridBroadPhase::update (scene integration excluded), with partition and
 // engine time as counters; the k-d partition's from-scratch build (what a

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Narrow-phase throughput, single thread (pairs per second per core), for
 // each kind combination: random pairs with the paper's sizes (25-75 m),
 // random orientations, half placed near touching (see ShapePairGenerator).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The frame's pair list sorted by (a, b) (issue 14, seventh session): the
 // serial radix sort (sort_pairs) beside the parallel sort
 // (src/pipeline/parallel_pair_sort) on the same list, and the hybrid

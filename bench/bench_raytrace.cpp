@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The paper's claim (section 3.2) measured: per-frame cost of maintaining the
 // two-level hierarchy shared by collision detection and the ray tracer, versus
 // maintaining the collision partition plus a separate full-scene BVH (ours,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Scene generation and scene-file throughput, in objects per second
 // (items_per_second). Files go to the temp directory and stay in the page
 // cache, so the I/O figures are the format's CPU cost (validation, Broadmark's

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Consecutive frames of the paper's scene for the benchmarks, generated once
 // per object count and kept for the life of the benchmark binary.

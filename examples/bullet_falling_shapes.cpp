@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // A Bullet world of spheres, boxes, cylinders and cones falling into a box
 // container, with hbp::bullet::HybridBroadphase as its broad phase (the one
 // line that differs from a stock Bullet program is marked below).

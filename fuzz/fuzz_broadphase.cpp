@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // libFuzzer target: the hybrid broad phase on fuzzer-chosen boxes, every
 // frame checked against the oracle hbp::brute_force_pairs.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // libFuzzer target: the `hbp` argument parser. The input is the argument
 // list, one argument per line. The app is exactly the one main() parses, with
 // the command callbacks removed, so only parsing, validation, conversion and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // libFuzzer target: the Broadmark (.aabbs) scene reader on arbitrary bytes; a
 // readable scene is rewritten as Broadmark and read back bit for bit.
 #include "scene_checks.hpp"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // libFuzzer target: the native (.hbps) scene reader on arbitrary bytes; a
 // readable scene is rewritten as native and read back bit for bit.
 #include "scene_checks.hpp"

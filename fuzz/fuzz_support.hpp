@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Helpers shared by the fuzz targets: an in-memory file the scene readers can
 // open by path, and a finding reporter that aborts (libFuzzer and the corpus

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Corpus replay: feeds files (or every file of directories) to the fuzz
 // target's LLVMFuzzerTestOneInput, so `make test` re-checks the committed
 // corpus with the ordinary compiler, without libFuzzer.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The property both scene-reader fuzz targets check: any byte string either
 // opens as a scene whose header agrees with the file size, or is refused with

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Area-efficient microarchitecture (paper 3.1.1, Fig. 1, Table 1).
 //
 // Buffer : 6m dual-port memories (m memory groups of six 32-bit memories,

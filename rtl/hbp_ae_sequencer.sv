@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Address sequencer of the area-efficient microarchitecture (paper 3.1.1,
 // Table 1). 2m ports: port 0 is memory group 0's A, port p >= 1 is group
 // p/2's A (p even) or B (p odd). Port 0 holds object i; ports 1..2m-1 hold

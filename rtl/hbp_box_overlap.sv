@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // One compare lane: the six float32 comparators and the six-input AND of the
 // paper's compare operation, pipelined as the C++ models' default latencies
 // (hbp::hw::PipelineLatencies): compare = 2 stages, AND = 1 stage.

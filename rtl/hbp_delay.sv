@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // N-cycle delay line of W bits (N = 0: a wire). Carries a step's sideband
 // (valid, indices, lane masks, selectors) alongside the datapath stages.
 module hbp_delay #(

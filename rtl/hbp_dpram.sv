@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Dual-port memory with ports A and B, as in the paper: port A reads and
 // writes (the buffer's initialisation writes through A), port B only reads.
 // Reads take two cycles, as the C++ models' memory_read = 2: the array read

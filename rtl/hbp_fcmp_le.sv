@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // IEEE-754 binary32 "a <= b", exactly as C++ `a <= b` on float:
 //   * -0 and +0 compare equal (both-zero special case);
 //   * any NaN operand gives 0 (unordered), as in IEEE-754 and C++;

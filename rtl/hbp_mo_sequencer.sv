@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Address sequencer of the many-object microarchitecture (paper 3.1.2,
 // Table 3). Object x lives in memory group x mod m at address x div m
 // (Table 2). Row a holds objects a*m .. a*m+m-1, read on every group's port

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Pair output memory: "one line per colliding pair", written in lane order
 // with up to L lines per cycle and no back-pressure (the compare pipeline
 // never stalls), read back in the order written, one line per `pop` (a

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Run control shared by both tops: the load / run / drain / done state
 // machine and the cycle counters of each phase (rtl/README.md, "what each
 // phase counts"). The sequencer reports each cycle whether it issued a step,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Many-object microarchitecture (paper 3.1.2, Fig. 2, Tables 2 and 3).
 //
 // Buffer : 6m dual-port memories (m memory groups of six 32-bit memories);

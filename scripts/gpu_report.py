@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: MIT
 """gpu-report.json and gpu-report.md from the raw results of scripts/gpu-check.
 
 Inputs (in OUT/logs): env.txt, tests.log, engine-tests.log, bench-NAME.json

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // main() of every GoogleTest binary: registers the hardware models' cell
 // engines by name ("ae", "mo", "ae-sim", "mo-sim"), as the hbp tool and the
 // Python module do at start-up, then runs the tests.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Adversarial scenes through the hybrid system, every frame of every scene
 // checked against the oracle with each engine (sw, sw-allpairs, ae, mo, and
 // small-buffer configurations of the two microarchitectures so that cells

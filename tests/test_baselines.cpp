@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Every baseline (Bullet DBVT with and without deferred collide, Bullet
 // AxisSweep3, CGAL, FCL's four broad-phase managers, ODE's three spaces, brute
 // force) must find exactly the oracle's pair set,

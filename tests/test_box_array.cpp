@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // BoxArray: the SoA container every engine reads. Alignment and padding are
 // what lets SIMD kernels read whole vectors past size(); validate() is what
 // turns a bad box into a message a user can act on.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // detail::check_and_transpose (the one-pass check of BroadPhase::move() of
 // every moving object): the lanes against a plain copy, and the verdict
 // against box_defect and the id comparison, for every batch length and start

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // BoxTree (the query tree of BroadPhase: 8-bit quantised nodes over exact
 // four-box leaves) against a scan of every box: box queries with the closed
 // overlap test, rays with RaySegment::hits (same hits, same entry t), on

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // hbp::BroadPhase against a brute-force reference written here: every live
 // pair, minus static/static pairs, minus pairs whose layers do not collide or
 // the pair filter rejects, on every frame of randomized edit sequences; events

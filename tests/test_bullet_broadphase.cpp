@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // hbp::bullet::HybridBroadphase as Bullet's btBroadphaseInterface:
 // - the pair cache holds exactly the brute-force pairs the cache's filter
 //   accepts, frame after frame, while proxies move, appear and disappear;

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The `hbp` tool refuses bad input up front: each case runs the real binary
 // (HBP_CLI_PATH, built with the tests) and expects a non-zero exit and a
 // message naming the offending option, value or limit — never std::bad_alloc,
@@ -14,6 +15,7 @@
 #include <fstream>
 #include <iterator>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "hbp/scenario.hpp"
@@ -317,18 +319,21 @@ TEST_F(Cli, BenchRunsTheHybridInCellOrderAndSorted) {
   const Result r = hbp({"bench", "paper", "--n", "300,2000", "--frames", "2", "--warmup", "0", "--variants", "1",
                         "--systems", "brute,sw,sw-sorted", "--no-plots", "--out", path("b")});
   ASSERT_EQ(r.status, 0) << r.output;
-  EXPECT_NE(r.output.find("| hybrid sw (m) |"), std::string::npos) << r.output;
-  EXPECT_NE(r.output.find("| hybrid sw, sorted (m) |"), std::string::npos) << r.output;
-  EXPECT_NE(r.output.find("Every system that ran found exactly the reference's pairs in every timed frame."),
-            std::string::npos)
-      << r.output;
   EXPECT_EQ(r.output.find("MISMATCH n="), std::string::npos) << r.output;  // the log line of a differing frame
+  // The full tables are the report's tables.md.
+  std::ifstream tables_file(path("b") + "/tables.md");
+  const std::string tables((std::istreambuf_iterator<char>(tables_file)), std::istreambuf_iterator<char>());
+  EXPECT_NE(tables.find("| hybrid sw (m) |"), std::string::npos) << tables;
+  EXPECT_NE(tables.find("| hybrid sw, sorted (m) |"), std::string::npos) << tables;
+  EXPECT_NE(tables.find("Every system that ran found exactly the reference's pairs in every timed frame."),
+            std::string::npos)
+      << tables;
   // The machine's state around the run: the memory probe before and after.
   for (const char* when : {"start", "end"}) {
     const std::string key = std::string("- memory latency at ") + when + ": ";
-    const std::size_t at = r.output.find(key);
-    ASSERT_NE(at, std::string::npos) << r.output;
-    EXPECT_GT(std::atof(r.output.c_str() + at + key.size()), 0.0) << r.output.substr(at, 100);
+    const std::size_t at = tables.find(key);
+    ASSERT_NE(at, std::string::npos) << tables;
+    EXPECT_GT(std::atof(tables.c_str() + at + key.size()), 0.0) << tables.substr(at, 100);
   }
 }
 
@@ -355,6 +360,91 @@ TEST_F(Cli, DepthToleranceIsCheckedAndReported) {
     ASSERT_NE(at, std::string::npos) << b.output;
     EXPECT_GT(std::atof(b.output.c_str() + at + std::strlen(key)), 0.0) << b.output.substr(at, 100);
   }
+}
+
+// --version prints the project's version and exits 0, like --help.
+TEST_F(Cli, VersionPrintsTheVersionAndExitsZero) {
+  const Result r = hbp({"--version"});
+  EXPECT_EQ(r.status, 0) << r.output;
+  EXPECT_EQ(r.output, std::string("hbp ") + HBP_EXPECTED_VERSION + "\n");
+  const Result h = hbp({"--help"});
+  EXPECT_EQ(h.status, 0) << h.output;
+  EXPECT_NE(h.output.find("--version"), std::string::npos) << h.output;
+}
+
+// The exit status convention of docs/cli.md: 0 success, 1 the command ran and
+// failed, 2 the command line does not parse.
+TEST_F(Cli, ExitStatusIsZeroOneOrTwo) {
+  // 2: usage errors, each naming what is wrong.
+  const std::vector<std::pair<std::vector<std::string>, std::string>> usage = {
+      {{}, "A subcommand is required"},
+      {{"no-such-command"}, "no-such-command"},
+      {{"run", "--no-such-option"}, "--no-such-option"},
+      {{"run", "--n", "many"}, "--n"},
+      {{"run", "--threads", "5000"}, "--threads"},
+  };
+  for (const auto& [args, part] : usage) {
+    const Result r = hbp(args);
+    EXPECT_EQ(r.status, 2) << joined(args) << ":\n" << r.output;
+    EXPECT_NE(r.output.find(part), std::string::npos) << joined(args) << ": '" << part << "' not in:\n" << r.output;
+  }
+  // 1: the command ran and failed (a file it cannot read, a value it rejects).
+  const Result missing = hbp({"pairs", path("no-such-scene.hbps")});
+  EXPECT_EQ(missing.status, 1) << missing.output;
+  EXPECT_NE(missing.output.find("no-such-scene.hbps"), std::string::npos) << missing.output;
+  const Result bad = hbp({"render", "--n", "10"});  // neither --out nor --video
+  EXPECT_EQ(bad.status, 1) << bad.output;
+  EXPECT_NE(bad.output.find("--out"), std::string::npos) << bad.output;
+  // 0
+  const Result ok = hbp({"run", "--n", "50", "--frames", "1"});
+  EXPECT_EQ(ok.status, 0) << ok.output;
+}
+
+// render checks that it can write --out before it renders, and says why not.
+TEST_F(Cli, RenderSaysWhyItCannotWrite) {
+  const Result r = hbp({"render", "--n", "10", "--out", "/nonexistent/x.png"});
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("--out '/nonexistent/x.png'"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("directory '/nonexistent' does not exist"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("Mrays/s"), std::string::npos) << "rendered before refusing:\n" << r.output;
+  // A path whose directory is a file.
+  std::ofstream(path("file")) << "x";
+  const Result f = hbp({"render", "--n", "10", "--out", path("file") + "/x.png"});
+  EXPECT_EQ(f.status, 1) << f.output;
+  EXPECT_NE(f.output.find("is not a directory"), std::string::npos) << f.output;
+  EXPECT_FALSE(fs::exists(path("file") + "/x.png"));
+  // The same command with a writable path renders.
+  const Result ok = hbp({"render", "--n", "10", "--width", "32", "--height", "32", "--samples", "1", "--out",
+                         path("ok.png")});
+  EXPECT_EQ(ok.status, 0) << ok.output;
+  EXPECT_GT(fs::file_size(path("ok.png")), 0u);
+}
+
+// bench prints a short summary and the report's path; the full tables are in
+// tables.md (and on stdout with --tables).
+TEST_F(Cli, BenchPrintsASummaryAndTheReportPath) {
+  const std::string out = path("bench");
+  const std::vector<std::string> args = {"bench", "kind", "degenerate", "--n", "300,600", "--frames", "1", "--warmup",
+                                         "0", "--systems", "brute,sw,bullet-dbvt", "--no-plots", "--out", out};
+  const Result r = hbp(args);
+  ASSERT_EQ(r.status, 0) << r.output;
+  for (const std::string& part : {std::string("n = 300, "), std::string("n = 600, "), std::string("fastest "),
+                                  std::string("matched"), "Report: " + out + "/tables.md"})
+    EXPECT_NE(r.output.find(part), std::string::npos) << "'" << part << "' not in:\n" << r.output;
+  EXPECT_EQ(r.output.find("## Median time per frame"), std::string::npos) << "full tables printed:\n" << r.output;
+  std::ifstream tables_file(out + "/tables.md");
+  const std::string tables((std::istreambuf_iterator<char>(tables_file)), std::istreambuf_iterator<char>());
+  EXPECT_NE(tables.find("## Median time per frame"), std::string::npos);
+  // The summary is short: a line per object count and a few more.
+  std::size_t lines = 0;
+  for (char c : r.output) lines += c == '\n';
+  EXPECT_LT(lines, 20u) << r.output;
+
+  std::vector<std::string> with_tables = args;
+  with_tables.push_back("--tables");
+  const Result t = hbp(with_tables);
+  ASSERT_EQ(t.status, 0) << t.output;
+  EXPECT_NE(t.output.find("## Median time per frame"), std::string::npos) << t.output;
 }
 
 }  // namespace

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The ownership rule (src/dedup/ownership.hpp) on its own: over a grid of
 // half-open cells tiling space, every overlapping pair of random boxes is
 // owned by exactly one cell, and that cell's region overlaps both boxes (so

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The cell engine registry: the core's own engines, the hardware models'
 // registration (hbp::hw::register_cell_engines, called by this suite's main
 // and idempotent), and names taken once.

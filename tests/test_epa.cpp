@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // EPA's polytope (src/narrow/epa_polytope.hpp): the bracket it reports is
 // certified. On random colliding pairs of every kind, the lower bound (the
 // closest face of the inscribed polytope) never exceeds a much tighter

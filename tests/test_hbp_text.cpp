@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // `hbp`'s text formats: CSV fields (tools/hbp/csv.hpp) against RFC 4180
 // (quotes doubled, commas and line breaks kept inside the quotes, every field
 // read back unchanged by an independent RFC 4180 reader) and durations

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The cycle-level simulations against the analytic cycle functions, over
 // many (n, m) and every timing option, plus the pipeline's timing details.
 #include <gtest/gtest.h>

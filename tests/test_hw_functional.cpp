@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Functional equivalence of both microarchitecture models with the oracle,
 // the bit-level float32 comparators, capacity limits and the cell-engine
 // adapters.

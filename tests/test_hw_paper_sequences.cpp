@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The models against the paper's worked examples (Tables 1-3, m = 4, n = 10)
 // and its sequence-length formulas.
 #include <gtest/gtest.h>

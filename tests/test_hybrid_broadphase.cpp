@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The hybrid system against the brute-force oracle, frame by frame.
 #include <gtest/gtest.h>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The k-d partition kept across frames: membership, min-x order, depth bound
 // (issue 17: a tree past 64 levels used to overflow the traversal stack), the
 // x split weight, determinism, and exact pairs through the hybrid system on

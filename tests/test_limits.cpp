@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Resource limits and input validation at the library boundary.
 //
 // Pair explosions run in a child process (this binary re-executed with

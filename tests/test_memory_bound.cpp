@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Memory follows the current frame (issue 17, item 3): a cluster of
 // identical boxes jumping to a new place every frame used to leave its peak
 // pair buffer behind in every cell it visited, so the resident set grew

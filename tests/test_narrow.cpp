@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Narrow phase: support mapping, closed forms against hand-computed values,
 // GJK/EPA against the closed forms, separation by the reported depth, the
 // cone's apex convention, symmetry, libccd, and the NarrowPhase batch API.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Agreement of the narrow phase with an independent implementation: Bullet's
 // GJK/EPA (btGjkEpaSolver2, single precision, zero margins) on Bullet's own
 // primitives, over random pairs of every kind combination, random

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // OrderedCell::load (a cell's entries to the engines' structure of arrays in
 // min-x order): the lanes and ids against a plain stable sort of the
 // entries, for every length up to a few vectors (the four-entry SSE2 body

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // detail::diff_sorted_pairs and map_and_diff_sorted_pairs (BroadPhase's
 // created/removed events) against std::set_difference: random sorted lists
 // sharing most pairs, from empty to several parallel ranges (16,384 pairs

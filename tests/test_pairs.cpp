@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Pair helpers: radix sort, canonicalisation, set differences and their
 // summaries, and the oracle's closed-interval pairs on hand-made boxes.
 #include <gtest/gtest.h>

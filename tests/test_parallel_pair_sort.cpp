@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The parallel sort of the frame's pair list (src/pipeline/parallel_pair_sort)
 // against std::sort on 1 and 2 threads: random (20-bit, 16-bit and 32-bit
 // ids), sorted, reversed,

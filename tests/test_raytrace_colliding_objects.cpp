@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // colliding_objects (hbp render --highlight-collisions) against brute force:
 // the hybrid broad phase on the hierarchy's own cells must report every
 // overlapping box pair exactly once (ownership de-duplication across the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Exact ray-shape intersection (closed cases and a cross-check against the
 // shapes' support functions), the PNG writer (round trip through libpng's
 // reader) and the renderer (determinism, highlighting).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Ray traversal of the two-level hierarchy against brute force: for random
 // rays, the closest hit (object and distance, bit for bit) equals the one
 // found by testing every object; shadow (any-hit) queries agree too. 100,000

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The paper's benchmark scenario (section 5) and the other scenario kinds:
 // defaults, distributions, walls, determinism across runs and thread counts.
 #include <gtest/gtest.h>

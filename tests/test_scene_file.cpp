@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Scene files: round trips of both formats, Broadmark's byte layout as its
 // source defines it, every corruption giving the right error, streaming.
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Tight AABBs of the four shapes under random rotations, checked against
 // surface samples computed independently of the closed forms: parametric
 // samples of each surface (refined around the extremes so the comparison is

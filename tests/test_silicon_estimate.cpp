@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The silicon estimates: the SRAM model and node scaling against hand
 // arithmetic, and the standard-cell flow's stored reports (docs/results/asic)
 // against the models: every configuration present, the memories the flow

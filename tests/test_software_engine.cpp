@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The software engine's kernels on every instruction set this CPU has, the
 // per-cell ordering, and the k-d partition's membership rule.
 #include <gtest/gtest.h>

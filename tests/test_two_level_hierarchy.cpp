@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The two-level hierarchy: per-cell SAH BVHs over the k-d partition's cells,
 // their maintenance (refit, removal/insertion, rebuild on degradation) and the
 // top-level k-d tree rebuilt from the cells' regions.

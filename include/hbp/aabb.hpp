@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Axis-aligned bounding box in float32 with closed intervals: touching faces
 // overlap. This is the one overlap rule of the whole system (software engines,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Structure-of-arrays box container shared by every engine. Six float lanes
 // (min x/y/z, max x/y/z), each 64-byte aligned and padded to a multiple of 16

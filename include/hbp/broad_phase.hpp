@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The broad phase an engine lives on: persistent handles, static and moving
 // objects, pair events, layer filtering and queries on the same structure.

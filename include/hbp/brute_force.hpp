@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The oracle: all-pairs over the closed-interval test, deliberately simple.
 // Every engine, model and baseline is checked against it; the "brute" cell

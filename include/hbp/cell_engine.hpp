@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // A cell engine finds every overlapping pair among the boxes of one cell: the
 // "accelerator" stage of the hybrid system. Implementations: the software SIMD

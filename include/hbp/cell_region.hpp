@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The half-open region [lo, hi) of one partition cell. A pair found in several
 // cells is kept only in the cell whose region holds the pair's ownership

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The whole system of the paper: hybrid broad phase, then the exact narrow
 // phase on each cell's pairs as soon as that cell leaves the engine, so the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The hybrid broad phase distributed over MPI ranks (docs/distributed.md).
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Errors the library reports. Every error names the offending item (file,
 // frame, object index, option) so a user can find it without a debugger.

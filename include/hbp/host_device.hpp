@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // HBP_HOST_DEVICE marks a function that host code and CUDA device code both
 // call: the GPU kernels and their CPU launcher run the same bodies, and the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The hybrid system: k-d spatial partition -> cell engine -> de-duplication,
 // one frame at a time, keeping the partition across frames.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The processor's spatial partition: a k-d tree whose leaves ("cells") hold at
 // most `cell_limit` objects. An object straddling a split plane is placed in

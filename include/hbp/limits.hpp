@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The limits a caller can reach, in one place: each constant, its unit and
 // why it is what it is. Inputs past a limit are refused with InvalidInput

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // A colliding pair, always canonical (a < b), and helpers to compare pair sets.
 #include <compare>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The paper's benchmark scenario (section 5; the "framework for benchmarking
 // collision detection") and other scenario kinds for robustness and research.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Recorded scenes: a sequence of frames of n AABBs. Two formats:
 //  - native (.hbps): see docs/scene-format.md;

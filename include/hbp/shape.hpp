@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The paper's four shapes with a size per axis, a position and an orientation,
 // and the exact tight world AABB of each under any rotation.

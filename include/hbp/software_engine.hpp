@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The CPU cell engine: SIMD over the structure-of-arrays boxes (AVX-512, AVX2
 // or scalar, chosen at run time). Two kernels:

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The two-level hierarchy shared by collision detection and the ray tracer
 // (paper, section 3.2): a k-d tree subdivided until each leaf ("cell") holds at

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "array_views.hpp"
 
 #include <cmath>

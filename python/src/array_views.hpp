@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // numpy <-> C++ views for the hybrid_broadphase module. Inputs are checked
 // here (shape, dtype, NaN/Inf/inverted boxes, handle range) so every

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The Python module hybrid_broadphase (issue 15): find_pairs on one frame and
 // BroadPhase, the handle-based broad phase, on numpy arrays. docs/python.md.
 //

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """Brute-force numpy references for the hybrid_broadphase tests: every pair
 of boxes, box queries and ray queries, and a model of BroadPhase's state
 (handles -> box, static, layer; the layer table; the pair filter)."""

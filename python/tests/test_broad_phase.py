@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """BroadPhase against the brute-force model, frame by frame: randomized
 sequences of batched add / move / remove with layers, static and moving
 objects, layer-table and filter changes; queries; determinism."""

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """docs/python.md's session, run as a doctest: the page shows real outputs."""
 import doctest
 import pathlib

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """Every bad input raises ValueError naming the argument, row or handle, and
 changes nothing (the next update reports the state from before the call)."""
 import numpy as np

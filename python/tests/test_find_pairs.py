@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """find_pairs against brute force: random scenes, touching faces, identical
 boxes, empty input, n = 1, engines and thread counts."""
 import numpy as np

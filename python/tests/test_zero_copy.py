@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 """Boxes reach C++ without a copy when numpy allows it: a C-contiguous,
 aligned float32 (n, 6) array is handed over as hbp::Aabb[n] in place (the
 module's private _boxes_address says which address C++ would read)."""

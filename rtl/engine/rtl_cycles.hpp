@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Cycle counts of the RTL (rtl/README.md, "Timing"), closed form: the
 // paper's sequence formulas, the many-object row restarts and the pipeline

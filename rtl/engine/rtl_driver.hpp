@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Drives a Verilated hbp_area_efficient / hbp_many_object through its
 // streaming interface (rtl/README.md): reset, clear, load n boxes one per

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // CellEngine implementations over the Verilated RTL builds ae_m16 / mo_m16.
 #include "hbp/rtl/rtl_engines.hpp"
 

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
 # Standard-cell flow of both microarchitectures: Yosys + ABC onto the OSU
 # 0.18 um library (qflow-tech-osu018), OpenSTA for the critical path and the
 # power at a stated clock. Memories are not synthesised: the 6m buffer
@@ -75,8 +76,9 @@ sources() {
 }
 top() { if [ "$1" = ae ]; then echo hbp_area_efficient; else echo hbp_many_object; fi; }
 # The hash `hbp hw asic` and its test recompute: sha256 over the sources of
-# both designs, in this order (rtl/synth/asic_sources.txt lists them).
-rtl_sha=$(cd "$rtl" && cat $(cat "$here/asic_sources.txt") | sha256sum | cut -d' ' -f1)
+# both designs, in this order (rtl/synth/asic_sources.txt lists them), their
+# licence lines left out (they change no logic).
+rtl_sha=$(cd "$rtl" && cat $(cat "$here/asic_sources.txt") | grep -v '^// SPDX-License-Identifier:' | sha256sum | cut -d' ' -f1)
 
 # Wire-load model: OSU018's Liberty has none, so a copy of it gains one.
 # 0.2 fF/um of routed wire and 20 um per fanout (a short local net at

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
 # The flow on one float32 comparator (hbp_fcmp_le, a <= b): cells, area,
 # input-to-output delay and energy per compare with random operands
 # (activity 0.5 on every input bit), for the hand estimate from the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Place-and-route wrapper: the area-efficient top behind a handful of pins
 // (an iCE40 package has far fewer pins than the core's 192-bit load bus and
 // pair ports). Boxes shift in serially; the pair memory's read data and the

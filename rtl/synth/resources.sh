@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
 # Synthesis resource table of both microarchitectures with Yosys.
 #
 #   rtl/synth/resources.sh [--designs "ae mo"] [--m "1 2 4 8 16"] [--depth 1024]

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Verilator testbench: the RTL of both microarchitectures against the C++
 // cycle-accurate models (hbp::hw::AreaEfficientModel / ManyObjectModel, the
 // reference), the oracle, the paper's cycle formulas and Tables 1 and 3:

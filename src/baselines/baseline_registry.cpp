@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/baselines/baseline.hpp"
 
 #include "hbp/error.hpp"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Brute force: every pair tested with the closed-interval rule (the oracle,
 // O(n^2)); for small worlds only.
 #include <memory>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Bullet's bt32BitAxisSweep3: incremental sweep and prune over 32-bit
 // quantised endpoints on three axes, with an incremental pair cache.
 // createProxy() inserts each endpoint by walking the sorted edge lists from

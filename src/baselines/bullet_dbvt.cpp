@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Bullet's btDbvtBroadphase: the paper's CPU baseline (two dynamic AABB trees,
 // fattened leaves, incremental pair cache). Defaults, or with deferred
 // collision (m_deferedcollide = true: tree-vs-tree collide once per frame

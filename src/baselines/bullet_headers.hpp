@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The Bullet headers the baselines use (broad phase, shapes, narrow phase),
 // in one place, with the warnings they raise under -Wall -Wextra silenced

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/baselines/bullet_narrow_phase.hpp"
 
 #include "baselines/bullet_shapes.hpp"

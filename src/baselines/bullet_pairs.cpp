@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "baselines/bullet_pairs.hpp"
 
 #include "baselines/bullet_headers.hpp"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Reading Bullet's pair cache: proxies carry their object index as the user
 // pointer; the cache holds a superset of the exact pairs (fattened DBVT

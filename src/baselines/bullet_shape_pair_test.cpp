@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/baselines/bullet_shape_pair_test.hpp"
 #include "baselines/bullet_shapes.hpp"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // hbp shapes as Bullet convex shapes (mapping in bullet_shape_pair_test.hpp),
 // shared by the pair test and the narrow-phase baseline.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // CGAL's box_self_intersection_d (Zomorodian and Edelsbrunner's streamed
 // segment tree): float boxes in 3D, closed topology so touching faces
 // intersect, rebuilt from scratch every frame (it keeps no state).

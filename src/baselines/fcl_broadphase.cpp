@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // FCL's broad-phase collision managers (the robotics stack's broad phase:
 // MoveIt, Drake's predecessors, OMPL): DynamicAABBTreeCollisionManager,
 // SaPCollisionManager, IntervalTreeCollisionManager and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Versions of the libraries this binary was compiled against.
 #include <CGAL/version.h>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // ODE's collision spaces: the multi-resolution hash space, the sweep-and-prune
 // space and the quadtree space, run as ODE's users run them: geoms created
 // and added to a space once, then each frame every geom moved

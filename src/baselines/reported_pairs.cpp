@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "baselines/reported_pairs.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Pairs a library hands to a callback during its collide() call (FCL's
 // broad-phase managers, ODE's spaces): collected raw inside the timed frame,

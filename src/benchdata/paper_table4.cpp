@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/benchdata/paper_table4.hpp"
 
 namespace hbp::hw {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/benchdata/paper_tables.hpp"
 
 namespace hbp::hw {

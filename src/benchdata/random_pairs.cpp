@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/benchdata/random_pairs.hpp"
 
 #include <cmath>

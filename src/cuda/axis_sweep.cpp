@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // AxisSweep's facade and its CPU launcher: the sweep body of the frame
 // (frame_bodies.hpp: sweep_row, over the whole scene as one cell whose
 // region is everything) on lanes permuted so the sweep axis comes first.

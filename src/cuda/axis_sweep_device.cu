@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // AxisSweep on a CUDA device (the boxes were validated by the facade):
 // centre sums for the axis, keys, a stable radix sort, gather, a thread per
 // box counting then filling its sweep, optional (a, b) order. Buffers kept

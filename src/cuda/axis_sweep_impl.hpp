@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The launchers of AxisSweep share this base and the axis rule.
 #include <cstdint>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "cuda/cell_sweep.hpp"
 
 #include <numeric>

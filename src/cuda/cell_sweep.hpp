@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // One cell through the accelerator's body (the hybrid system's call): the
 // cell's boxes sorted by min x, a lane per box sweeping forward with the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/cuda/cuda_engines.hpp"
 
 #include <memory>

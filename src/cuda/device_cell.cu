@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "cuda/device_cell.hpp"
 
 #include <cuda_runtime.h>

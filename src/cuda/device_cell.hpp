@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // One cell through the accelerator kernel on a CUDA device (the "cuda" cell
 // engine): the cell's sorted lanes uploaded, a thread block sweeping it with

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The GPU frame on a CUDA device: the stages of host_frame.cpp as kernels
 // (device_kernels.cu) and CUB scans and radix sorts on one stream. Three
 // small read-backs per frame size what follows (bounds -> grid; reference

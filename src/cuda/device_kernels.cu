@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "cuda/device_kernels.cuh"
 
 #include "cuda/device_primitives.cuh"

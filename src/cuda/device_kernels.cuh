@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The frame's kernels (device_kernels.cu): each a thin CUDA wrapper around a
 // body of frame_bodies.hpp, launched on the given stream.

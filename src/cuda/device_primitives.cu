@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "cuda/device_primitives.cuh"
 
 #include <cub/device/device_radix_sort.cuh>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The device-wide primitives the GPU paths use (CUB, instantiated once in
 // device_primitives.cu): stable radix sorts and scans, their temporary

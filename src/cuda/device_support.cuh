@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // CUDA error checks and the frame's kept device buffers. A buffer grows
 // (a new cudaMalloc, counted) only when a frame needs more than it holds,

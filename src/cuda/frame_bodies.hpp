@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The bodies of the GPU frame's kernels, written once as host/device
 // functions: device_frame.cu launches them as CUDA kernels, host_frame.cpp

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/cuda/frame_broadphase.hpp"
 
 #include <string>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // What the launchers of FrameBroadPhase share: the implementation's base
 // (options, last frame's pairs and info) and the errors they raise, worded

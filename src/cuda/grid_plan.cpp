@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "cuda/grid_plan.hpp"
 
 #include <algorithm>

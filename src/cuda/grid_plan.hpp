@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The frame's uniform grid, planned on the host from the boxes' bounds and
 // count and kept across frames while they stay close to what it was planned

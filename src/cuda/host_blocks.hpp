@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The CPU launcher's grid: blocks [0, count) split into one contiguous
 // range per thread. Each block writes only its own slots, so the result is

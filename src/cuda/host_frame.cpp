@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The CPU launcher of the GPU frame: the kernels' bodies (frame_bodies.hpp)
 // run stage by stage as device_frame.cu runs them, blocks spread over
 // FrameOptions::threads CPU threads. Buffers are members kept across frames:

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Stable LSD radix sort of 64-bit keys (with an optional 32-bit payload)
 // over the low `bits` bits, in caller-kept scratch: the CPU twin of the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "dedup/owned_pairs.hpp"
 
 #include "dedup/ownership.hpp"

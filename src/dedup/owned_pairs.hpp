@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // De-duplication after the fact, for engines whose pair lists come out whole
 // (brute force, the hardware models' simulation): the ownership rule

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // De-duplication: the ownership rule, the one place it is written.
 //

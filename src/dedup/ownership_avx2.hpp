@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The AVX2 lanes of the ownership rule (ownership_lanes.hpp): 8 candidates at
 // once, masks as all-ones float lanes. Include only from files compiled for

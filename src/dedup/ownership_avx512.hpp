@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The AVX-512 lanes of the ownership rule (ownership_lanes.hpp): 16
 // candidates at once, masks as __mmask16, each test a masked compare (a chain

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The ownership rule (ownership.hpp) on a vector of candidates, written once
 // for every instruction set: the row box's minimum corner against the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The distributed broad phase, one frame:
 //   validate -> (re)build rank domains -> migrate objects to their owners ->
 //   refresh ghosts (deltas against what each neighbour already holds) ->

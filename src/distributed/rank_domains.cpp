@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "distributed/rank_domains.hpp"
 
 #include <algorithm>

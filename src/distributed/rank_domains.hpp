@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The rank domains: the top levels of a k-d tree over the object centres,
 // one leaf per rank, built by collective recursive bisection by count

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The part of every kernel that does not depend on the instruction set: the
 // loop over rows, stopping before a row whose hits might not fit the output

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Inner loops of the software cell engine, one per instruction set. These
 // translation units are compiled with different -m flags, so they use only

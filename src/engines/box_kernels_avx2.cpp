@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include <immintrin.h>
 
 #include "dedup/ownership_avx2.hpp"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // GCC 12 reports its own _mm512_undefined_ps() inside _mm512_max_ps as
 // "may be used uninitialized" (a false positive in the intrinsic header).
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "dedup/ownership.hpp"
 #include "engines/box_kernel_rows.hpp"
 #include "engines/box_kernels.hpp"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/brute_force.hpp"
 
 #include <string>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "engines/min_x_order.hpp"
 
 #include "support/radix_sort.hpp"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The order of a cell's boxes by increasing min x (ties by index), which the
 // sweep kernel needs. The radix sort of src/support/radix_sort.hpp on the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/software_engine.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/box_array.hpp"
 
 #include <cmath>

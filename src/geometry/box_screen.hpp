@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The box screen: the one test of well-formed boxes on the library's hot
 // paths (every coordinate finite, min <= max on each axis). When a screen

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hierarchy/cell_bvh.hpp"
 
 #include <tbb/parallel_invoke.h>

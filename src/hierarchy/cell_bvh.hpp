@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The BVH inside one cell of the two-level hierarchy (and, for comparison, over
 // a whole scene): binned surface-area-heuristic build down to one object per

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/two_level_hierarchy.hpp"
 
 #include <tbb/enumerable_thread_specific.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/hw/analytic_cycles.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/hw/area_efficient_model.hpp"
 
 namespace hbp::hw {

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/hw/asic_report.hpp"
 
 #include <charconv>

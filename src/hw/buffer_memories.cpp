@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/hw/buffer_memories.hpp"
 
 #include <string>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/hw/design.hpp"
 
 #include "hbp/error.hpp"

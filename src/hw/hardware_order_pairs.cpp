@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/hw/hardware_order_pairs.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/hw/hw_cell_engines.hpp"
 
 #include <algorithm>

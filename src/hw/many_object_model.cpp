@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/hw/many_object_model.hpp"
 
 namespace hbp::hw {

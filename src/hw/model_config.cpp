@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/hw/model_config.hpp"
 
 #include <cmath>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/hw/pair_limit_check.hpp"
 
 #include <string>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/hw/resources.hpp"
 
 namespace hbp::hw {

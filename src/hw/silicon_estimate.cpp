@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/hw/silicon_estimate.hpp"
 
 #include <bit>

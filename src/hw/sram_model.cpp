@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/hw/sram_model.hpp"
 
 #include <cmath>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // hbp::bullet::HybridBroadphase: Bullet's btBroadphaseInterface over
 // hbp::BroadPhase.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/narrow/epa.hpp"
 
 #include <cmath>

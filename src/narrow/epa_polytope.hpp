@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // EPA's polytope: a closed triangle mesh inscribed in the Minkowski
 // difference D = A - B, enclosing the origin, in fixed-size arrays (no

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/narrow/libccd_solver.hpp"
 
 #include "hbp/error.hpp"

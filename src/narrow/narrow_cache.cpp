@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/narrow/narrow_cache.hpp"
 
 #include <cstdint>

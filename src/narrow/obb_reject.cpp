@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/narrow/obb_reject.hpp"
 
 #include <cmath>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "partition/kd_build.hpp"
 
 #include <tbb/enumerable_thread_specific.h>

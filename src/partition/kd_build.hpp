@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Building k-d (sub)trees over cell entries: the from-scratch build of the
 // whole partition (parallel over subtrees) and the split of one over-full

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/kd_partition.hpp"
 
 #include <tbb/enumerable_thread_specific.h>

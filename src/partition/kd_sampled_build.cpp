@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "partition/kd_sampled_build.hpp"
 
 #include <tbb/parallel_for.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The top levels of the from-scratch build of a large frame (the first frame
 // and every rebuild), from a sample: the planes down to nodes of about a

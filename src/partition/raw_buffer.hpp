@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // A growable array of trivially copyable elements that is NOT zero-filled on
 // growth (std::vector::resize value-initialises: 40 MB of needless writes per

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The task arena size of BroadPhaseOptions::threads, checked once at
 // construction against the one thread limit (hbp/limits.hpp), so that no

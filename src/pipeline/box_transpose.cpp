@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "pipeline/box_transpose.hpp"
 
 #include "geometry/box_screen.hpp"

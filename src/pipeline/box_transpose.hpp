@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // One pass over a batch of boxes given as an array of Aabb: checks them and
 // writes them into six SoA lanes (BoxArray's layout). BroadPhase::move() of

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "pipeline/box_tree.hpp"
 
 #include <algorithm>

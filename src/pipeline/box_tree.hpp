@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // A flat BVH over a BoxArray answering exact closed box and ray queries with
 // the indices of the boxes. BroadPhase keeps one over its static objects

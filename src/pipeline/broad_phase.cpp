@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // hbp::BroadPhase: handles over the hybrid system (moving objects), a flat
 // BVH (static objects) and fat-box candidate caches (moving vs static).
 //

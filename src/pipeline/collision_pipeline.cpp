@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/collision_pipeline.hpp"
 
 #include <atomic>

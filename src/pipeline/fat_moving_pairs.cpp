@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "pipeline/fat_moving_pairs.hpp"
 
 #include <algorithm>

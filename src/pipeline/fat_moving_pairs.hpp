@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // BroadPhase's moving/moving pairs when few objects move (the mostly-static
 // world): fat-box candidate pairs kept from frame to frame instead of the

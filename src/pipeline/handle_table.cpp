@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "pipeline/handle_table.hpp"
 
 #include <cstdio>

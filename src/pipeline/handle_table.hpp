@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // BroadPhase's slot table: which slots hold a live object, each slot's
 // generation (the high 8 bits of its handles), kind, layer and index in the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // BroadPhase's two private entries into HybridBroadPhase, for the frame in
 // which every object moves:

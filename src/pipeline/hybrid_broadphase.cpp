@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/hybrid_broadphase.hpp"
 
 #include <tbb/enumerable_thread_specific.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "pipeline/ordered_cell.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // One cell's boxes as the engines take them: structure of arrays in min-x
 // order (ties by position, which is by id), padded, with each box's global id

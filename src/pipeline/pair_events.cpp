@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "pipeline/pair_events.hpp"
 
 #include <tbb/parallel_for.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Created and removed pairs between two frames: a linear merge of the sorted
 // previous and current pair lists, split into fixed ranges of the current

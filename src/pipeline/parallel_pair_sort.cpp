@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "pipeline/parallel_pair_sort.hpp"
 
 #include <tbb/blocked_range.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The frame's pair list sorted by (a, b) on all threads of the broad phase's
 // arena: what HybridBroadPhase's default sorted output and the

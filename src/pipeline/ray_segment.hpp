@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The segment origin + t * direction, 0 <= t <= max_t, and its closed slab
 // test against a box: the one ray/box rule of BroadPhase::query_ray (the

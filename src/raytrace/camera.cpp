@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/raytrace/camera.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/raytrace/colliding_objects.hpp"
 
 #include <tbb/enumerable_thread_specific.h>

@@ -1,8 +1,11 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/raytrace/png_writer.hpp"
 
 #include <png.h>
 
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <memory>
 
 #include "hbp/error.hpp"
@@ -38,10 +41,12 @@ std::vector<std::uint8_t> encode_png(std::uint32_t width, std::uint32_t height, 
 
 void write_png(const std::string& path, std::uint32_t width, std::uint32_t height, std::span<const std::uint8_t> rgb) {
   const std::vector<std::uint8_t> png = encode_png(width, height, rgb);
+  // Each message says why (the system's reason), not only that it failed.
+  const auto cannot = [&path] { return FileError("cannot write '" + path + "': " + std::strerror(errno)); };
   std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "wb"), &std::fclose);
-  if (!f) throw FileError("cannot write '" + path + "'");
-  if (std::fwrite(png.data(), 1, png.size(), f.get()) != png.size()) throw FileError("cannot write '" + path + "'");
-  if (std::fflush(f.get()) != 0) throw FileError("cannot write '" + path + "'");
+  if (!f) throw cannot();
+  if (std::fwrite(png.data(), 1, png.size(), f.get()) != png.size()) throw cannot();
+  if (std::fflush(f.get()) != 0) throw cannot();
 }
 
 }  // namespace hbp

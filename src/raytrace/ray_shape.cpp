@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/raytrace/ray_shape.hpp"
 
 #include <tbb/parallel_for.h>

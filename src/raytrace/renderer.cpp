@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/raytrace/renderer.hpp"
 
 #include <tbb/blocked_range2d.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/raytrace/traversal.hpp"
 
 #include <cmath>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/scenario.hpp"
 
 #include <tbb/parallel_for.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "hbp/scene_file.hpp"
 
 #include <algorithm>

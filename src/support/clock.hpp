@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The library's clocks, written once: wall time on std::chrono::steady_clock
 // (monotonic: what a user waits) and the calling thread's CPU time

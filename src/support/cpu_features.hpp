@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Run-time checks of the processor's vector extensions. The library is built
 // for plain x86-64; its AVX2 paths (functions with target("avx2") beside

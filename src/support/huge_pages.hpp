@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Transparent huge pages on request (the machines' THP mode is "madvise"):
 // the whole 2 MiB pages inside [data, data + bytes) are advised, which must

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The one definition of a percentile and a median for every figure we print
 // (hbp run, hbp bench, hbp distributed, the benchmarks): nearest rank.

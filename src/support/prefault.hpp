@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Fresh pages faulted in from every worker at once. The kernel zeroes each
 // page on first touch (on our VMs well under 1 GB/s a thread, and 2.3 ms a

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // LSD radix sort, written once: the k-d build's min-x order of all objects,
 // a cell's min-x order (the sweep's input), the software engine's order of an

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The one random-number scheme of the library, tools and benchmarks
 // (scenarios, narrow-phase random pairs, benchmark queries): splitmix64 and

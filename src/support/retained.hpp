@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The one rule for buffers kept from frame to frame: a buffer's storage is
 // given back when its capacity passes kFactor times what the current frame

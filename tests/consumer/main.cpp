@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Links the installed package: a small Bullet world with
 // hbp::bullet::HybridBroadphase, plus the core hbp::HybridBroadPhase directly.
 // Exits 0 when both find the expected pairs.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Scenes for the GPU room's tests: every scenario kind and the adversarial
 // ones, as BoxArrays, and their lanes for hbp::cuda::FrameBroadPhase.

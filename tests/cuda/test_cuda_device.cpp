@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The GPU frame on a real CUDA device (ctest label "gpu"): device pairs
 // identical to the CPU launcher's (same kernel bodies: same list, same order)
 // and to the oracle, frame by frame on every scenario kind and the

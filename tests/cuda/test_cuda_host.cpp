@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The GPU frame's kernels run by the CPU launcher (Launcher::Host) and the
 // "cuda-host" cell engine, against the brute-force oracle frame by frame on
 // every scenario kind and the adversarial scenes, with 1 and 2 threads.

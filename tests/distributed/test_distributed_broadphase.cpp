@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The distributed broad phase against the single-process oracle, frame by
 // frame, on whatever rank count mpirun gives (CTest runs 1, 2, 3, 4 and 7).
 // Every rank builds the same world; each supplies the boxes of the objects it

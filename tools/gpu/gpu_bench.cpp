@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // hbp-gpu-bench: the GPU frame (hbp::cuda::FrameBroadPhase), or with
 // --system axis-sweep the one-axis sort-and-sweep peer (hbp::cuda::AxisSweep)
 // or --system lbvh the Karras-style LBVH peer (hbp::cuda::Lbvh), on a

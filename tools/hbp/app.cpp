@@ -1,5 +1,7 @@
+// SPDX-License-Identifier: MIT
 #include "app.hpp"
 
+#include <string>
 #include <utility>
 
 #include "command_registry.hpp"
@@ -17,6 +19,9 @@ std::unique_ptr<CLI::App> make_app() {
   auto app =
       std::make_unique<CLI::App>("hbp: hybrid fixed-function / processor broad-phase collision detection");
   app->require_subcommand(1);
+#ifdef HBP_VERSION
+  app->set_version_flag("--version", std::string("hbp ") + HBP_VERSION, "Print the version and exit");
+#endif
   for (auto& setup : command_registry()) setup(*app);
   return app;
 }

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The `hbp` command line as a value: main() parses it, and the argument-parser
 // fuzz target (fuzz/fuzz_cli.cpp) builds the same app without running it.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "bench_machine.hpp"
 
 #include <sys/utsname.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // What ran the benchmark: CPU, cores, memory, OS, load, compiler, build
 // flags and library versions, as key/value pairs in a stable order.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Peak memory per bench system, measured in-process from the kernel's
 // resident-set counters (/proc/self/status VmRSS, VmHWM; the peak is reset

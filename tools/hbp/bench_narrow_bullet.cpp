@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // hbp bench narrow: the narrow phase's throughput and verdicts against
 // Bullet's btCollisionDispatcher (default configuration, margins 0, each
 // pair's algorithm and manifold kept from frame to frame) on the same

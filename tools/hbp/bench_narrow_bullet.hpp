@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // hbp bench narrow: our narrow phase against Bullet's dispatcher on the
 // paper scene's candidate pairs (one thread, both measured in the same run).

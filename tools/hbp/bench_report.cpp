@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "bench_report.hpp"
 
 #include <algorithm>
@@ -213,6 +214,36 @@ std::string header_text(const BenchHeader& h) {
 }
 
 }  // namespace
+
+std::string format_summary(const BenchResult& r) {
+  std::ostringstream o;
+  const int reference = index_of(r, r.reference);
+  const int dbvt = index_of(r, "bullet-dbvt");
+  o << "Median time per frame, " << r.keys.size() << " system(s):\n";
+  for (const auto& row : r.rows) {
+    o << "  n = " << row.n << ", " << row.median_pairs << " pairs: ";
+    const int f = fastest_measured(r, row);
+    if (f < 0) {
+      o << "no measured system completed";
+    } else {
+      o << "fastest " << r.labels[static_cast<std::size_t>(f)] << " "
+        << fmt_ms(row.cells[static_cast<std::size_t>(f)].median_ms) << " ms";
+    }
+    for (const int i : {reference, dbvt}) {
+      if (i < 0 || i == f) continue;
+      o << "; " << r.labels[static_cast<std::size_t>(i)] << " " << cell_text(row.cells[static_cast<std::size_t>(i)])
+        << (row.cells[static_cast<std::size_t>(i)].status == CellStatus::Ran ? " ms" : "");
+    }
+    o << "\n";
+  }
+  if (r.mismatches.empty()) {
+    o << "Every system's pairs matched " << r.reference << "'s every frame.\n";
+  } else {
+    o << "MISMATCH: " << r.mismatches.size() << " frame(s) where a system's pairs differed from " << r.reference
+      << "'s (listed in tables.md).\n";
+  }
+  return o.str();
+}
 
 std::string format_tables(const BenchResult& r, const BenchHeader& h) {
   std::ostringstream o;

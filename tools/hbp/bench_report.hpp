@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // `hbp bench` output: Table-4-shaped tables (medians in ms, measured and
 // modelled columns labelled), acceleration factors against Bullet DBVT, the
@@ -22,8 +23,14 @@ struct BenchHeader {
   std::string started;  // ISO 8601 local time
 };
 
-// The tables as Markdown (what `hbp bench` prints and docs/results.md shows).
+// The tables as Markdown (tables.md; docs/results.md shows them).
 std::string format_tables(const BenchResult& r, const BenchHeader& h);
+
+// What `hbp bench` prints when it is done (the full tables are in the
+// report's tables.md): per object count the pairs, the fastest measured
+// system and the reference's and Bullet DBVT's medians, then whether every
+// system matched the reference.
+std::string format_summary(const BenchResult& r);
 
 // Writes tables.md, summary.csv, samples.csv, report.json, times.dat and
 // accel.dat into dir (created if needed). Returns the files written.

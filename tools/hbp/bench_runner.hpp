@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Runs every bench system on the same frames, row by row (one row per object
 // count), checks each system's exact pair set against the reference (our

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Where `hbp bench` gets its frames: the paper's scenario (variant v = seed
 // v, boxes generated once per frame and fed to every system) or a recorded

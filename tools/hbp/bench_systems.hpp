@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The systems `hbp bench` compares, behind one interface: the baselines
 // (Bullet, CGAL, brute force; measured), our software hybrid (measured) and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Running another program from `hbp` without a shell: the arguments go to
 // the child as an argument vector, so paths with spaces, quotes or `$` reach

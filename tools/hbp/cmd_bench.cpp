@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // hbp bench paper | kind KIND | scene FILE: the paper's evaluation (Table 4,
 // Fig. 4) and every other scene kind against real baselines on the same
 // frames, with exact pair sets checked every frame, Table-4-shaped output,
@@ -76,6 +77,7 @@ struct BenchArgs {
   std::vector<std::string> budget_for;
   std::vector<std::string> systems;
   bool quick = false, no_plots = false;
+  bool print_tables = false;  // --tables: the full tables on stdout too
   std::string out;
 };
 
@@ -235,9 +237,12 @@ void run_bench(const BenchArgs& a, BenchSource source) {
   header.machine.emplace_back("memory latency at end", memory_latency_text(probe_memory_latency()));
   header.machine.emplace_back("load average at end", read_load_average());
 
-  std::fputs(format_tables(result, header).c_str(), stdout);
+  // The full tables (every system, every statistic) are the report's
+  // tables.md; the terminal gets a summary unless --tables asks for them.
   const auto files = write_report_files(out, result, header);
-  std::printf("\nReport: %s/tables.md, summary.csv, samples.csv (every per-frame sample), report.json\n",
+  std::fputs((a.print_tables ? format_tables(result, header) + "\n" : format_summary(result)).c_str(), stdout);
+  std::printf("Report: %s/tables.md (the full tables), summary.csv, samples.csv (every per-frame sample), "
+              "report.json\n",
               out.c_str());
   std::string plot_error;  // why the plot script failed, if it did
   if (!a.no_plots && result.rows.size() < 2) {
@@ -298,6 +303,7 @@ void add_common(CLI::App* cmd, BenchArgs& a) {
       ->delimiter(',');
   cmd->add_option("--out", a.out, "Output directory (default bench-results/<kind>-<time>)");
   cmd->add_flag("--no-plots", a.no_plots, "Do not run gnuplot");
+  cmd->add_flag("--tables", a.print_tables, "Print the full tables (the report's tables.md) instead of the summary");
 }
 
 const RegisterCommand reg([](CLI::App& app) {

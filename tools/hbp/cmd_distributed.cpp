@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The distributed commands behind `--distributed` (cmd_run.cpp, cmd_pairs.cpp).
 #include "cmd_distributed.hpp"
 

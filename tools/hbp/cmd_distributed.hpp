@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // `hbp run --distributed` and `hbp pairs --distributed`: the hybrid broad
 // phase over MPI ranks (docs/distributed.md), started under mpirun. Without

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // `hbp hw ...`: the cycle-accurate microarchitecture models from the command
 // line.
 //   table    modelled time next to the paper's Table 4 (optionally with the

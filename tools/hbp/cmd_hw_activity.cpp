@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // `hbp hw activity`: the switching activities the standard-cell flow hands to
 // OpenSTA, measured with the C++ models on a paper-scene cell of 1024
 // objects (the partition's cell limit) at m = 16: the share of lane-cycles

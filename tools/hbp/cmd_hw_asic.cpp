@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // `hbp hw asic`: area, cells, fmax and power of both microarchitectures in
 // the OSU 0.18 um standard-cell library (rtl/synth/asic.sh's stored reports),
 // the memories from the analytic SRAM model, and the totals scaled to 28 nm

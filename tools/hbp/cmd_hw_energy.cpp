@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // `hbp hw energy`: energy per frame of the paper scene (default 1,024,000
 // objects, cell limit 1024) on the modelled accelerator at each process node,
 // against our CPU engine on this machine and the GPU engine's stored report.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // `hbp hw activity|asic|energy`: the silicon estimates of both
 // microarchitectures (standard-cell flow reports + SRAM model + node scaling).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // `hbp pairs`: the overlapping pairs of one frame of a scene file, as sorted
 // lines "a b" (a < b), from the oracle or from the hybrid system. Two runs
 // with different engines or formats can be compared with `cmp` or `diff`.

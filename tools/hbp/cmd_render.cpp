@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // hbp render: ray-traced images of a scene through the two-level hierarchy
 // the collision partition shares (paper section 3.2, Fig. 3).
 //
@@ -5,8 +6,11 @@
 //   hbp render --n 400 --highlight-collisions --out collisions.png
 //   hbp render --n 400 --video frames/ --frames 120
 #include <tbb/global_control.h>
+#include <unistd.h>
 
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <memory>
 #include <optional>
@@ -69,8 +73,23 @@ void render_one(const RenderArgs& a, const Scenario& scenario, const TwoLevelHie
   std::printf("\n");
 }
 
+// Before any rendering: the directory of --out must exist and be writable.
+void check_writable(const std::string& file) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::path(file).parent_path().empty() ? fs::path(".") : fs::path(file).parent_path();
+  std::error_code ec;
+  const fs::file_status st = fs::status(dir, ec);
+  if (!fs::exists(st)) throw FileError("--out '" + file + "': cannot write it: directory '" + dir.string() + "' does not exist");
+  if (!fs::is_directory(st))
+    throw FileError("--out '" + file + "': cannot write it: '" + dir.string() + "' is not a directory");
+  if (::access(dir.c_str(), W_OK) != 0)
+    throw FileError("--out '" + file + "': cannot write it: directory '" + dir.string() + "': " + std::strerror(errno));
+  if (fs::is_directory(fs::status(file, ec))) throw FileError("--out '" + file + "': cannot write it: it is a directory");
+}
+
 void run(const RenderArgs& a) {
   if (a.out.empty() && a.video.empty()) throw InvalidInput("render: give --out FILE.png or --video DIR");
+  if (!a.out.empty()) check_writable(a.out);
   std::unique_ptr<tbb::global_control> threads;
   if (a.threads) threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, a.threads);
   ScenarioParams p;

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // hbp run: the hybrid system on a generated or recorded scene, per-frame
 // timings by stage, modelled accelerator time, pairs, and a summary.
 #include <nlohmann/json.hpp>

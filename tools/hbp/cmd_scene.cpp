@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // `hbp scene gen` writes a scenario's frames to a scene file;
 // `hbp scene info` describes (and optionally checks) a scene file.
 #include <chrono>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Each `hbp` command lives in its own file and registers itself here, so a
 // new command never edits main.cpp.

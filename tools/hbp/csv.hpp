@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // CSV fields for `hbp`'s report files (RFC 4180): a text field is always
 // enclosed in double quotes, an embedded double quote is doubled; commas,

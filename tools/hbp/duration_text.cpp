@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "duration_text.hpp"
 
 #include <cmath>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // How `hbp` writes a duration, in one place. Two presentations of the same
 // rounding: words for reports and messages ("45 s", "31 min", "2.1 h"),

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // How fast this machine's memory answers right now: the mean time of a
 // dependent random load (one per 64-byte line, a single cycle over the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Checks shared by the commands' numeric options, applied while parsing so a
 // bad value stops the command before it does any work (CLI11 reports the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // A one-line progress bar for long `hbp` operations (scene writes, bench
 // runs). It draws on stderr only when stderr is a terminal, so pipes, logs

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "silicon_reports.hpp"
 
 #include <algorithm>

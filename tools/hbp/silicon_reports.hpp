@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The standard-cell flow's stored outputs, as `hbp hw asic|energy` read them:
 // one report per design and m (rtl/synth/asic.sh) and the activity file the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Table 4 of the paper: measured execution times in milliseconds (m = 16,
 // 500 MHz) for both microarchitectures without partitioning ("None") and with

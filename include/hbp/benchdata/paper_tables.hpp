@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Renders model traces in the layout of the paper's Table 1 (area-efficient)
 // and Table 3 (many-object), cell by cell, so tests can compare a run with

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Random shape pairs for the narrow phase's tests and benchmarks: the paper's
 // size range, uniformly random orientations, and a share of near-touching

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Drop-in Bullet 2 broad phase backed by hbp::HybridBroadPhase (k-d partition,
 // cell engine, de-duplication). One line switches a Bullet world to it:

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The paper's GPU column's algorithm as a peer (Bullet3's
 // b3GpuSapBroadphase): sort the boxes by min on the axis along which their

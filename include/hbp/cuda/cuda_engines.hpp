@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The GPU accelerator as cell engines of the hybrid system (the paper's own
 // split: the CPU's k-d cells streamed to the accelerator):

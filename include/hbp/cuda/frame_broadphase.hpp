@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The whole broad-phase frame as GPU kernels (docs/gpu.md): a sort-based
 // uniform grid kept across frames, the accelerator's sweep with a thread

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Closed-form cycle counts of both microarchitectures (O(1) per call). The
 // cycle-level simulations must agree with these exactly; tests check it.

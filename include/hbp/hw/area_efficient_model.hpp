@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Cycle-accurate model of the area-efficient microarchitecture (paper section
 // 3.1.1, Table 1). Buffer: 6m dual-port memories in m memory groups, each

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // One configuration's report from the standard-cell flow (rtl/synth/asic.sh):
 // "key = value" lines. The logic only: memories are counted, not synthesised

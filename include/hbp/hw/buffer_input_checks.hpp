@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // What a microarchitecture refuses before loading its buffer: more objects
 // than it holds (CapacityExceeded) and NaN coordinates, which its comparators

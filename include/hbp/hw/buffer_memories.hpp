@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The buffer's 6m dual-port memories: one per (coordinate, memory group),
 // `depth` 32-bit words each. Coordinates are ordered min x, max x, min y,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // What the two buffer microarchitecture models share (paper section 3.1): a
 // configuration, 6m buffer memories, the register pipeline to the pair output

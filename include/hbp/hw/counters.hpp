@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Throughput counters of one run of a microarchitecture model. The analytic
 // cycle functions produce the same CycleBreakdown without simulating.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The two microarchitectures of the paper's cell-based broad phase.
 #include <string>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The compare stage's float32 comparators, built the way hardware builds
 // them: on the raw IEEE-754 bit patterns, without a floating-point unit.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The functional result of each microarchitecture without simulating cycles:
 // every overlapping pair, appended in the order the hardware writes its pair

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The two microarchitecture models as cell engines of the hybrid system.
 // register_cell_engines() enters them in the core's engine registry

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Cycle-accurate model of the many-object microarchitecture (paper section
 // 3.1.2, Tables 2 and 3). Buffer: 6m dual-port memories in m memory groups

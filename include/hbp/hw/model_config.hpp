@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Configuration shared by the two cycle-accurate microarchitecture models
 // (paper section 3.1): extensibility factor, memory depth, clock, pipeline

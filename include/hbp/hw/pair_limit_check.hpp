@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The pair limit of one engine call (CellEngine::pair_limit, the hybrid
 // system's max_pairs): the models and the hardware-order loops stop with

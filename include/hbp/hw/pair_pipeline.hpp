@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The register stages between the buffer's address inputs and the pair output
 // memory, as a delay line of `depth` cycles. A cycle's candidate pairs enter

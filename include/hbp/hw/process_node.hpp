@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Process nodes for the silicon estimates: the synthesised node (OSU 0.18 um)
 // and the nodes its figures are scaled to. The scale factors are published

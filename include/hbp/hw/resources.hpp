@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Datapath resources of each microarchitecture for a configuration (paper
 // sections 3.1.1 and 3.1.2): what an architect sizes against an area budget.

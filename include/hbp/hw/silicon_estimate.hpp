@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Area and energy of one accelerator on silicon: the standard-cell logic from
 // the flow's report (AsicReport) plus the memories from the analytic SRAM

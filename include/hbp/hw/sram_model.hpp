@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Analytic SRAM model for the memories the standard-cell flow does not
 // synthesise (no SRAM compiler exists for OSU018): the 6m dual-port buffer

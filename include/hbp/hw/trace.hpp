@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Per-cycle traces of the two models: one record per cycle that issues buffer
 // addresses (load, restart and drain cycles issue none; their absence shows as

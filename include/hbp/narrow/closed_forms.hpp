@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Closed-form tests, cheaper than GJK/EPA where they apply:
 //  - true sphere vs true sphere (all three semi-axes equal),

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // One colliding pair as the narrow phase reports it.
 #include <cstdint>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // A shape prepared for the narrow phase: rotation matrix, half extents and
 // bounding radius computed once, and the support mapping used by GJK/EPA and

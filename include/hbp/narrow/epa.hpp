@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // EPA (expanding polytope algorithm): penetration depth, normal and witness
 // points of two intersecting convex shapes, grown from GJK's final simplex.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // GJK (Gilbert-Johnson-Keerthi) on the Minkowski difference D = A - B of two
 // convex shapes: decides whether the origin lies in D, and if not returns the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Result of one exact shape test before it is stored as an hbp::Contact.
 #include "hbp/narrow/vec_math.hpp"

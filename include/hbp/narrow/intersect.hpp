@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Exact intersection test of two of the paper's shapes (sphere = ellipsoid,
 // cuboid, cylinder, cone) in any orientation, with contact normal,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Adapter to libccd (Debian libccd-dev 2.1, double precision): the same
 // shapes through libccd's GJK, MPR and EPA, for comparison and as an

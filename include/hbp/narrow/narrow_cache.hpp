@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Frame-to-frame coherence of the narrow phase: for each candidate pair, the
 // direction the last frame learned (the separating axis of a pair found

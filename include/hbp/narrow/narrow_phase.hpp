@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The narrow phase of the hybrid system: exact shape tests on the candidate
 // pairs the broad phase reports, one Contact per colliding pair.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Quick reject before GJK: the shapes' oriented bounding boxes (each shape's
 // local box of half extents h: exact for a cuboid, enclosing for the curved

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Small double-precision 3-vector used inside the narrow phase. A type of its
 // own (not hbp::Vec3) so its operators never clash with other modules'.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // A pinhole camera and a point light placed to frame the scenario's cube the
 // way the paper's Fig. 3 does: the whole cube in view, seen from above one of

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Which objects collide, found on the two-level hierarchy's own k-d cells (the
 // cells the collision engines read): HybridBroadPhase::update(KdPartition)

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // PNG output for the ray tracer through libpng's simplified API: 8-bit RGB
 // tagged sRGB, libpng's adaptive per-row filters, zlib's default compression.

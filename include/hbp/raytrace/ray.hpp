@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // A ray and the closest hit the ray tracer reports. Double precision: the
 // shape tests are exact closed forms (see ray_shape.hpp).

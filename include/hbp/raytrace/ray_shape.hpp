@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Exact ray intersection with the four oriented shapes (ellipsoid "sphere",
 // cuboid, elliptic cylinder, elliptic cone; local frames as in shape.hpp). The

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The ray tracer over the shared two-level hierarchy: one primary ray per
 // pixel (or n x n), one shadow ray to a point light per hit, Lambert shading,

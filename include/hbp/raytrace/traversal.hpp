@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Ray traversal of the two-level hierarchy: the k-d tree front to back, and in
 // each cell the cell's BVH, nearer child first; the walk stops once the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Bullet's dynamics headers for the example world, with the warnings they
 // raise under -Wall -Wextra silenced here (they are not ours).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "integrations/world/falling_shapes_world.hpp"
 
 #include <time.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The example world: spheres, boxes, cylinders and cones (random sizes and
 // orientations, seeded) dropped from a grid into an open box container

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "integrations/world/recording_dispatcher.hpp"
 
 #include "hbp/aabb.hpp"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // A btCollisionDispatcher that records the pairs the broad phase hands to the
 // narrow phase: at dispatchAllCollisionPairs(), each cache pair as the two

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "integrations/world/side_by_side.hpp"
 
 #include <chrono>

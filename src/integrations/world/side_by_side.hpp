@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Two runs of the example world from the same start, one with
 // hbp::bullet::HybridBroadphase, one with btDbvtBroadphase, stepped side by

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Fixture: a public header of the partition room reaching up into the
 // pipeline (never compiled).

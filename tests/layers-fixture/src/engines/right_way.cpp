@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Fixture: an engines file including only what engines may (never compiled).
 #include <vector>
 

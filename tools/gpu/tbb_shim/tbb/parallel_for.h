@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The part of oneTBB that the scene generator (src/scene/scenario.cpp) uses,
 // for the device machine's standalone build, which has no TBB: a range split

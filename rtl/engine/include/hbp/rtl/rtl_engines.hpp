@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Cell engines backed by the Verilated RTL (rtl/area_efficient.sv and
 // rtl/many_object.sv, m = 16, memory depth 1024 as on the paper's FPGA):

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The systems a user would pick instead of ours (Bullet, CGAL, brute force),
 // behind one small interface so the benchmark and the tests drive them alike.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Bullet's narrow phase as a baseline: btCollisionDispatcher with the
 // default collision configuration (btConvexConvexAlgorithm: GJK + EPA, and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // Independent reference for the narrow phase: Bullet's own GJK/EPA
 // (btGjkEpaSolver2, single precision) on Bullet's own primitives with zero

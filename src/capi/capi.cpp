@@ -1,0 +1,259 @@
+// SPDX-License-Identifier: MIT
+// The C API (hbp/hbp.h) over hbp::BroadPhase. Every entry point catches
+// everything: a C++ exception becomes a status and a thread-local message.
+#include "hbp/hbp.h"
+
+#include <cstddef>
+#include <cstdint>
+#include <exception>
+#include <limits>
+#include <new>
+#include <span>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include "hbp/aabb.hpp"
+#include "hbp/broad_phase.hpp"
+#include "hbp/error.hpp"
+#include "hbp/limits.hpp"
+#include "hbp/pair.hpp"
+
+#ifndef HBP_VERSION_STRING
+#error "HBP_VERSION_STRING is set by CMakeLists.txt"
+#endif
+
+// The C structs are the C++ ones, member for member: arrays pass through
+// without copies.
+static_assert(std::is_standard_layout_v<hbp_box> && std::is_standard_layout_v<hbp::Aabb>);
+static_assert(sizeof(hbp_box) == sizeof(hbp::Aabb) && offsetof(hbp_box, max) == offsetof(hbp::Aabb, max));
+static_assert(std::is_standard_layout_v<hbp_pair> && std::is_standard_layout_v<hbp::Pair>);
+static_assert(sizeof(hbp_pair) == sizeof(hbp::Pair) && offsetof(hbp_pair, b) == offsetof(hbp::Pair, b));
+static_assert(std::is_same_v<hbp_handle, hbp::Handle> && HBP_INVALID_HANDLE == hbp::kInvalidHandle);
+static_assert(HBP_MAX_OBJECTS == hbp::kMaxObjects && HBP_LAYER_COUNT == hbp::kLayerCount);
+
+struct hbp_broad_phase {
+  hbp::BroadPhase bp;
+  explicit hbp_broad_phase(const hbp::BroadPhaseOptions& options) : bp(options) {}
+};
+
+namespace {
+
+thread_local std::string last_error;
+
+hbp_status fail(hbp_status status, const char* message) noexcept {
+  try {
+    last_error = message;
+  } catch (...) {
+    last_error.clear();  // no memory for the message: the status still says what happened
+  }
+  return status;
+}
+
+hbp_status ok() noexcept {
+  last_error.clear();
+  return HBP_OK;
+}
+
+// Runs f (returning hbp_status), mapping every exception to a status.
+template <class F>
+hbp_status guarded(F&& f) noexcept {
+  try {
+    return f();
+  } catch (const hbp::InvalidInput& e) {
+    return fail(HBP_ERROR_INVALID_ARGUMENT, e.what());
+  } catch (const hbp::CapacityExceeded& e) {
+    return fail(HBP_ERROR_CAPACITY, e.what());
+  } catch (const std::bad_alloc&) {
+    return fail(HBP_ERROR_OUT_OF_MEMORY, "out of memory");
+  } catch (const std::exception& e) {
+    return fail(HBP_ERROR_INTERNAL, e.what());
+  } catch (...) {
+    return fail(HBP_ERROR_INTERNAL, "unknown C++ exception");
+  }
+}
+
+const hbp::Aabb* as_aabbs(const hbp_box* boxes) { return reinterpret_cast<const hbp::Aabb*>(boxes); }
+
+hbp_status pair_list(const hbp_broad_phase* bp, const hbp_pair** pairs, std::size_t* count, const char* function,
+                     const std::vector<hbp::Pair> hbp::BroadPhaseUpdate::*list) {
+  if (bp == nullptr || pairs == nullptr || count == nullptr) {
+    return fail(HBP_ERROR_INVALID_ARGUMENT,
+                (std::string(function) + ": bp, pairs and count must not be NULL").c_str());
+  }
+  const std::vector<hbp::Pair>& v = bp->bp.last_update().*list;
+  *pairs = v.empty() ? nullptr : reinterpret_cast<const hbp_pair*>(v.data());
+  *count = v.size();
+  return ok();
+}
+
+hbp_status report_hits(const std::vector<hbp::Handle>& hits, hbp_hit_callback callback, void* user,
+                       std::size_t* hits_out) {
+  std::size_t calls = 0;
+  for (hbp::Handle h : hits) {
+    ++calls;
+    if (callback(user, h) == 0) break;
+  }
+  if (hits_out != nullptr) *hits_out = calls;
+  return ok();
+}
+
+}  // namespace
+
+extern "C" {
+
+const char* hbp_version(void) { return HBP_VERSION_STRING; }
+
+const char* hbp_status_string(hbp_status status) {
+  switch (status) {
+    case HBP_OK: return "ok";
+    case HBP_ERROR_INVALID_ARGUMENT: return "invalid argument";
+    case HBP_ERROR_CAPACITY: return "capacity exceeded";
+    case HBP_ERROR_OUT_OF_MEMORY: return "out of memory";
+    case HBP_ERROR_INTERNAL: return "internal error";
+  }
+  return "unknown status";
+}
+
+const char* hbp_last_error(void) { return last_error.c_str(); }
+
+void hbp_options_init(hbp_options* options) {
+  if (options == nullptr) return;
+  options->engine = nullptr;
+  options->threads = 0;
+  options->cell_limit = 0;
+  options->max_pairs = 0;
+}
+
+hbp_status hbp_create(const hbp_options* options, hbp_broad_phase** out) {
+  if (out == nullptr) return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_create: out must not be NULL");
+  *out = nullptr;
+  return guarded([&] {
+    hbp::BroadPhaseOptions o;
+    if (options != nullptr) {
+      if (options->engine != nullptr) o.engine = options->engine;
+      o.threads = options->threads;
+      o.cell_limit = options->cell_limit;
+      o.max_pairs = options->max_pairs;
+    }
+    *out = new hbp_broad_phase(o);
+    return ok();
+  });
+}
+
+void hbp_destroy(hbp_broad_phase* bp) { delete bp; }
+
+hbp_status hbp_add(hbp_broad_phase* bp, const hbp_box* boxes, size_t count, int is_static, uint8_t layer,
+                   hbp_handle* handles_out) {
+  if (bp == nullptr) return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_add: bp must not be NULL");
+  if (count > 0 && (boxes == nullptr || handles_out == nullptr)) {
+    return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_add: boxes and handles_out must not be NULL when count > 0");
+  }
+  return guarded([&] {
+    const std::vector<hbp::Handle> handles =
+        bp->bp.add(std::span<const hbp::Aabb>(as_aabbs(boxes), count), {.is_static = is_static != 0, .layer = layer});
+    for (std::size_t i = 0; i < handles.size(); ++i) handles_out[i] = handles[i];
+    return ok();
+  });
+}
+
+hbp_status hbp_move(hbp_broad_phase* bp, const hbp_handle* handles, const hbp_box* boxes, size_t count) {
+  if (bp == nullptr) return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_move: bp must not be NULL");
+  if (count > 0 && (boxes == nullptr || handles == nullptr)) {
+    return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_move: handles and boxes must not be NULL when count > 0");
+  }
+  return guarded([&] {
+    bp->bp.move(std::span<const hbp::Handle>(handles, count), std::span<const hbp::Aabb>(as_aabbs(boxes), count));
+    return ok();
+  });
+}
+
+hbp_status hbp_remove(hbp_broad_phase* bp, const hbp_handle* handles, size_t count) {
+  if (bp == nullptr) return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_remove: bp must not be NULL");
+  if (count > 0 && handles == nullptr) {
+    return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_remove: handles must not be NULL when count > 0");
+  }
+  return guarded([&] {
+    bp->bp.remove(std::span<const hbp::Handle>(handles, count));
+    return ok();
+  });
+}
+
+hbp_status hbp_set_collides(hbp_broad_phase* bp, uint32_t layer_a, uint32_t layer_b, int collides) {
+  if (bp == nullptr) return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_set_collides: bp must not be NULL");
+  return guarded([&] {
+    bp->bp.set_collides(layer_a, layer_b, collides != 0);
+    return ok();
+  });
+}
+
+hbp_status hbp_update(hbp_broad_phase* bp) {
+  if (bp == nullptr) return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_update: bp must not be NULL");
+  return guarded([&] {
+    bp->bp.update();
+    return ok();
+  });
+}
+
+hbp_status hbp_pairs(const hbp_broad_phase* bp, const hbp_pair** pairs, size_t* count) {
+  return pair_list(bp, pairs, count, "hbp_pairs", &hbp::BroadPhaseUpdate::pairs);
+}
+
+hbp_status hbp_created_pairs(const hbp_broad_phase* bp, const hbp_pair** pairs, size_t* count) {
+  return pair_list(bp, pairs, count, "hbp_created_pairs", &hbp::BroadPhaseUpdate::created);
+}
+
+hbp_status hbp_removed_pairs(const hbp_broad_phase* bp, const hbp_pair** pairs, size_t* count) {
+  return pair_list(bp, pairs, count, "hbp_removed_pairs", &hbp::BroadPhaseUpdate::removed);
+}
+
+hbp_status hbp_query_box(const hbp_broad_phase* bp, const hbp_box* box, hbp_hit_callback callback, void* user,
+                         size_t* hits_out) {
+  if (hits_out != nullptr) *hits_out = 0;
+  if (bp == nullptr || box == nullptr || callback == nullptr) {
+    return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_query_box: bp, box and callback must not be NULL");
+  }
+  return guarded([&] { return report_hits(bp->bp.query_box(*as_aabbs(box)), callback, user, hits_out); });
+}
+
+hbp_status hbp_query_ray(const hbp_broad_phase* bp, const float origin[3], const float direction[3], float max_t,
+                         hbp_hit_callback callback, void* user, size_t* hits_out) {
+  if (hits_out != nullptr) *hits_out = 0;
+  if (bp == nullptr || origin == nullptr || direction == nullptr || callback == nullptr) {
+    return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_query_ray: bp, origin, direction and callback must not be NULL");
+  }
+  return guarded([&] { return report_hits(bp->bp.query_ray(origin, direction, max_t), callback, user, hits_out); });
+}
+
+hbp_status hbp_size(const hbp_broad_phase* bp, size_t* count) {
+  if (bp == nullptr || count == nullptr) {
+    return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_size: bp and count must not be NULL");
+  }
+  *count = bp->bp.size();
+  return ok();
+}
+
+hbp_status hbp_get_box(const hbp_broad_phase* bp, hbp_handle handle, hbp_box* box_out) {
+  if (bp == nullptr || box_out == nullptr) {
+    return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_get_box: bp and box_out must not be NULL");
+  }
+  return guarded([&] {
+    const hbp::Aabb b = bp->bp.box(handle);
+    for (int i = 0; i < 3; ++i) {
+      box_out->min[i] = b.min[i];
+      box_out->max[i] = b.max[i];
+    }
+    return ok();
+  });
+}
+
+int hbp_contains(const hbp_broad_phase* bp, hbp_handle handle) {
+  if (bp == nullptr) return 0;
+  try {
+    return bp->bp.contains(handle) ? 1 : 0;
+  } catch (...) {
+    return 0;
+  }
+}
+
+}  // extern "C"
