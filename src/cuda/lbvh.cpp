@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Lbvh's facade and its CPU launcher: the bodies of lbvh_bodies.hpp run
 // stage by stage as lbvh_device.cu runs them, blocks spread over
 // FrameOptions::threads CPU threads. Buffers are members kept across frames

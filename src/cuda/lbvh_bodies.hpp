@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The bodies of the LBVH peer's kernels (hbp::cuda::Lbvh), written once as
 // host/device functions: lbvh_device.cu launches them as CUDA kernels,

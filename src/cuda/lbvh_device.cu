@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Lbvh on a CUDA device (the boxes were validated by the facade): the
 // frame's bounds kernel, Morton keys, CUB's radix sort, gather, the radix
 // tree, its bounds bottom-up (a visit count per internal node), a thread per

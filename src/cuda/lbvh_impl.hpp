@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // The launchers of Lbvh share this base.
 #include <memory>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #pragma once
 // A Karras-style linear BVH as a peer: Morton codes of the box centres
 // (10 bits per axis, quantized in the scene's bounds) with the object index
