@@ -10,6 +10,7 @@
 
 #include "bench_machine.hpp"
 #include "bench_runner.hpp"
+#include "gpu_report.hpp"
 
 namespace hbp::cli {
 
@@ -18,6 +19,7 @@ struct BenchHeader {
   std::string command;  // the command line that produced the run
   std::string scene;    // what the frames are
   bool paper = true;    // compare with the paper's Table 4
+  std::string gpu_report = kGpuReportPath;  // the GPU column's stored report (gpu_report.hpp)
   BenchConfig config;
   MachineDescription machine;
   std::string started;  // ISO 8601 local time

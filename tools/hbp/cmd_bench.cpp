@@ -78,6 +78,7 @@ struct BenchArgs {
   std::vector<std::string> systems;
   bool quick = false, no_plots = false;
   bool print_tables = false;  // --tables: the full tables on stdout too
+  std::string gpu_report = kGpuReportPath;
   std::string out;
 };
 
@@ -157,6 +158,7 @@ void run_bench(const BenchArgs& a, BenchSource source) {
   header.command = command_line();
   header.started = now_text("%Y-%m-%dT%H:%M:%S%z");
   header.paper = paper;
+  header.gpu_report = a.gpu_report;
   if (generated) {
     const bool degenerate = kind == ScenarioKind::Degenerate;
     rows = a.n.empty() ? (paper ? (a.quick ? kQuickRows : kTable4Rows) : degenerate ? kDegenerateRows : kKindRows)
@@ -302,6 +304,8 @@ void add_common(CLI::App* cmd, BenchArgs& a) {
                                            "brute, sw, sw-sorted, sw-narrow, ae-none, ae-1024, mo-none, mo-1024 ... mo-16384")
       ->delimiter(',');
   cmd->add_option("--out", a.out, "Output directory (default bench-results/<kind>-<time>)");
+  cmd->add_option("--gpu-report", a.gpu_report, "The stored GPU run for the GPU column (bench paper)")
+      ->capture_default_str();
   cmd->add_flag("--no-plots", a.no_plots, "Do not run gnuplot");
   cmd->add_flag("--tables", a.print_tables, "Print the full tables (the report's tables.md) instead of the summary");
 }

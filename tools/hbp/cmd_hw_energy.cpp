@@ -23,6 +23,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cmd_hw_silicon.hpp"
+#include "gpu_report.hpp"
 #include "option_checks.hpp"
 #include "hbp/error.hpp"
 #include "hbp/hw/model_config.hpp"
@@ -37,7 +38,7 @@ namespace {
 
 struct EnergyOptions {
   std::string reports = kDefaultAsicReports;
-  std::string gpu_report = "docs/results/gpu/gpu-report.json";
+  std::string gpu_report = kGpuReportPath;
   std::uint32_t n = 1024000;
   std::uint32_t frames = 2;
   unsigned threads = 0;
@@ -97,28 +98,6 @@ std::string cpu_estimate_label(const EnergyOptions& o) {
   return text;
 }
 
-struct GpuFigure {
-  std::string gpu;
-  double energy_per_frame_j = 0;
-  double frame_ms = 0;
-};
-
-// The GPU check's report: {"gpu": name, "paper_1024000": {"energy_per_frame_j",
-// "frame_ms"}}; anything else reads as not measured.
-std::optional<GpuFigure> read_gpu_report(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) return std::nullopt;
-  nlohmann::json j;
-  try {
-    in >> j;
-    const nlohmann::json& p = j.at("paper_1024000");
-    return GpuFigure{j.at("gpu").get<std::string>(), p.at("energy_per_frame_j").get<double>(),
-                     p.at("frame_ms").get<double>()};
-  } catch (const nlohmann::json::exception&) {
-    return std::nullopt;
-  }
-}
-
 void run_energy(const EnergyOptions& o) {
   const SiliconReports s = read_silicon_reports(o.reports);
   const unsigned cores = o.threads != 0 ? o.threads : std::max(1u, std::thread::hardware_concurrency());
@@ -126,7 +105,8 @@ void run_energy(const EnergyOptions& o) {
   const bool cpu_measured = cpu.rapl_j.has_value();
   const double cpu_watts = cores * o.cpu_watts_per_core;
   const double cpu_j = cpu_measured ? *cpu.rapl_j : cpu.wall_ms * 1e-3 * cpu_watts;
-  const std::optional<GpuFigure> gpu = read_gpu_report(o.gpu_report);
+  const std::optional<GpuReport> report = read_gpu_report(o.gpu_report);
+  const GpuReport* gpu = report && report->paper.energy_per_frame_j > 0 ? &*report : nullptr;
 
   nlohmann::json j;
   j["scene"] = {{"kind", "paper"}, {"n", o.n}, {"cell_limit", 1024}, {"frames", o.frames}};
@@ -136,8 +116,9 @@ void run_energy(const EnergyOptions& o) {
               {"energy_per_frame_j", cpu_j},
               {"measured", cpu_measured},
               {"power_source", cpu_measured ? std::string("RAPL package energy (powercap)") : cpu_estimate_label(o)}};
-  j["gpu"] = gpu ? nlohmann::json{{"gpu", gpu->gpu}, {"energy_per_frame_j", gpu->energy_per_frame_j},
-                                  {"frame_ms", gpu->frame_ms}, {"measured", true}, {"report", o.gpu_report}}
+  j["gpu"] = gpu ? nlohmann::json{{"gpu", gpu->gpu}, {"energy_per_frame_j", gpu->paper.energy_per_frame_j},
+                                  {"frame_ms", gpu->paper.frame_ms}, {"date", gpu->date}, {"measured", true},
+                                  {"report", o.gpu_report}}
                  : nlohmann::json{{"measured", false}, {"note", "not yet measured (no GPU report at " + o.gpu_report + ")"}};
   j["asic"] = nlohmann::json::array();
 
@@ -169,7 +150,7 @@ void run_energy(const EnergyOptions& o) {
                            {"energy_per_frame_with_partition_j", frame_j + partition_j},
                            {"cpu_over_asic", cpu_j / frame_j},
                            {"cpu_over_asic_with_partition", cpu_j / (frame_j + partition_j)},
-                           {"gpu_over_asic", gpu ? nlohmann::json(gpu->energy_per_frame_j / frame_j) : nlohmann::json(nullptr)}});
+                           {"gpu_over_asic", gpu ? nlohmann::json(gpu->paper.energy_per_frame_j / frame_j) : nlohmann::json(nullptr)}});
     }
   }
   if (o.json) {
@@ -190,8 +171,8 @@ void run_energy(const EnergyOptions& o) {
   std::printf("\nCPU (sw engine, %u threads, this machine): %.2f ms/frame, %.4g J/frame (%s)\n", cores, cpu.wall_ms,
               cpu_j, j["cpu"]["power_source"].get<std::string>().c_str());
   if (gpu)
-    std::printf("GPU (%s, measured, %s): %.3f ms/frame, %.4g J/frame\n", gpu->gpu.c_str(), o.gpu_report.c_str(),
-                gpu->frame_ms, gpu->energy_per_frame_j);
+    std::printf("GPU (%s, measured %s, %s): %.3f ms/frame, %.4g J/frame\n", gpu->gpu.c_str(), gpu->date.c_str(),
+                o.gpu_report.c_str(), gpu->paper.frame_ms, gpu->paper.energy_per_frame_j);
   else
     std::printf("GPU: not yet measured (no GPU report at %s)\n", o.gpu_report.c_str());
 }
