@@ -447,4 +447,42 @@ TEST_F(Cli, BenchPrintsASummaryAndTheReportPath) {
   EXPECT_NE(t.output.find("## Median time per frame"), std::string::npos) << t.output;
 }
 
+// bench paper's GPU column comes from a stored GPU run, labelled with its
+// GPU and date; without one (or from a dry run) it reads not measured.
+TEST_F(Cli, BenchPaperCarriesTheStoredGpuRunLabelled) {
+  auto report = [&](const std::string& name, bool dry) {
+    const std::string file = path(name);
+    std::ofstream(file) << R"json({"dry_run": )json" << (dry ? "true" : "false")
+                        << R"json(, "gpu": "Test GPU", "date": "2026-01-02T03:04:05Z", "host": "host: 16 CPUs",
+      "paper_1024000": {"frame_ms": 0.5, "with_transfers_ms": 4.5, "lbvh_ms": 1.5, "energy_per_frame_j": 0.25},
+      "runs": [{"system": "frame", "kind": "paper", "order": "sorted by (a, b)", "objects": 1000,
+                "median_frame_ms": 0.125, "exact": true},
+               {"system": "frame", "kind": "paper", "order": "sorted by (a, b)", "objects": 2000,
+                "median_frame_ms": 9.0, "exact": false}]})json";
+    return file;
+  };
+  auto tables_of = [&](const std::string& gpu_report, const std::string& out) {
+    const Result r = hbp({"bench", "paper", "--n", "1000,2000", "--frames", "1", "--warmup", "0", "--variants", "1",
+                          "--systems", "sw", "--no-plots", "--gpu-report", gpu_report, "--out", path(out)});
+    EXPECT_EQ(r.status, 0) << r.output;
+    std::ifstream f(path(out) + "/tables.md");
+    return std::string((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  };
+  const std::string measured = tables_of(report("gpu.json", false), "measured");
+  EXPECT_NE(measured.find("Measured on Test GPU (2026-01-02T03:04:05Z"), std::string::npos) << measured;
+  EXPECT_NE(measured.find("| 1000 | 0.125"), std::string::npos) << measured;
+  EXPECT_EQ(measured.find("| 2000 | 9"), std::string::npos) << "an inexact run shown:\n" << measured;
+  EXPECT_NE(measured.find("our GPU LBVH 1.500 ms"), std::string::npos) << measured;
+  EXPECT_NE(measured.find("our GPU frame 0.5000 ms (4.500 ms with host transfers)"), std::string::npos) << measured;
+  std::ifstream json_file(path("measured") + "/report.json");
+  const std::string json((std::istreambuf_iterator<char>(json_file)), std::istreambuf_iterator<char>());
+  EXPECT_NE(json.find("\"gpu\": \"Test GPU\""), std::string::npos) << json;
+
+  for (const std::string& missing : {path("none.json"), report("dry.json", true)}) {
+    const std::string tables = tables_of(missing, "unmeasured");
+    EXPECT_NE(tables.find("Our GPU frame: not measured (no GPU report at " + missing), std::string::npos) << tables;
+    EXPECT_EQ(tables.find("Measured on"), std::string::npos) << tables;
+  }
+}
+
 }  // namespace
