@@ -107,6 +107,9 @@ void run_energy(const EnergyOptions& o) {
   const double cpu_j = cpu_measured ? *cpu.rapl_j : cpu.wall_ms * 1e-3 * cpu_watts;
   const std::optional<GpuReport> report = read_gpu_report(o.gpu_report);
   const GpuReport* gpu = report && report->paper.energy_per_frame_j > 0 ? &*report : nullptr;
+  // The stored GPU frame is the paper scene at 1,024,000 objects: a ratio to
+  // another scene size would compare different work.
+  const bool gpu_comparable = gpu && o.n == 1024000;
 
   nlohmann::json j;
   j["scene"] = {{"kind", "paper"}, {"n", o.n}, {"cell_limit", 1024}, {"frames", o.frames}};
@@ -150,7 +153,7 @@ void run_energy(const EnergyOptions& o) {
                            {"energy_per_frame_with_partition_j", frame_j + partition_j},
                            {"cpu_over_asic", cpu_j / frame_j},
                            {"cpu_over_asic_with_partition", cpu_j / (frame_j + partition_j)},
-                           {"gpu_over_asic", gpu ? nlohmann::json(gpu->paper.energy_per_frame_j / frame_j) : nlohmann::json(nullptr)}});
+                           {"gpu_over_asic", gpu_comparable ? nlohmann::json(gpu->paper.energy_per_frame_j / frame_j) : nlohmann::json(nullptr)}});
     }
   }
   if (o.json) {
@@ -170,10 +173,19 @@ void run_energy(const EnergyOptions& o) {
   }
   std::printf("\nCPU (sw engine, %u threads, this machine): %.2f ms/frame, %.4g J/frame (%s)\n", cores, cpu.wall_ms,
               cpu_j, j["cpu"]["power_source"].get<std::string>().c_str());
-  if (gpu)
+  if (gpu) {
     std::printf("GPU (%s, measured %s, %s): %.3f ms/frame, %.4g J/frame\n", gpu->gpu.c_str(), gpu->date.c_str(),
                 o.gpu_report.c_str(), gpu->paper.frame_ms, gpu->paper.energy_per_frame_j);
-  else
+    if (gpu_comparable) {
+      std::printf("GPU/ASIC (energy per frame, partition excluded on the ASIC):");
+      for (const nlohmann::json& a : j["asic"])
+        std::printf(" %s %s %.0fx;", a["design"].get<std::string>().c_str(), a["node"].get<std::string>().c_str(),
+                    a["gpu_over_asic"].get<double>());
+      std::printf("\n");
+    } else {
+      std::printf("GPU/ASIC: the GPU's frame is the paper scene at 1,024,000 objects; no ratio at n = %u\n", o.n);
+    }
+  } else
     std::printf("GPU: not yet measured (no GPU report at %s)\n", o.gpu_report.c_str());
 }
 
