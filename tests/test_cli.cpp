@@ -485,4 +485,21 @@ TEST_F(Cli, BenchPaperCarriesTheStoredGpuRunLabelled) {
   }
 }
 
+// The traces say what their columns and marks mean; bench paper's help says
+// how long the default run takes.
+TEST_F(Cli, TracesExplainTheirColumnsAndBenchHelpItsDuration) {
+  const Result mo = hbp({"hw", "trace", "--design", "mo"});
+  ASSERT_EQ(mo.status, 0) << mo.output;
+  EXPECT_NE(mo.output.find("* comparator 0, \u2020 1, \u2021 2, \u00a7 3"), std::string::npos) << mo.output;
+  const Result wide = hbp({"hw", "trace", "--design", "mo", "--m", "8", "--n", "20"});
+  ASSERT_EQ(wide.status, 0) << wide.output;
+  EXPECT_NE(wide.output.find("[c] comparator c"), std::string::npos) << wide.output;
+  const Result ae = hbp({"hw", "trace", "--design", "ae"});
+  ASSERT_EQ(ae.status, 0) << ae.output;
+  EXPECT_NE(ae.output.find("anchor-partner"), std::string::npos) << ae.output;
+  const Result help = hbp({"bench", "paper", "--help"});
+  EXPECT_EQ(help.status, 0) << help.output;
+  EXPECT_NE(help.output.find("an hour or more on 2 cores"), std::string::npos) << help.output;
+}
+
 }  // namespace

@@ -316,7 +316,10 @@ const RegisterCommand reg([](CLI::App& app) {
 
   auto pa = std::make_shared<BenchArgs>();
   CLI::App* paper = bench->add_subcommand(
-      "paper", "The paper's scenario for each n: every engine and baseline on the same frames (Table 4, Fig. 4)");
+      "paper", "The paper's scenario for each n: every engine and baseline on the same frames (Table 4, Fig. 4). "
+               "The default (every row to 1,024,000, 3 variants x 10 frames, each system stopped at its 120 s "
+               "budget per row and projected beyond) runs for an hour or more on 2 cores; 1 variant x 2 frames took "
+               "20 minutes (docs/results.md); --quick under 3");
   paper->add_option("--n", pa->n, "Object counts (comma list; default: Table 4's rows 100 ... 1,024,000)")
       ->delimiter(',');
   paper->add_option("--variants", pa->variants, "Variants (seeds) per row")->capture_default_str();

@@ -422,6 +422,15 @@ void run_trace(const TraceOptions& o) {
   std::printf("%s microarchitecture, m = %u, n = %u: %llu sequence cycles\n", hw::design_name(d), o.m, o.n,
               static_cast<unsigned long long>(k.cycles.sequence));
   print_aligned(rows);
+  if (d == Design::ManyObject)
+    std::printf("\nColumns (the paper's Table 3): the address on each group's A port (jA), then the object read\n"
+                "there; the address on each group's B port (jB), then the object read there; last, each\n"
+                "comparator's selector (the B group it reads). An object's mark is the comparator it feeds:\n"
+                "%s; a blank object is past n (no comparison).\n",
+                o.m <= 4 ? "* comparator 0, \u2020 1, \u2021 2, \u00a7 3" : "[c] comparator c");
+  else
+    std::printf("\nColumns (the paper's Table 1): the address on each group's A and B ports (blank: past n),\n"
+                "then each comparison slot 0-s as anchor-partner (blank: no comparison).\n");
 }
 
 // ---------------------------------------------------------------- run
