@@ -4,6 +4,7 @@
 // message naming the offending option, value or limit — never std::bad_alloc,
 // never exit 0 with an empty result.
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -14,6 +15,9 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <map>
+#include <set>
+#include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
@@ -500,6 +504,75 @@ TEST_F(Cli, TracesExplainTheirColumnsAndBenchHelpItsDuration) {
   const Result help = hbp({"bench", "paper", "--help"});
   EXPECT_EQ(help.status, 0) << help.output;
   EXPECT_NE(help.output.find("an hour or more on 2 cores"), std::string::npos) << help.output;
+}
+
+// docs/cli.md's "JSON outputs" lists, per command, the keys at each place
+// ("keys `.rows[]`: `a` `b` ..."); the real outputs have exactly those keys.
+TEST_F(Cli, JsonOutputsHaveTheDocumentedKeys) {
+  std::ifstream doc_file(std::string(HBP_SOURCE_DIR) + "/docs/cli.md");
+  ASSERT_TRUE(doc_file) << "docs/cli.md";
+  std::map<std::string, std::vector<std::pair<std::string, std::set<std::string>>>> documented;  // command -> places
+  std::string line, command;
+  while (std::getline(doc_file, line)) {
+    if (line.rfind("- `hbp ", 0) == 0) command = line.substr(3, line.find('`', 3) - 3);
+    const std::size_t at = line.find("- keys `");
+    if (at == std::string::npos || command.empty()) continue;
+    const std::size_t place_end = line.find('`', at + 8);
+    std::set<std::string> keys;
+    std::istringstream rest(line.substr(line.find(':', place_end) + 1));
+    for (std::string word; rest >> word;) keys.insert(word.substr(1, word.size() - 2));
+    documented[command].push_back({line.substr(at + 8, place_end - at - 8), keys});
+  }
+  const std::string bench_out = path("json-bench");
+  const std::map<std::string, std::vector<std::string>> runs = {
+      {"hbp run --json", {"run", "--n", "3000", "--frames", "2", "--json", "--quiet"}},
+      {"hbp hw asic --json", {"hw", "asic", "--json", "--reports", std::string(HBP_SOURCE_DIR) + "/docs/results/asic"}},
+      {"hbp hw energy --json",
+       {"hw", "energy", "--json", "--n", "3000", "--frames", "1", "--reports",
+        std::string(HBP_SOURCE_DIR) + "/docs/results/asic"}},
+      {"hbp hw run --json", {"hw", "run", "--json", "--n", "200"}},
+      {"hbp hw explore --json", {"hw", "explore", "--json", "--n", "100", "--m", "4"}},
+      {"hbp bench ... --out DIR",
+       {"bench", "paper", "--n", "300", "--frames", "1", "--warmup", "0", "--variants", "1", "--systems", "sw",
+        "--no-plots", "--out", bench_out}},
+  };
+  ASSERT_EQ(documented.size(), runs.size()) << "a documented command without a check, or the reverse";
+  for (const auto& [name, args] : runs) {
+    ASSERT_TRUE(documented.count(name)) << name << " not documented";
+    const Result r = hbp(args);
+    ASSERT_EQ(r.status, 0) << name << ":\n" << r.output;
+    nlohmann::json j;
+    if (name.rfind("hbp bench", 0) == 0) {
+      std::ifstream report(bench_out + "/report.json");
+      report >> j;
+    } else {
+      j = nlohmann::json::parse(r.output);
+    }
+    for (const auto& [place, keys] : documented.at(name)) {
+      // ".", ".a", ".a[]", "[]": the object at that place (the first element of an array).
+      const nlohmann::json* at = &j;
+      std::string rest = place;
+      if (rest.rfind(".", 0) == 0) rest.erase(0, 1);
+      while (!rest.empty()) {
+        if (rest.rfind("[]", 0) == 0) {
+          ASSERT_TRUE(at->is_array() && !at->empty()) << name << " " << place;
+          at = &(*at)[0];
+          rest.erase(0, 2);
+          continue;
+        }
+        const std::size_t end = rest.find_first_of(".[");
+        const std::string key = rest.substr(0, end);
+        ASSERT_TRUE(at->is_object() && at->contains(key)) << name << ": no " << key << " at " << place;
+        at = &(*at)[key];
+        rest.erase(0, end == std::string::npos ? rest.size() : end);
+        if (rest.rfind(".", 0) == 0) rest.erase(0, 1);
+      }
+      ASSERT_TRUE(at->is_object()) << name << " " << place;
+      std::set<std::string> actual;
+      for (const auto& item : at->items()) actual.insert(item.key());
+      EXPECT_EQ(actual, keys) << name << " at " << place;
+    }
+  }
 }
 
 }  // namespace
