@@ -1,7 +1,8 @@
 # ctest driver (cmake -P) of capi_doc_example: the first ```c block of
 # docs/c-api.md is compiled as C99 (warnings as errors) against the shared
 # library and run; its output must equal the doc's ```text block after it.
-# Inputs: HBP_DOC, HBP_C, HBP_INCLUDE, HBP_LIBRARY, HBP_WORK_DIR.
+# Inputs: HBP_DOC, HBP_C, HBP_C_FLAGS (may be empty), HBP_INCLUDE, HBP_LIBRARY,
+# HBP_WORK_DIR.
 file(READ ${HBP_DOC} doc)
 string(FIND "${doc}" "```c\n" start)
 if(start EQUAL -1)
@@ -24,7 +25,7 @@ string(SUBSTRING "${rest}" 0 ${out_end} expected)
 file(REMOVE_RECURSE ${HBP_WORK_DIR})
 file(WRITE ${HBP_WORK_DIR}/example.c "${code}")
 get_filename_component(libdir ${HBP_LIBRARY} DIRECTORY)
-execute_process(COMMAND ${HBP_C} -std=c99 -Wall -Wextra -Werror -pedantic -I${HBP_INCLUDE}
+execute_process(COMMAND ${HBP_C} ${HBP_C_FLAGS} -std=c99 -Wall -Wextra -Werror -pedantic -I${HBP_INCLUDE}
     ${HBP_WORK_DIR}/example.c -o ${HBP_WORK_DIR}/example ${HBP_LIBRARY} -Wl,-rpath,${libdir}
   RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
 if(NOT rc EQUAL 0)
