@@ -24,6 +24,9 @@
 #include "hbp/broad_phase.hpp"
 #include "hbp/error.hpp"
 #include "hbp/hw/hw_cell_engines.hpp"
+#ifdef HBP_HAVE_CUDA
+#include "hbp/cuda/cuda_engines.hpp"
+#endif
 #include "hbp/hybrid_broadphase.hpp"
 
 #ifndef HBP_VERSION
@@ -374,6 +377,9 @@ PYBIND11_MODULE(hybrid_broadphase, m) {
   using namespace hbp::python;
   using hbp::python::PyBroadPhase;
   hbp::hw::register_cell_engines();  // engine='ae', 'mo', 'ae-sim', 'mo-sim'
+#ifdef HBP_HAVE_CUDA
+  hbp::cuda::register_cell_engines();  // engine='cuda' (a CUDA device), 'cuda-host' (its kernel on the CPU)
+#endif
   m.doc() =
       "Hybrid broad-phase collision detection on numpy arrays: find_pairs(boxes) for one frame, "
       "BroadPhase for persistent handles, static objects, pair events, layers and queries. "

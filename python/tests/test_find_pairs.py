@@ -43,6 +43,38 @@ def test_hardware_model_engines_are_registered_at_import(engine):
     check(boxes, engine=engine, threads=1)
 
 
+def _has_engine(name):
+    try:
+        hbp.find_pairs(np.zeros((0, 6), np.float32), engine=name)
+        return True
+    except ValueError:  # unknown engine: the build has no CUDA room
+        return False
+    except RuntimeError:  # known, but no device
+        return True
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_cuda_host_engine_equals_brute_force(threads):
+    if not _has_engine("cuda-host"):
+        pytest.skip("built without the CUDA room (HBP_CUDA)")
+    for seed in range(3):
+        boxes = random_boxes(np.random.default_rng(40 + seed), 700)
+        assert len(check(boxes, engine="cuda-host", threads=threads)) > 50
+    check(np.tile(np.array([[1, 1, 1, 2, 2, 2]], np.float32), (60, 1)), engine="cuda-host")
+
+
+def test_cuda_engine_needs_a_device_or_equals_brute_force():
+    if not _has_engine("cuda"):
+        pytest.skip("built without the CUDA room (HBP_CUDA)")
+    boxes = random_boxes(np.random.default_rng(50), 500)
+    try:
+        got = hbp.find_pairs(boxes, engine="cuda")
+    except RuntimeError as e:  # no GPU here: said so, nothing returned
+        assert "no CUDA device found" in str(e)
+        return
+    np.testing.assert_array_equal(got, brute_pairs(boxes))
+
+
 def test_small_cell_limit_splits_and_stays_exact():
     boxes = random_boxes(np.random.default_rng(8), 500)
     check(boxes, cell_limit=16, threads=2)
