@@ -103,11 +103,7 @@ AxisSweep::AxisSweep(AxisSweep&&) noexcept = default;
 AxisSweep& AxisSweep::operator=(AxisSweep&&) noexcept = default;
 
 const std::vector<Pair>& AxisSweep::update(const Lanes& boxes) {
-  check_object_count(boxes.n);
-  // Host lanes on both launchers: validated here, as the CPU path does.
-  const BoxLanesView b{{boxes.lo[0], boxes.lo[1], boxes.lo[2]}, {boxes.hi[0], boxes.hi[1], boxes.hi[2]}};
-  for (std::uint32_t i = 0; i < boxes.n; ++i)
-    if (const std::uint32_t code = box_defect(b, i)) throw_box_defect(i, code);
+  check_host_lanes(boxes);  // host lanes on both launchers
   impl_->run(boxes);
   return impl_->pairs;
 }

@@ -3,6 +3,7 @@
 
 #include <string>
 
+#include "cuda/frame_bodies.hpp"
 #include "cuda/frame_impl.hpp"
 #include "hbp/error.hpp"
 
@@ -16,6 +17,13 @@ void check_object_count(std::uint32_t n) {
   if (n > kMaxFrameObjects)
     throw InvalidInput("FrameBroadPhase: " + std::to_string(n) + " objects, more than the limit " +
                        std::to_string(kMaxFrameObjects));
+}
+
+void check_host_lanes(const Lanes& boxes) {
+  check_object_count(boxes.n);
+  const BoxLanesView b{{boxes.lo[0], boxes.lo[1], boxes.lo[2]}, {boxes.hi[0], boxes.hi[1], boxes.hi[2]}};
+  for (std::uint32_t i = 0; i < boxes.n; ++i)
+    if (const std::uint32_t code = box_defect(b, i)) throw_box_defect(i, code);
 }
 
 void throw_box_defect(std::uint32_t i, std::uint32_t code) {

@@ -36,6 +36,10 @@ inline constexpr std::uint32_t kMaxFrameObjects = 1u << 28;
 
 // InvalidInput for more than kMaxFrameObjects objects.
 void check_object_count(std::uint32_t n);
+// The peers' check of host lanes before either launcher runs (the frame
+// validates in its bounds pass instead): the object count, then the first
+// defective box named (box_defect), as the CPU path does.
+void check_host_lanes(const Lanes& boxes);
 // InvalidInput naming object i and its defect (box_defect's code).
 [[noreturn]] void throw_box_defect(std::uint32_t i, std::uint32_t code);
 // CapacityExceeded: the frame has `total` pairs, more than max_pairs.
