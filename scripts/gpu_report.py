@@ -143,6 +143,7 @@ def main():
             continue
         kind, n = scene_of(c["name"])
         g = next((r for r in runs if r.get("system") == "frame" and r.get("order", "").startswith("sorted")
+                  and r.get("sweep", "per-reference") == "per-reference"
                   and r.get("kind") == kind and r.get("objects") == n), None)
         if not g or not g.get("median_frame_ms"):
             continue
@@ -158,6 +159,7 @@ def main():
     peer = next((r for r in runs if r["name"] == "axis-sweep-paper-1024000"), None)
     lbvh = next((r for r in runs if r["name"] == "lbvh-paper-1024000"), None)
     cells = next((c for c in cpu_runs if c["name"] == "paper-1024000-cuda-cells"), None)
+    blocks = next((r for r in runs if r["name"] == "paper-1024000-block-per-cell"), None)
 
     report = {
         "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
@@ -198,6 +200,9 @@ def main():
         if lbvh and lbvh.get("median_frame_ms"):
             block["lbvh_ms"] = lbvh["median_frame_ms"]
             block["lbvh_over_frame"] = lbvh["median_frame_ms"] / paper["median_frame_ms"]
+        if blocks and blocks.get("median_frame_ms"):
+            block["block_per_cell_ms"] = blocks["median_frame_ms"]
+            block["block_per_cell_over_frame"] = blocks["median_frame_ms"] / paper["median_frame_ms"]
         cpu = next((c for c in comparisons if c["scene"] == "paper" and c["objects"] == 1024000), None)
         if cpu:
             block["cpu_sw_ms"] = cpu["cpu_median_ms"]
@@ -219,7 +224,7 @@ def main():
            f"- gpu-labelled tests (tools/gpu build): exit {a.tests_rc}; frame: {report['gpu_tests']['summary']}; "
            f"peers: {report['gpu_tests']['peers_summary']}",
            f"- device tests of the main build (the `cuda` cell engine too): {report['engine_tests']['summary']}", ""]
-    cols = [("objects", "objects", "{:.0f}"), ("order", "order", "{}"), ("reserve", "reserve_ms", "{:.1f}"),
+    cols = [("objects", "objects", "{:.0f}"), ("order", "order", "{}"), ("sweep", "sweep", "{}"), ("reserve", "reserve_ms", "{:.1f}"),
             ("first frame", "first_frame", "{}"), ("first", "first_frame_ms", "{:.3f}"),
             ("median", "median_frame_ms", "{:.3f}"), ("p99", "p99_frame_ms", "{:.3f}"),
             ("worst", "worst_frame_ms", "{:.3f}"), ("upload", "median_upload_ms", "{:.3f}"),
@@ -269,6 +274,9 @@ def main():
                f"| our GPU frame ({gpu}, device time) | {p['frame_ms']:.3f} | 1 |",
                f"| our GPU frame with host transfers | {p['with_transfers_ms']:.3f} | "
                f"{p['with_transfers_ms'] / p['frame_ms']:.2f} |"]
+        if "block_per_cell_ms" in p:
+            md.append(f"| our GPU frame, the paper's block per cell (same run) | {p['block_per_cell_ms']:.3f} | "
+                      f"{p['block_per_cell_over_frame']:.2f} |")
         if "axis_sweep_ms" in p:
             md.append(f"| our GPU one-axis sort and sweep (same run) | {p['axis_sweep_ms']:.3f} | "
                       f"{p['axis_sweep_over_frame']:.1f} |")

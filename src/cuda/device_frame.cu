@@ -217,9 +217,17 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
                       sorted_ids,
                       positions_.as<std::uint32_t>()};
     std::uint64_t* counts = counts_.as<std::uint64_t>();
-    launch_cell_rows(g, s, bits, cell_begin_.as<std::uint32_t>(), cell_ids_.as<std::uint32_t>(),
-                     regions_.as<CellRegion>(), cells_.as<std::uint32_t>(), max_cells, big_cells_.as<std::uint32_t>(),
-                     counts, nullptr, nullptr, stream_);
+    const auto rows = [&](std::uint64_t* row_counts, const std::uint64_t* row_offsets, std::uint32_t* row_out) {
+      if (options.sweep == CellSweep::PerReference)
+        launch_reference_rows(g, s, bits, head_scan_.as<std::uint32_t>() + 1, cell_begin_.as<std::uint32_t>(),
+                              cell_ids_.as<std::uint32_t>(), regions_.as<CellRegion>(), refs, row_counts, row_offsets,
+                              row_out, stream_);
+      else
+        launch_cell_rows(g, s, bits, cell_begin_.as<std::uint32_t>(), cell_ids_.as<std::uint32_t>(),
+                         regions_.as<CellRegion>(), cells_.as<std::uint32_t>(), max_cells,
+                         big_cells_.as<std::uint32_t>(), row_counts, row_offsets, row_out, stream_);
+    };
+    rows(counts, nullptr, nullptr);
     launch_large_rows(b, n, is_large_.as<std::uint32_t>(), large_list_.as<std::uint32_t>(), large, chunk,
                       counts + refs, nullptr, nullptr, stream_);
     scan(counts, offsets_.as<std::uint64_t>(), slots);
@@ -236,9 +244,7 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     size_pairs(total);
     std::uint32_t* out = pair_out_.as<std::uint32_t>();
     const std::uint64_t* offsets = offsets_.as<std::uint64_t>();
-    launch_cell_rows(g, s, bits, cell_begin_.as<std::uint32_t>(), cell_ids_.as<std::uint32_t>(),
-                     regions_.as<CellRegion>(), cells_.as<std::uint32_t>(), max_cells, big_cells_.as<std::uint32_t>(),
-                     nullptr, offsets, out, stream_);
+    rows(nullptr, offsets, out);
     launch_large_rows(b, n, is_large_.as<std::uint32_t>(), large_list_.as<std::uint32_t>(), large, chunk, nullptr,
                       offsets + refs, out, stream_);
     record(kFilled);

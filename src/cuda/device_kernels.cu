@@ -31,15 +31,24 @@ __global__ void bounds_kernel(BoxLanesView b, std::uint32_t n, std::uint32_t* ac
   for (std::uint32_t t = threadIdx.x; t < 3 * kExtentBins; t += blockDim.x) extents[t] = 0;
   __syncthreads();
   std::uint32_t lo[3] = {~0u, ~0u, ~0u}, hi[3] = {0, 0, 0}, bad = n;
-  for (std::uint32_t i = blockIdx.x * blockDim.x + threadIdx.x; i < n; i += gridDim.x * blockDim.x) {
-    if (box_defect(b, i)) {
-      bad = min(bad, i);
-      continue;
-    }
+  // Warp-uniform steps (the stride is a multiple of 32), so a histogram bin
+  // takes one atomic per warp and distinct bin: in most scenes nearly every
+  // box has the same extents, and one atomic per box would serialise on it.
+  const std::uint32_t lane = threadIdx.x & 31u;
+  for (std::uint32_t w = blockIdx.x * blockDim.x + (threadIdx.x & ~31u); w < n; w += gridDim.x * blockDim.x) {
+    const std::uint32_t i = w + lane;
+    const bool valid = i < n && !box_defect(b, i);
+    if (i < n && !valid) bad = min(bad, i);
     for (int k = 0; k < 3; ++k) {
-      lo[k] = min(lo[k], ordered_bits(b.lo[k][i]));
-      hi[k] = max(hi[k], ordered_bits(b.hi[k][i]));
-      atomicAdd(extents + k * kExtentBins + extent_bin(b.lo[k][i], b.hi[k][i]), 1u);
+      std::uint32_t bin = kExtentBins;  // none
+      if (valid) {
+        lo[k] = min(lo[k], ordered_bits(b.lo[k][i]));
+        hi[k] = max(hi[k], ordered_bits(b.hi[k][i]));
+        bin = extent_bin(b.lo[k][i], b.hi[k][i]);
+      }
+      const unsigned same = __match_any_sync(0xffffffffu, bin);
+      if (bin != kExtentBins && lane == static_cast<std::uint32_t>(__ffs(same) - 1))
+        atomicAdd(extents + k * kExtentBins + bin, static_cast<std::uint32_t>(__popc(same)));
     }
   }
   for (int k = 0; k < 3; ++k) {
@@ -123,6 +132,31 @@ __global__ void cells_kernel(GridView g, const std::uint32_t* keys, int bits, co
   if (r + 1 == refs) {
     cell_begin[head_scan[r]] = refs;
     *cells = head_scan[r];
+  }
+}
+
+// The rows with a thread per reference (CellSweep::PerReference): row r of
+// its cell read straight from the sorted lanes. Neighbouring threads sweep
+// neighbouring rows, so their candidates come from the same cache lines, and
+// no block is tied to a cell: a dense cell's rows spread over every SM and a
+// small cell leaves no lane idle. cell_of[r] is 1 + the index of r's cell.
+__global__ void reference_rows_kernel(GridView g, CellLanes s, int bits, const std::uint32_t* cell_of,
+                                      const std::uint32_t* cell_begin, const std::uint32_t* cell_ids,
+                                      const CellRegion* regions, std::uint32_t refs, std::uint64_t* counts,
+                                      const std::uint64_t* offsets, std::uint32_t* out) {
+  const std::uint32_t r = blockIdx.x * blockDim.x + threadIdx.x;
+  if (r >= refs) return;
+  const std::uint32_t c = cell_of[r] - 1;
+  const std::uint32_t end = cell_begin[c + 1];
+  const std::uint32_t stop = row_stop(g, cell_ids[c], s.hi[0][r], bits);
+  const CellRegion region = regions[c];
+  if (!out) {
+    counts[r] = cell_row(s, r, end, region, stop, [](std::uint32_t, std::uint32_t, std::uint32_t) {});
+  } else {
+    uint2* row = reinterpret_cast<uint2*>(out) + offsets[r];
+    cell_row(s, r, end, region, stop, [row](std::uint32_t k, std::uint32_t a, std::uint32_t b) {
+      row[k] = a < b ? make_uint2(a, b) : make_uint2(b, a);
+    });
   }
 }
 
@@ -381,6 +415,16 @@ void launch_cell_rows(const GridView& g, const CellLanes& sorted, int bits, cons
   big_cell_rows_kernel<<<blocks < kBigCellBlocks ? blocks : kBigCellBlocks, kBigLanes, 0, s>>>(
       g, sorted, bits, cell_begin, cell_ids, regions, big_cells, counts, offsets, out);
   check_cuda(cudaGetLastError(), "big cell rows kernel");
+}
+
+void launch_reference_rows(const GridView& g, const CellLanes& sorted, int bits, const std::uint32_t* cell_of,
+                           const std::uint32_t* cell_begin, const std::uint32_t* cell_ids, const CellRegion* regions,
+                           std::uint32_t refs, std::uint64_t* counts, const std::uint64_t* offsets, std::uint32_t* out,
+                           cudaStream_t s) {
+  if (!refs) return;
+  reference_rows_kernel<<<grid_for(refs), kThreads, 0, s>>>(g, sorted, bits, cell_of, cell_begin, cell_ids, regions,
+                                                            refs, counts, offsets, out);
+  check_cuda(cudaGetLastError(), "reference rows kernel");
 }
 
 void launch_sorted_cell_rows(const SortedLanes& sorted, std::uint32_t size, const CellRegion& region,

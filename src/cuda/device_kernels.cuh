@@ -62,6 +62,12 @@ void launch_cell_rows(const GridView& g, const CellLanes& sorted, int bits, cons
                       const std::uint32_t* cell_ids, const CellRegion* regions, const std::uint32_t* cells,
                       std::uint32_t blocks, std::uint32_t* big_cells, std::uint64_t* counts,
                       const std::uint64_t* offsets, std::uint32_t* out, cudaStream_t s);
+// The same rows with a thread per reference (refs threads); cell_of[r] is 1
+// + the index of reference r's cell (the inclusive scan of the cell heads).
+void launch_reference_rows(const GridView& g, const CellLanes& sorted, int bits, const std::uint32_t* cell_of,
+                           const std::uint32_t* cell_begin, const std::uint32_t* cell_ids, const CellRegion* regions,
+                           std::uint32_t refs, std::uint64_t* counts, const std::uint64_t* offsets, std::uint32_t* out,
+                           cudaStream_t s);
 // One cell of `size` boxes sorted by exact min x (the "cuda" cell engine),
 // swept by one block with sweep_row; counts and pairs as above.
 void launch_sorted_cell_rows(const SortedLanes& sorted, std::uint32_t size, const CellRegion& region,

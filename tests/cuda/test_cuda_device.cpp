@@ -44,29 +44,38 @@ using cuda_test::lanes_of;
 const ScenarioKind kKinds[] = {ScenarioKind::Paper, ScenarioKind::Clustered, ScenarioKind::Flat, ScenarioKind::Huge,
                                ScenarioKind::Degenerate};
 
-cuda::FrameBroadPhase frame(cuda::Launcher launcher, bool sorted = true, std::uint64_t max_pairs = 0) {
+cuda::FrameBroadPhase frame(cuda::Launcher launcher, bool sorted = true, std::uint64_t max_pairs = 0,
+                            cuda::CellSweep sweep = cuda::CellSweep::PerReference) {
   cuda::FrameOptions o;
   o.launcher = launcher;
   o.threads = std::max(2u, std::thread::hardware_concurrency());  // the CPU launcher is the reference
   o.sorted = sorted;
   o.max_pairs = max_pairs;
+  o.sweep = sweep;
   return cuda::FrameBroadPhase(o);
 }
 
+// Both device sweeps (a thread per reference, a block per cell) give the CPU
+// launcher's list, in its order, every frame.
 void expect_device_matches(const std::vector<BoxArray>& frames, const std::string& what, bool oracle) {
   for (bool sorted : {true, false}) {
-    auto device = frame(cuda::Launcher::Device, sorted);
     auto host = frame(cuda::Launcher::Host, sorted);
+    auto per_reference = frame(cuda::Launcher::Device, sorted, 0, cuda::CellSweep::PerReference);
+    auto block_per_cell = frame(cuda::Launcher::Device, sorted, 0, cuda::CellSweep::BlockPerCell);
     for (std::size_t f = 0; f < frames.size(); ++f) {
       const std::vector<Pair> expected = host.update(lanes_of(frames[f]));
-      ASSERT_EQ(device.update(lanes_of(frames[f])), expected) << what << " frame " << f << " sorted " << sorted;
       if (oracle && sorted) {
         ASSERT_EQ(expected, cuda_test::all_pairs(frames[f])) << what << " frame " << f;
       }
-      EXPECT_EQ(device.info().cells, host.info().cells);
-      EXPECT_EQ(device.info().large, host.info().large);
-      if (f > 0) {
-        EXPECT_EQ(device.info().allocations, 0u) << what << " frame " << f << ": a steady frame allocated";
+      for (cuda::FrameBroadPhase* device : {&per_reference, &block_per_cell}) {
+        const char* sweep = device == &per_reference ? "per reference" : "block per cell";
+        ASSERT_EQ(device->update(lanes_of(frames[f])), expected)
+            << what << " frame " << f << " sorted " << sorted << " sweep " << sweep;
+        EXPECT_EQ(device->info().cells, host.info().cells);
+        EXPECT_EQ(device->info().large, host.info().large);
+        if (f > 0) {
+          EXPECT_EQ(device->info().allocations, 0u) << what << " frame " << f << " " << sweep << ": a steady frame allocated";
+        }
       }
     }
   }

@@ -43,6 +43,7 @@ struct Args {
   bool reserve = true;  // FrameBroadPhase::reserve before frame 0 (--no-reserve: a cold first frame)
   unsigned threads = std::max(1u, std::thread::hardware_concurrency());
   std::uint32_t boxes_per_cell = hbp::cuda::FrameOptions{}.boxes_per_cell;
+  hbp::cuda::CellSweep sweep = hbp::cuda::FrameOptions{}.sweep;
   double sustain_s = 0;  // --sustain S: device-entry frames back to back for S seconds
   std::string json;
 };
@@ -52,7 +53,8 @@ struct Args {
                "usage: hbp-gpu-bench [--system frame|axis-sweep|lbvh] [--kind paper|clustered|flat|huge|degenerate]\n"
                "                     [--n N] [--frames F]\n"
                "                     [--check-every K] [--launcher device|host] [--unsorted] [--no-reserve] [--threads T]\n"
-               "                     [--boxes-per-cell B] [--sustain SECONDS] [--json FILE]\n");
+               "                     [--boxes-per-cell B] [--sweep per-reference|block-per-cell] [--sustain SECONDS]\n"
+               "                     [--json FILE]\n");
   std::exit(2);
 }
 
@@ -78,6 +80,12 @@ Args parse(int argc, char** argv) {
     else if (k == "--unsorted") a.sorted = false;
     else if (k == "--no-reserve") a.reserve = false;
     else if (k == "--boxes-per-cell") a.boxes_per_cell = static_cast<std::uint32_t>(std::stoul(value()));
+    else if (k == "--sweep") {
+      const std::string sweep = value();
+      if (sweep == "per-reference") a.sweep = hbp::cuda::CellSweep::PerReference;
+      else if (sweep == "block-per-cell") a.sweep = hbp::cuda::CellSweep::BlockPerCell;
+      else usage();
+    }
     else if (k == "--sustain") a.sustain_s = std::stod(value());
     else if (k == "--json") a.json = value();
     else usage();
@@ -197,6 +205,7 @@ int main(int argc, char** argv) {
     hbp::cuda::FrameOptions o;
     o.sorted = args.sorted;
     o.boxes_per_cell = args.boxes_per_cell;
+    o.sweep = args.sweep;
     o.threads = args.threads;
     o.launcher = args.host ? hbp::cuda::Launcher::Host : hbp::cuda::Launcher::Device;
     hbp::cuda::FrameBroadPhase frame(o);
@@ -275,6 +284,7 @@ int main(int argc, char** argv) {
     str("device", args.host ? "" : hbp::cuda::device_name());
     str("kind", args.kind);
     str("order", args.sorted ? "sorted by (a, b)" : "frame order");
+    str("sweep", args.sweep == hbp::cuda::CellSweep::PerReference ? "per-reference" : "block-per-cell");
     num("objects", args.n);
     num("frames", args.frames);
     num("host_threads", args.threads);

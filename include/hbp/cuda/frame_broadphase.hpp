@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: MIT
 #pragma once
 // The whole broad-phase frame as GPU kernels (docs/gpu.md): a sort-based
-// uniform grid kept across frames, the accelerator's sweep with a thread
-// block per cell, the CPU's ownership rule for de-duplication, and a
+// uniform grid kept across frames, the accelerator's sweep (a thread per
+// cell reference, or the paper's block per cell: CellSweep), the CPU's ownership rule for de-duplication, and a
 // compacted pair list sized by counting (count, scan, fill), so no pair is
 // ever dropped. The same kernel bodies run on the CPU (Launcher::Host, the
 // "cuda-host" path tested against the brute-force oracle) or on a CUDA device
@@ -24,12 +24,26 @@ namespace hbp::cuda {
 
 enum class Launcher { Host, Device };
 
+// How the device runs the accelerator's rows (the sweep of each reference
+// against the later ones in its cell). Both give the same pairs in the same
+// order; the host launcher runs each cell's rows on one CPU thread either way.
+enum class CellSweep {
+  // A thread per reference, reading its cell from the sorted lanes: no lane
+  // idles on a small cell and a dense cell's rows spread over every SM.
+  PerReference,
+  // The paper's accelerator: a thread block per cell, the cell's boxes copied
+  // into shared memory (the buffer memories), a lane per row; cells over
+  // 256 boxes go to a fixed grid of larger blocks.
+  BlockPerCell,
+};
+
 struct FrameOptions {
   Launcher launcher = Launcher::Host;
   unsigned threads = 1;            // Host: CPU threads running the blocks (>= 1)
   bool sorted = true;              // pairs ordered by (a, b)
   std::uint64_t max_pairs = 0;     // 0: unlimited; else CapacityExceeded beyond
   std::uint32_t boxes_per_cell = 16;  // the grid's target occupancy (>= 1)
+  CellSweep sweep = CellSweep::PerReference;  // Device: how the rows run
 };
 
 // Boxes as six float lanes (min x/y/z, max x/y/z) of n objects: host memory
