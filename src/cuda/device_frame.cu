@@ -144,7 +144,8 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     check_cuda(cudaMemcpyAsync(acc_.as<std::uint32_t>(), words, kBoundsWords * sizeof(std::uint32_t),
                                cudaMemcpyHostToDevice, stream_),
                "bounds init");
-    if (n) launch_bounds(b, n, acc_.as<std::uint32_t>(), stream_);
+    size_objects(n);
+    if (n) launch_bounds(b, n, acc_.as<std::uint32_t>(), stream_, packed_.as<float>());
     check_cuda(cudaMemcpyAsync(words, acc_.as<std::uint32_t>(), kBoundsWords * sizeof(std::uint32_t),
                                cudaMemcpyDeviceToHost, stream_),
                "bounds read-back");
@@ -170,7 +171,6 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     record(kBounds);
 
     // References: count, scan, emit.
-    size_objects(n);
     launch_reference_count(g, b, n, ref_count_.as<std::uint32_t>(), is_large_.as<std::uint32_t>(), stream_);
     scan(ref_count_.as<std::uint32_t>(), ref_offset_.as<std::uint32_t>(), n);
     scan(is_large_.as<std::uint32_t>(), large_offset_.as<std::uint32_t>(), n);
@@ -198,10 +198,11 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     std::uint32_t* sorted_keys = nullptr;
     std::uint32_t* sorted_ids = nullptr;
     if (sort_pairs(keys_.as<std::uint32_t>(), keys_alt_.as<std::uint32_t>(), ids_.as<std::uint32_t>(),
-                   ids_alt_.as<std::uint32_t>(), refs, 32, temp_, &sorted_keys, &sorted_ids, stream_))
+                   ids_alt_.as<std::uint32_t>(), refs, key_bits(grid_.cells()), temp_, &sorted_keys, &sorted_ids,
+                   stream_))
       ++info.allocations;
     check_cuda(cudaMemsetAsync(cells_.as<std::uint32_t>(), 0, 4, stream_), "cells");
-    launch_gather_cells(b, sorted_keys, sorted_ids, refs, bits, lanes_.as<float>(), positions_.as<std::uint32_t>(),
+    launch_gather_cells(packed_.as<float>(), sorted_keys, sorted_ids, refs, bits, lanes_.as<float>(), positions_.as<std::uint32_t>(),
                         head_.as<std::uint32_t>(), stream_);
     scan(head_.as<std::uint32_t>(), head_scan_.as<std::uint32_t>(), refs);
     // The scan is written to out[1..refs]: the cells kernel reads it from there.
@@ -263,6 +264,7 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
   // an estimate before the first frame, the frames from their counts.
   void size_uploads(std::uint32_t n) { reserve(boxes_, std::size_t{6} * n * sizeof(float)); }
   void size_objects(std::uint32_t n) {
+    reserve(packed_, std::size_t{6} * n * sizeof(float));
     for (DeviceBuffer* d : {&ref_count_, &is_large_, &ref_offset_, &large_offset_}) reserve(*d, (std::size_t{n} + 1) * 4);
   }
   void size_references(std::uint32_t refs, std::uint32_t large, std::uint32_t max_cells, std::uint64_t slots) {
@@ -319,7 +321,7 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     t.download_ms = transfers ? between(kOrdered, kDownloaded) : 0;
     t.frame_ms = between(kUploaded, kOrdered);
     std::size_t held = 0;
-    for (const DeviceBuffer* d : {&boxes_, &acc_, &planes_, &ref_count_, &is_large_, &ref_offset_, &large_offset_,
+    for (const DeviceBuffer* d : {&boxes_, &packed_, &acc_, &planes_, &ref_count_, &is_large_, &ref_offset_, &large_offset_,
                                   &keys_, &keys_alt_, &ids_, &ids_alt_, &large_list_, &lanes_, &positions_, &head_,
                                   &head_scan_, &cell_begin_, &cell_ids_, &big_cells_, &regions_, &cells_, &counts_, &offsets_, &pair_out_, &pair_keys_,
                                   &pair_keys_alt_, &temp_})
@@ -333,7 +335,7 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
   cudaStream_t stream_ = nullptr;
   cudaEvent_t events_[kStages] = {};
   std::uint64_t* pinned_ = nullptr;
-  DeviceBuffer boxes_, acc_, planes_, ref_count_, is_large_, ref_offset_, large_offset_, keys_, keys_alt_, ids_,
+  DeviceBuffer boxes_, packed_, acc_, planes_, ref_count_, is_large_, ref_offset_, large_offset_, keys_, keys_alt_, ids_,
       ids_alt_, large_list_, lanes_, positions_, head_, head_scan_, cell_begin_, cell_ids_, big_cells_, regions_, cells_,
       counts_, offsets_, pair_out_, pair_keys_, pair_keys_alt_, temp_;
 };

@@ -23,10 +23,10 @@ __device__ std::uint32_t warp_max(std::uint32_t v) {
   return v;
 }
 
-// Grid-stride; each thread folds its boxes, each warp folds its threads, lane
-// 0 folds into acc with atomics (min/max commute: the result is exact and
-// independent of order).
-__global__ void bounds_kernel(BoxLanesView b, std::uint32_t n, std::uint32_t* acc) {
+// Grid-stride; each thread folds its boxes, each warp its threads, each
+// block its warps, and the block folds into acc with atomics (min/max and
+// counts commute: the result is exact and independent of order).
+__global__ void bounds_kernel(BoxLanesView b, std::uint32_t n, std::uint32_t* acc, float* packed) {
   __shared__ std::uint32_t extents[3 * kExtentBins];
   for (std::uint32_t t = threadIdx.x; t < 3 * kExtentBins; t += blockDim.x) extents[t] = 0;
   __syncthreads();
@@ -39,6 +39,12 @@ __global__ void bounds_kernel(BoxLanesView b, std::uint32_t n, std::uint32_t* ac
     const std::uint32_t i = w + lane;
     const bool valid = i < n && !box_defect(b, i);
     if (i < n && !valid) bad = min(bad, i);
+    if (packed && i < n) {
+      float2* box = reinterpret_cast<float2*>(packed + std::size_t{6} * i);
+      box[0] = make_float2(b.lo[0][i], b.lo[1][i]);
+      box[1] = make_float2(b.lo[2][i], b.hi[0][i]);
+      box[2] = make_float2(b.hi[1][i], b.hi[2][i]);
+    }
     for (int k = 0; k < 3; ++k) {
       std::uint32_t bin = kExtentBins;  // none
       if (valid) {
@@ -51,19 +57,27 @@ __global__ void bounds_kernel(BoxLanesView b, std::uint32_t n, std::uint32_t* ac
         atomicAdd(extents + k * kExtentBins + bin, static_cast<std::uint32_t>(__popc(same)));
     }
   }
+  // Warps fold into the block's words, the block into acc: one global
+  // atomic per block and word (per warp, they serialise on seven addresses).
+  __shared__ std::uint32_t folded[7];
+  if (threadIdx.x < 7) folded[threadIdx.x] = threadIdx.x < 3 ? ~0u : threadIdx.x < 6 ? 0u : n;
+  __syncthreads();
   for (int k = 0; k < 3; ++k) {
     lo[k] = warp_min(lo[k]);
     hi[k] = warp_max(hi[k]);
   }
   bad = warp_min(bad);
-  if ((threadIdx.x & 31u) == 0) {
+  if (lane == 0) {
     for (int k = 0; k < 3; ++k) {
-      atomicMin(acc + k, lo[k]);
-      atomicMax(acc + 3 + k, hi[k]);
+      atomicMin(folded + k, lo[k]);
+      atomicMax(folded + 3 + k, hi[k]);
     }
-    atomicMin(acc + 6, bad);
+    atomicMin(folded + 6, bad);
   }
   __syncthreads();
+  if (threadIdx.x < 3) atomicMin(acc + threadIdx.x, folded[threadIdx.x]);
+  else if (threadIdx.x < 6) atomicMax(acc + threadIdx.x, folded[threadIdx.x]);
+  else if (threadIdx.x == 6 && folded[6] < n) atomicMin(acc + 6, folded[6]);
   for (std::uint32_t t = threadIdx.x; t < 3 * kExtentBins; t += blockDim.x)
     if (extents[t]) atomicAdd(acc + kBoundsExtents + t, extents[t]);
 }
@@ -102,16 +116,17 @@ __global__ void gather_kernel(BoxLanesView b, const std::uint64_t* keys, const s
 
 // The frame's gather: sorted lanes, positions (the keys' low bits), and
 // head[r] = 1 where a cell starts.
-__global__ void gather_cells_kernel(BoxLanesView b, const std::uint32_t* keys, const std::uint32_t* ids,
+__global__ void gather_cells_kernel(const float* packed, const std::uint32_t* keys, const std::uint32_t* ids,
                                     std::uint32_t refs, int bits, float* lanes, std::uint32_t* positions,
                                     std::uint32_t* head) {
   const std::uint32_t r = blockIdx.x * blockDim.x + threadIdx.x;
   if (r >= refs) return;
-  const std::uint32_t i = ids[r];
-  for (int k = 0; k < 3; ++k) {
-    lanes[static_cast<std::size_t>(k) * refs + r] = b.lo[k][i];
-    lanes[static_cast<std::size_t>(3 + k) * refs + r] = b.hi[k][i];
-  }
+  // One box's six floats are 24 adjacent bytes of `packed`: a random gather
+  // touches one or two sectors, where the six lanes would take six.
+  const float2* box = reinterpret_cast<const float2*>(packed + std::size_t{6} * ids[r]);
+  const float2 v0 = box[0], v1 = box[1], v2 = box[2];
+  const float v[6] = {v0.x, v0.y, v1.x, v1.y, v2.x, v2.y};
+  for (int l = 0; l < 6; ++l) lanes[static_cast<std::size_t>(l) * refs + r] = v[l];
   const std::uint32_t key = keys[r];
   positions[r] = key & static_cast<std::uint32_t>((std::uint64_t{1} << bits) - 1);
   head[r] = r == 0 || (key >> bits) != (keys[r - 1] >> bits);
@@ -359,8 +374,8 @@ __global__ void scene_rows_kernel(SortedLanes sorted, std::uint32_t n, std::uint
 
 }  // namespace
 
-void launch_bounds(const BoxLanesView& b, std::uint32_t n, std::uint32_t* acc, cudaStream_t s) {
-  bounds_kernel<<<blocks_for(n) < 1024 ? blocks_for(n) : 1024, kThreads, 0, s>>>(b, n, acc);
+void launch_bounds(const BoxLanesView& b, std::uint32_t n, std::uint32_t* acc, cudaStream_t s, float* packed) {
+  bounds_kernel<<<blocks_for(n) < 1024 ? blocks_for(n) : 1024, kThreads, 0, s>>>(b, n, acc, packed);
   check_cuda(cudaGetLastError(), "bounds kernel");
 }
 
@@ -387,10 +402,10 @@ void launch_gather(const BoxLanesView& b, const std::uint64_t* keys, const std::
   check_cuda(cudaGetLastError(), "gather kernel");
 }
 
-void launch_gather_cells(const BoxLanesView& b, const std::uint32_t* keys, const std::uint32_t* ids, std::uint32_t refs,
+void launch_gather_cells(const float* packed, const std::uint32_t* keys, const std::uint32_t* ids, std::uint32_t refs,
                          int bits, float* lanes, std::uint32_t* positions, std::uint32_t* head, cudaStream_t s) {
   if (!refs) return;
-  gather_cells_kernel<<<grid_for(refs), kThreads, 0, s>>>(b, keys, ids, refs, bits, lanes, positions, head);
+  gather_cells_kernel<<<grid_for(refs), kThreads, 0, s>>>(packed, keys, ids, refs, bits, lanes, positions, head);
   check_cuda(cudaGetLastError(), "gather cells kernel");
 }
 

@@ -29,10 +29,12 @@ inline constexpr std::uint32_t kBigCellBlocks = 264;
 // acc[0..2] ordered min of lo, acc[3..5] ordered max of hi, acc[6] the first
 // defective object (n when none), from acc[kBoundsExtents] the extent
 // histogram (ExtentHistogram's layout, 3 * kExtentBins counts); acc must hold
-// {~0 x3, 0 x3, n} and zero counts before.
+// {~0 x3, 0 x3, n} and zero counts before. With `packed` (6 n floats), box i
+// is also written to packed[6 i ..] as min x, y, z, max x, y, z.
 inline constexpr std::uint32_t kBoundsExtents = 8;
 inline constexpr std::uint32_t kBoundsWords = kBoundsExtents + 3 * kExtentBins;
-void launch_bounds(const BoxLanesView& b, std::uint32_t n, std::uint32_t* acc, cudaStream_t s);
+void launch_bounds(const BoxLanesView& b, std::uint32_t n, std::uint32_t* acc, cudaStream_t s,
+                   float* packed = nullptr);
 void launch_reference_count(const GridView& g, const BoxLanesView& b, std::uint32_t n, std::uint32_t* count,
                             std::uint32_t* is_large, cudaStream_t s);
 // ref_offset / large_offset: exclusive offsets (n + 1 entries).
@@ -45,8 +47,8 @@ void launch_emit(const GridView& g, const BoxLanesView& b, std::uint32_t n, int 
 void launch_gather(const BoxLanesView& b, const std::uint64_t* keys, const std::uint32_t* ids, std::uint32_t refs,
                    float* lanes, std::uint32_t* head, cudaStream_t s);
 // The frame's gather: sorted lanes and positions from the sorted keys and
-// ids; head[r] = 1 where a cell starts.
-void launch_gather_cells(const BoxLanesView& b, const std::uint32_t* keys, const std::uint32_t* ids, std::uint32_t refs,
+// ids and the boxes packed by launch_bounds; head[r] = 1 where a cell starts.
+void launch_gather_cells(const float* packed, const std::uint32_t* keys, const std::uint32_t* ids, std::uint32_t refs,
                          int bits, float* lanes, std::uint32_t* positions, std::uint32_t* head, cudaStream_t s);
 // From the inclusive scan of head: cell_begin (cells + 1), cell ids,
 // regions, *cells.

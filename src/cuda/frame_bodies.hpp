@@ -135,16 +135,25 @@ HBP_HOST_DEVICE inline std::uint32_t ordered_bits(float f) {
   return (u & 0x80000000u) ? ~u : (u | 0x80000000u);
 }
 
-// A reference's sort key is 32 bits: its cell id above position_bits bits
-// of where its box's min x lies in the cell's x slab. The sweep needs its
-// cell's boxes ordered by min x only up to a monotone map (cell_row), and a
-// quantised position is one: half the key of (cell, exact min x), so the
-// sort moves half the bytes in half the passes.
-HBP_HOST_DEVICE inline int position_bits(std::uint32_t cells) {
+// A reference's sort key is its cell id above position_bits bits of where
+// its box's min x lies in the cell's x slab, key_bits in all (at most 32).
+// The sweep needs its cell's boxes ordered by min x only up to a monotone
+// map (cell_row), and a quantised position is one: half the key of (cell,
+// exact min x), so the sort moves half the bytes. The key is as short as a
+// whole number of bytes allows with at least kMinPositionBits of position
+// (the device's radix sort takes a pass per byte): a coarser position only
+// ties more boxes, which the sweep then tests on x itself.
+inline constexpr int kMinPositionBits = 6;
+HBP_HOST_DEVICE inline int cell_id_bits(std::uint32_t cells) {
   int bits = 1;
   while ((std::uint64_t{1} << bits) < cells) ++bits;
-  return 32 - bits;
+  return bits;
 }
+HBP_HOST_DEVICE inline int key_bits(std::uint32_t cells) {
+  const int bytes = (cell_id_bits(cells) + kMinPositionBits + 7) / 8;
+  return bytes >= 4 ? 32 : 8 * bytes;
+}
+HBP_HOST_DEVICE inline int position_bits(std::uint32_t cells) { return key_bits(cells) - cell_id_bits(cells); }
 
 // floor((x - lo) / (hi - lo) * 2^bits), clamped to [0, 2^bits - 1] (0 for
 // an empty or unbounded slab): non-decreasing in x, as each IEEE operation

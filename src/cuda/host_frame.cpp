@@ -111,7 +111,7 @@ class HostFrame final : public FrameBroadPhase::Impl {
 
     // Sort by key (cell, position of min x), gather the sorted lanes and
     // positions, find the cells.
-    radix_sort(keys_, key_scratch_, &ids_, &id_scratch_, 32);
+    radix_sort(keys_, key_scratch_, &ids_, &id_scratch_, key_bits(grid_.cells()));
     for (auto* lane : {&s_lo_[0], &s_lo_[1], &s_lo_[2], &s_hi_[0], &s_hi_[1], &s_hi_[2]}) grow(*lane, refs);
     grow(positions_, refs);
     const std::uint32_t position_mask = static_cast<std::uint32_t>((std::uint64_t{1} << bits) - 1);
