@@ -25,6 +25,7 @@
 #include "hbp/error.hpp"
 #include "hbp/hw/hw_cell_engines.hpp"
 #ifdef HBP_HAVE_CUDA
+#include "cuda_frames.hpp"
 #include "hbp/cuda/cuda_engines.hpp"
 #endif
 #include "hbp/hybrid_broadphase.hpp"
@@ -51,8 +52,19 @@ BroadPhaseOptions make_options(const std::string& engine, const py::object& thre
   return o;
 }
 
-py::array_t<std::uint32_t> find_pairs(py::handle boxes_obj, const std::string& engine, const py::object& threads,
-                                      long long cell_limit, long long max_pairs) {
+py::object find_pairs(py::handle boxes_obj, const std::string& engine, const py::object& threads, long long cell_limit,
+                      long long max_pairs) {
+#ifdef HBP_HAVE_CUDA
+  if (engine == "cuda") {
+    // The whole frame on the GPU: its grid is its own, and CPU threads do
+    // not apply (still checked, so a bad value is an error everywhere).
+    threads_arg(threads);
+    if (cell_limit != 0)
+      throw ArgumentError("cell_limit: engine 'cuda' plans its own cells, leave it 0 (got " +
+                          std::to_string(cell_limit) + ")");
+    return find_pairs_cuda(boxes_obj, max_pairs);
+  }
+#endif
   const BoxesView view = boxes_view(boxes_obj, "boxes");
   const BroadPhaseOptions options = make_options(engine, threads, cell_limit, max_pairs);
   std::vector<Pair> pairs;
@@ -379,6 +391,7 @@ PYBIND11_MODULE(hybrid_broadphase, m) {
   hbp::hw::register_cell_engines();  // engine='ae', 'mo', 'ae-sim', 'mo-sim'
 #ifdef HBP_HAVE_CUDA
   hbp::cuda::register_cell_engines();  // engine='cuda' (a CUDA device), 'cuda-host' (its kernel on the CPU)
+  register_cuda_frames(m);
 #endif
   m.doc() =
       "Hybrid broad-phase collision detection on numpy arrays: find_pairs(boxes) for one frame, "
@@ -407,8 +420,9 @@ PYBIND11_MODULE(hybrid_broadphase, m) {
   m.def("find_pairs", &find_pairs, py::arg("boxes"), py::kw_only(), py::arg("engine") = "sw",
         py::arg("threads") = 0, py::arg("cell_limit") = 0, py::arg("max_pairs") = 0,
         "Every overlapping pair of rows of boxes ((n, 6) float32), as a (k, 2) uint32 array, "
-        "a < b, sorted. engine: a cell engine name ('sw' default); threads: 0 = all cores; "
-        "max_pairs: 0 = unlimited, else CapacityExceeded beyond.");
+        "a < b, sorted. engine: a cell engine name ('sw' default; 'cuda': the whole frame on the GPU, and "
+        "boxes with __cuda_array_interface__ (CuPy, PyTorch) give a CudaPairs left on the GPU); "
+        "threads: 0 = all cores; max_pairs: 0 = unlimited, else CapacityExceeded beyond.");
   m.def("_boxes_address", &boxes_address, py::arg("boxes"));
 
   py::class_<UpdateResult>(m, "UpdateResult", "Pairs of one BroadPhase.update(): (k, 2) uint32 handle pairs, a < b, sorted.")

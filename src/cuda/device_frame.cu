@@ -113,6 +113,30 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     info = {};
   }
 
+  DevicePairs run_device(const DeviceRows& rows, void* stream) override {
+    info = {};
+    stream_ = static_cast<cudaStream_t>(stream);
+    record(kStart);
+    const std::uint32_t n = rows.n;
+    size_uploads(n);
+    float* lanes = boxes_.as<float>();
+    launch_rows_to_lanes(rows.data, rows.row_stride, rows.column_stride, n, lanes, stream_);
+    Lanes d{};
+    d.n = n;
+    for (int k = 0; k < 3; ++k) {
+      d.lo[k] = lanes + static_cast<std::size_t>(k) * n;
+      d.hi[k] = lanes + static_cast<std::size_t>(3 + k) * n;
+    }
+    record(kUploaded);
+    const std::uint64_t count = frame(d);
+    record(kDownloaded);
+    sync();
+    times(false);
+    info.times.upload_ms = between(kStart, kUploaded);
+    pairs.clear();
+    return {pair_buffer(), count};
+  }
+
   DevicePairs run_device(const Lanes& in, void* stream) override {
     info = {};
     stream_ = static_cast<cudaStream_t>(stream);
@@ -221,8 +245,8 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     const auto rows = [&](std::uint64_t* row_counts, const std::uint64_t* row_offsets, std::uint32_t* row_out) {
       if (options.sweep == CellSweep::PerReference)
         launch_reference_rows(g, s, bits, head_scan_.as<std::uint32_t>() + 1, cell_begin_.as<std::uint32_t>(),
-                              cell_ids_.as<std::uint32_t>(), regions_.as<CellRegion>(), refs, row_counts, row_offsets,
-                              row_out, stream_);
+                              cell_ids_.as<std::uint32_t>(), regions_.as<CellRegion>(), refs, kept_.as<RowPairs>(),
+                              row_counts, row_offsets, row_out, stream_);
       else
         launch_cell_rows(g, s, bits, cell_begin_.as<std::uint32_t>(), cell_ids_.as<std::uint32_t>(),
                          regions_.as<CellRegion>(), cells_.as<std::uint32_t>(), max_cells,
@@ -272,6 +296,7 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
       reserve(*d, (std::size_t{refs} + 1) * 4);
     reserve(large_list_, (std::size_t{large} + 1) * 4);
     reserve(lanes_, std::size_t{6} * (refs + 1) * sizeof(float));
+    if (options.sweep == CellSweep::PerReference) reserve(kept_, (std::size_t{refs} + 1) * sizeof(RowPairs));
     reserve(cell_begin_, (std::size_t{max_cells} + 2) * 4);
     for (DeviceBuffer* d : {&cell_ids_, &big_cells_}) reserve(*d, (std::size_t{max_cells} + 1) * 4);
     reserve(regions_, (std::size_t{max_cells} + 1) * sizeof(CellRegion));
@@ -321,7 +346,7 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     t.download_ms = transfers ? between(kOrdered, kDownloaded) : 0;
     t.frame_ms = between(kUploaded, kOrdered);
     std::size_t held = 0;
-    for (const DeviceBuffer* d : {&boxes_, &packed_, &acc_, &planes_, &ref_count_, &is_large_, &ref_offset_, &large_offset_,
+    for (const DeviceBuffer* d : {&boxes_, &packed_, &kept_, &acc_, &planes_, &ref_count_, &is_large_, &ref_offset_, &large_offset_,
                                   &keys_, &keys_alt_, &ids_, &ids_alt_, &large_list_, &lanes_, &positions_, &head_,
                                   &head_scan_, &cell_begin_, &cell_ids_, &big_cells_, &regions_, &cells_, &counts_, &offsets_, &pair_out_, &pair_keys_,
                                   &pair_keys_alt_, &temp_})
@@ -335,7 +360,7 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
   cudaStream_t stream_ = nullptr;
   cudaEvent_t events_[kStages] = {};
   std::uint64_t* pinned_ = nullptr;
-  DeviceBuffer boxes_, packed_, acc_, planes_, ref_count_, is_large_, ref_offset_, large_offset_, keys_, keys_alt_, ids_,
+  DeviceBuffer boxes_, packed_, kept_, acc_, planes_, ref_count_, is_large_, ref_offset_, large_offset_, keys_, keys_alt_, ids_,
       ids_alt_, large_list_, lanes_, positions_, head_, head_scan_, cell_begin_, cell_ids_, big_cells_, regions_, cells_,
       counts_, offsets_, pair_out_, pair_keys_, pair_keys_alt_, temp_;
 };

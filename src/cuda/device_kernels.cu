@@ -82,6 +82,13 @@ __global__ void bounds_kernel(BoxLanesView b, std::uint32_t n, std::uint32_t* ac
     if (extents[t]) atomicAdd(acc + kBoundsExtents + t, extents[t]);
 }
 
+__global__ void rows_to_lanes_kernel(const float* rows, std::int64_t row_stride, std::int64_t column_stride,
+                                     std::uint32_t n, float* lanes) {
+  const std::uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  for (int l = 0; l < 6; ++l) lanes[static_cast<std::size_t>(l) * n + i] = rows[i * row_stride + l * column_stride];
+}
+
 __global__ void reference_count_kernel(GridView g, BoxLanesView b, std::uint32_t n, std::uint32_t* count,
                                        std::uint32_t* is_large) {
   const std::uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
@@ -155,20 +162,33 @@ __global__ void cells_kernel(GridView g, const std::uint32_t* keys, int bits, co
 // neighbouring rows, so their candidates come from the same cache lines, and
 // no block is tied to a cell: a dense cell's rows spread over every SM and a
 // small cell leaves no lane idle. cell_of[r] is 1 + the index of r's cell.
+// Counting (no `out`), a row also keeps its first kInlinePairs pairs in
+// kept[r]; filling, a row that had no more copies them instead of sweeping
+// again (most rows of a sparse scene).
 __global__ void reference_rows_kernel(GridView g, CellLanes s, int bits, const std::uint32_t* cell_of,
                                       const std::uint32_t* cell_begin, const std::uint32_t* cell_ids,
-                                      const CellRegion* regions, std::uint32_t refs, std::uint64_t* counts,
-                                      const std::uint64_t* offsets, std::uint32_t* out) {
+                                      const CellRegion* regions, std::uint32_t refs, RowPairs* kept,
+                                      std::uint64_t* counts, const std::uint64_t* offsets, std::uint32_t* out) {
   const std::uint32_t r = blockIdx.x * blockDim.x + threadIdx.x;
   if (r >= refs) return;
+  uint2* row = out ? reinterpret_cast<uint2*>(out) + offsets[r] : nullptr;
+  if (out) {
+    const std::uint64_t count = offsets[r + 1] - offsets[r];
+    if (count <= kInlinePairs) {
+      for (std::uint32_t k = 0; k < count; ++k) row[k] = kept[r].pair[k];
+      return;
+    }
+  }
   const std::uint32_t c = cell_of[r] - 1;
   const std::uint32_t end = cell_begin[c + 1];
   const std::uint32_t stop = row_stop(g, cell_ids[c], s.hi[0][r], bits);
   const CellRegion region = regions[c];
   if (!out) {
-    counts[r] = cell_row(s, r, end, region, stop, [](std::uint32_t, std::uint32_t, std::uint32_t) {});
+    RowPairs& keep = kept[r];
+    counts[r] = cell_row(s, r, end, region, stop, [&keep](std::uint32_t k, std::uint32_t a, std::uint32_t b) {
+      if (k < kInlinePairs) keep.pair[k] = a < b ? make_uint2(a, b) : make_uint2(b, a);
+    });
   } else {
-    uint2* row = reinterpret_cast<uint2*>(out) + offsets[r];
     cell_row(s, r, end, region, stop, [row](std::uint32_t k, std::uint32_t a, std::uint32_t b) {
       row[k] = a < b ? make_uint2(a, b) : make_uint2(b, a);
     });
@@ -379,6 +399,13 @@ void launch_bounds(const BoxLanesView& b, std::uint32_t n, std::uint32_t* acc, c
   check_cuda(cudaGetLastError(), "bounds kernel");
 }
 
+void launch_rows_to_lanes(const float* rows, std::int64_t row_stride, std::int64_t column_stride, std::uint32_t n,
+                          float* lanes, cudaStream_t s) {
+  if (!n) return;
+  rows_to_lanes_kernel<<<grid_for(n), kThreads, 0, s>>>(rows, row_stride, column_stride, n, lanes);
+  check_cuda(cudaGetLastError(), "rows to lanes kernel");
+}
+
 void launch_reference_count(const GridView& g, const BoxLanesView& b, std::uint32_t n, std::uint32_t* count,
                             std::uint32_t* is_large, cudaStream_t s) {
   if (!n) return;
@@ -434,11 +461,11 @@ void launch_cell_rows(const GridView& g, const CellLanes& sorted, int bits, cons
 
 void launch_reference_rows(const GridView& g, const CellLanes& sorted, int bits, const std::uint32_t* cell_of,
                            const std::uint32_t* cell_begin, const std::uint32_t* cell_ids, const CellRegion* regions,
-                           std::uint32_t refs, std::uint64_t* counts, const std::uint64_t* offsets, std::uint32_t* out,
-                           cudaStream_t s) {
+                           std::uint32_t refs, RowPairs* kept, std::uint64_t* counts, const std::uint64_t* offsets,
+                           std::uint32_t* out, cudaStream_t s) {
   if (!refs) return;
   reference_rows_kernel<<<grid_for(refs), kThreads, 0, s>>>(g, sorted, bits, cell_of, cell_begin, cell_ids, regions,
-                                                            refs, counts, offsets, out);
+                                                            refs, kept, counts, offsets, out);
   check_cuda(cudaGetLastError(), "reference rows kernel");
 }
 

@@ -35,6 +35,9 @@ inline constexpr std::uint32_t kBoundsExtents = 8;
 inline constexpr std::uint32_t kBoundsWords = kBoundsExtents + 3 * kExtentBins;
 void launch_bounds(const BoxLanesView& b, std::uint32_t n, std::uint32_t* acc, cudaStream_t s,
                    float* packed = nullptr);
+// Rows of an (n, 6) array (element strides) into six lanes of n floats.
+void launch_rows_to_lanes(const float* rows, std::int64_t row_stride, std::int64_t column_stride, std::uint32_t n,
+                          float* lanes, cudaStream_t s);
 void launch_reference_count(const GridView& g, const BoxLanesView& b, std::uint32_t n, std::uint32_t* count,
                             std::uint32_t* is_large, cudaStream_t s);
 // ref_offset / large_offset: exclusive offsets (n + 1 entries).
@@ -66,10 +69,18 @@ void launch_cell_rows(const GridView& g, const CellLanes& sorted, int bits, cons
                       const std::uint64_t* offsets, std::uint32_t* out, cudaStream_t s);
 // The same rows with a thread per reference (refs threads); cell_of[r] is 1
 // + the index of reference r's cell (the inclusive scan of the cell heads).
+// The counting launch keeps each row's first kInlinePairs pairs in kept[r]
+// (refs entries); the filling launch, given the same kept, copies them for
+// the rows that had no more instead of sweeping those rows again.
+inline constexpr std::uint32_t kInlinePairs = 2;
+struct RowPairs {
+  uint2 pair[kInlinePairs];
+};
+static_assert(sizeof(RowPairs) == 8 * kInlinePairs);
 void launch_reference_rows(const GridView& g, const CellLanes& sorted, int bits, const std::uint32_t* cell_of,
                            const std::uint32_t* cell_begin, const std::uint32_t* cell_ids, const CellRegion* regions,
-                           std::uint32_t refs, std::uint64_t* counts, const std::uint64_t* offsets, std::uint32_t* out,
-                           cudaStream_t s);
+                           std::uint32_t refs, RowPairs* kept, std::uint64_t* counts, const std::uint64_t* offsets,
+                           std::uint32_t* out, cudaStream_t s);
 // One cell of `size` boxes sorted by exact min x (the "cuda" cell engine),
 // swept by one block with sweep_row; counts and pairs as above.
 void launch_sorted_cell_rows(const SortedLanes& sorted, std::uint32_t size, const CellRegion& region,

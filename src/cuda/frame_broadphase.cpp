@@ -12,6 +12,9 @@ namespace hbp::cuda {
 DevicePairs FrameBroadPhase::Impl::run_device(const Lanes&, void*) {
   throw InvalidInput("FrameBroadPhase::update_device needs Launcher::Device");
 }
+DevicePairs FrameBroadPhase::Impl::run_device(const DeviceRows&, void*) {
+  throw InvalidInput("FrameBroadPhase::update_device needs Launcher::Device");
+}
 
 void check_object_count(std::uint32_t n) {
   if (n > kMaxFrameObjects)
@@ -61,6 +64,13 @@ void FrameBroadPhase::reserve(std::uint32_t objects) {
 
 DevicePairs FrameBroadPhase::update_device(const Lanes& device_boxes, void* stream) {
   check_object_count(device_boxes.n);
+  return impl_->run_device(device_boxes, stream);
+}
+
+DevicePairs FrameBroadPhase::update_device(const DeviceRows& device_boxes, void* stream) {
+  check_object_count(device_boxes.n);
+  if (device_boxes.n && !device_boxes.data)
+    throw InvalidInput("DeviceRows: null data for " + std::to_string(device_boxes.n) + " rows");
   return impl_->run_device(device_boxes, stream);
 }
 

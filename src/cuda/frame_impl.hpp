@@ -18,6 +18,7 @@ struct FrameBroadPhase::Impl {
   virtual void run(const Lanes& boxes) = 0;
   // Runs a frame over device lanes (device launcher only).
   virtual DevicePairs run_device(const Lanes& boxes, void* stream);
+  virtual DevicePairs run_device(const DeviceRows& boxes, void* stream);
   // FrameBroadPhase::reserve.
   virtual void reserve(std::uint32_t objects) = 0;
 

@@ -138,6 +138,39 @@ TEST(CudaDevice, DeviceEntryLeavesPairsOnTheDevice) {
   cudaFree(d);
 }
 
+// Rows of an (n, 6) device array, C order and Fortran order (as CuPy and
+// PyTorch hand them over): the same pairs as the oracle, no host round trip.
+TEST(CudaDevice, DeviceRowsInEitherOrderGiveTheOraclesPairs) {
+  REQUIRE_DEVICE();
+  const auto frames = cuda_test::scenario_frames(ScenarioKind::Clustered, 20'000, 1);
+  const BoxArray& boxes = frames[0];
+  const std::size_t n = boxes.size();
+  const std::vector<Pair> expected = cuda_test::all_pairs(boxes);
+  for (bool c_order : {true, false}) {
+    std::vector<float> host(6 * n);
+    for (std::size_t i = 0; i < n; ++i)
+      for (int l = 0; l < 6; ++l) {
+        const float v = l < 3 ? boxes.min(l)[i] : boxes.max(l - 3)[i];
+        host[c_order ? 6 * i + l : l * n + i] = v;
+      }
+    float* d = nullptr;
+    ASSERT_EQ(cudaMalloc(&d, host.size() * sizeof(float)), cudaSuccess);
+    ASSERT_EQ(cudaMemcpy(d, host.data(), host.size() * sizeof(float), cudaMemcpyHostToDevice), cudaSuccess);
+    cuda::DeviceRows rows;
+    rows.data = d;
+    rows.n = static_cast<std::uint32_t>(n);
+    rows.row_stride = c_order ? 6 : 1;
+    rows.column_stride = c_order ? 1 : static_cast<std::int64_t>(n);
+    auto device = frame(cuda::Launcher::Device);
+    const cuda::DevicePairs got = device.update_device(rows);
+    std::vector<Pair> pairs(got.count);
+    ASSERT_EQ(cudaMemcpy(pairs.data(), got.data, got.count * sizeof(Pair), cudaMemcpyDeviceToHost), cudaSuccess);
+    EXPECT_EQ(pairs, expected) << (c_order ? "C order" : "Fortran order");
+    EXPECT_GT(device.info().times.upload_ms, 0.0);
+    cudaFree(d);
+  }
+}
+
 TEST(CudaDevice, ReserveProvisionsTheFirstFrame) {
   REQUIRE_DEVICE();
   const auto frames = cuda_test::scenario_frames(ScenarioKind::Paper, 50'000, 2);

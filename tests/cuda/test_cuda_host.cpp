@@ -206,6 +206,25 @@ TEST(CudaHostFrame, RejectsDefectiveBoxesNamingTheObject) {
   EXPECT_THROW(cuda::FrameBroadPhase(cuda::FrameOptions{cuda::Launcher::Host, 0}), InvalidInput);
 }
 
+TEST(CudaHostFrame, DeviceEntriesNeedTheDeviceLauncher) {
+  cuda::FrameBroadPhase f(cuda::FrameOptions{cuda::Launcher::Host, 1});
+  const float one[6] = {0, 0, 0, 1, 1, 1};
+  cuda::DeviceRows rows;
+  rows.data = one;
+  rows.n = 1;
+  try {
+    f.update_device(rows);
+    FAIL() << "the host launcher took device rows";
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("needs Launcher::Device"), std::string::npos) << e.what();
+  }
+  cuda::Lanes lanes;
+  EXPECT_THROW(f.update_device(lanes), InvalidInput);
+  rows.data = nullptr;
+  EXPECT_THROW(f.update_device(rows), InvalidInput);  // null data for one row
+  EXPECT_TRUE(f.pairs().empty());
+}
+
 TEST(CudaHostFrame, DeviceLauncherWithoutADeviceSaysSo) {
   if (cuda::device_available()) GTEST_SKIP() << "a CUDA device is present: " << cuda::device_name();
   cuda::FrameOptions o;

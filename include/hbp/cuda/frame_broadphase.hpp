@@ -54,11 +54,22 @@ struct Lanes {
   std::uint32_t n = 0;
 };
 
+// Boxes as the rows of an (n, 6) float32 array in device memory, as CuPy
+// arrays and PyTorch tensors hold them: object i's min x, y, z, max x, y, z
+// at data[i * row_stride + k * column_stride] (strides in floats; 6 and 1
+// for a C-contiguous array).
+struct DeviceRows {
+  const float* data = nullptr;
+  std::uint32_t n = 0;
+  std::int64_t row_stride = 6;
+  std::int64_t column_stride = 1;
+};
+
 // Milliseconds per stage of the last frame. Device: CUDA events on the
 // frame's stream (device time); upload/download are the host transfers,
 // reported apart. Host: steady-clock wall time.
 struct StageTimes {
-  double upload_ms = 0;   // boxes host -> device (update() only)
+  double upload_ms = 0;   // boxes host -> device (update()), or rows -> lanes on the device (DeviceRows)
   double bounds_ms = 0;   // bounds, validation
   double refs_ms = 0;     // count and emit cell references
   double sort_ms = 0;     // sort references by (cell, min x), gather, cells
@@ -111,6 +122,9 @@ class FrameBroadPhase {
   // in device memory; the work is queued on `stream` (a cudaStream_t, null:
   // the default stream) and finished when this returns.
   DevicePairs update_device(const Lanes& device_boxes, void* stream = nullptr);
+  // The same for rows in device memory: transposed into the frame's own
+  // lanes by a kernel on `stream` first (no host round trip).
+  DevicePairs update_device(const DeviceRows& device_boxes, void* stream = nullptr);
 
   const std::vector<Pair>& pairs() const;
   const FrameInfo& info() const;

@@ -1,0 +1,137 @@
+// SPDX-License-Identifier: MIT
+#include "cuda_frames.hpp"
+
+#include <pybind11/numpy.h>
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "array_views.hpp"
+#include "hbp/box_array.hpp"
+#include "hbp/cuda/frame_broadphase.hpp"
+
+namespace hbp::python {
+namespace {
+
+// A frame's pairs in device memory: (count, 2) uint32, a < b, sorted by
+// (a, b). The frame that holds them lives as long as this object (and the
+// CuPy array or PyTorch tensor made from it, which keeps it referenced).
+struct CudaPairs {
+  std::shared_ptr<cuda::FrameBroadPhase> frame;
+  cuda::DevicePairs pairs;
+};
+
+// Version 3 of the CUDA Array Interface. The work is finished when
+// find_pairs returns, so no "stream" entry: a consumer need not wait.
+py::dict array_interface(const CudaPairs& p) {
+  py::dict d;
+  d["shape"] = py::make_tuple(p.pairs.count, 2);
+  d["typestr"] = "<u4";
+  d["data"] = py::make_tuple(reinterpret_cast<std::uintptr_t>(p.pairs.data), false);
+  d["strides"] = py::none();
+  d["version"] = 3;
+  return d;
+}
+
+std::int64_t as_int(py::handle v, const char* what) {
+  if (!py::isinstance<py::int_>(v)) throw ArgumentError(std::string("boxes: __cuda_array_interface__ ") + what + " must be an int");
+  return v.cast<std::int64_t>();
+}
+
+// The rows of an (n, 6) float32 array from its __cuda_array_interface__,
+// and the producer's stream (null: the default stream). Everything the
+// interface may say is checked: a float64 array would have to be rounded,
+// which can shrink or invert a box, so only float32 is taken.
+cuda::DeviceRows rows_of(const py::dict& cai, void** stream) {
+  for (const char* key : {"shape", "typestr", "data"})
+    if (!cai.contains(key)) throw ArgumentError(std::string("boxes: __cuda_array_interface__ has no '") + key + "'");
+  const py::object shape = cai["shape"];
+  if (!py::isinstance<py::tuple>(shape) || py::len(shape) != 2 || as_int(shape.cast<py::tuple>()[1], "shape") != 6)
+    throw ArgumentError("boxes: a CUDA array of shape (n, 6) is needed, got shape " + py::str(shape).cast<std::string>());
+  const std::int64_t n = as_int(shape.cast<py::tuple>()[0], "shape");
+  const std::string typestr = py::str(cai["typestr"]);
+  if (typestr != "<f4" && typestr != "|f4")
+    throw ArgumentError("boxes: a float32 CUDA array is needed (min x, y, z, max x, y, z per row), got typestr '" +
+                        typestr + "'");
+  if (cai.contains("mask") && !cai["mask"].is_none()) throw ArgumentError("boxes: masked CUDA arrays are not taken");
+  const py::object data = cai["data"];
+  if (!py::isinstance<py::tuple>(data) || py::len(data) != 2)
+    throw ArgumentError("boxes: __cuda_array_interface__ 'data' must be (pointer, read_only)");
+  const std::uint64_t address = py::cast<std::uint64_t>(data.cast<py::tuple>()[0]);
+  if (n < 0 || n > 0xffffffffll) throw ArgumentError("boxes: " + std::to_string(n) + " rows is out of range");
+  if (n > 0 && address == 0) throw ArgumentError("boxes: __cuda_array_interface__ has a null pointer for " + std::to_string(n) + " rows");
+  cuda::DeviceRows rows;
+  rows.data = reinterpret_cast<const float*>(static_cast<std::uintptr_t>(address));
+  rows.n = static_cast<std::uint32_t>(n);
+  if (cai.contains("strides") && !cai["strides"].is_none()) {
+    const py::object strides = cai["strides"];
+    if (!py::isinstance<py::tuple>(strides) || py::len(strides) != 2)
+      throw ArgumentError("boxes: __cuda_array_interface__ 'strides' must be None or two byte strides");
+    const std::int64_t row = as_int(strides.cast<py::tuple>()[0], "strides");
+    const std::int64_t column = as_int(strides.cast<py::tuple>()[1], "strides");
+    if (row % 4 != 0 || column % 4 != 0)
+      throw ArgumentError("boxes: strides (" + std::to_string(row) + ", " + std::to_string(column) +
+                          ") are not whole float32 elements");
+    rows.row_stride = row / 4;
+    rows.column_stride = column / 4;
+  }
+  *stream = nullptr;
+  if (cai.contains("stream") && !cai["stream"].is_none())
+    *stream = reinterpret_cast<void*>(static_cast<std::uintptr_t>(as_int(cai["stream"], "stream")));
+  return rows;
+}
+
+}  // namespace
+
+void register_cuda_frames(py::module_& m) {
+  py::class_<CudaPairs>(m, "CudaPairs",
+                        "Pairs of find_pairs(..., engine='cuda') on boxes in device memory: (k, 2) uint32, a < b, "
+                        "sorted, left on the GPU. cupy.asarray(p) and torch.as_tensor(p, device='cuda') take them "
+                        "without a copy (__cuda_array_interface__).")
+      .def_property_readonly("__cuda_array_interface__", &array_interface)
+      .def_property_readonly("shape", [](const CudaPairs& p) { return py::make_tuple(p.pairs.count, 2); })
+      .def("__len__", [](const CudaPairs& p) { return p.pairs.count; })
+      .def("__repr__", [](const CudaPairs& p) { return "CudaPairs(" + std::to_string(p.pairs.count) + " pairs on the GPU)"; });
+}
+
+py::object find_pairs_cuda(py::handle boxes, long long max_pairs) {
+  if (max_pairs < 0) throw ArgumentError("max_pairs: must be >= 0 (0: unlimited), got " + std::to_string(max_pairs));
+  cuda::FrameOptions options;
+  options.launcher = cuda::Launcher::Device;
+  options.max_pairs = static_cast<std::uint64_t>(max_pairs);
+  if (py::hasattr(boxes, "__cuda_array_interface__")) {
+    const py::object cai = boxes.attr("__cuda_array_interface__");
+    if (!py::isinstance<py::dict>(cai)) throw ArgumentError("boxes: __cuda_array_interface__ is not a dict");
+    void* stream = nullptr;
+    const cuda::DeviceRows rows = rows_of(cai.cast<py::dict>(), &stream);
+    auto frame = std::make_shared<cuda::FrameBroadPhase>(options);  // "no CUDA device found" without one
+    CudaPairs result{frame, {}};
+    {
+      py::gil_scoped_release release;
+      result.pairs = frame->update_device(rows, stream);
+    }
+    return py::cast(std::move(result));
+  }
+  const BoxesView view = boxes_view(boxes, "boxes");
+  if (view.boxes.size() > 0xffffffffull)
+    throw ArgumentError("boxes: " + std::to_string(view.boxes.size()) + " rows is out of range");
+  std::vector<Pair> pairs;
+  {
+    py::gil_scoped_release release;
+    BoxArray soa(view.boxes.size());
+    for (std::size_t i = 0; i < view.boxes.size(); ++i) soa.set(i, view.boxes[i]);
+    cuda::FrameBroadPhase frame(options);
+    cuda::Lanes lanes;
+    for (int k = 0; k < 3; ++k) {
+      lanes.lo[k] = soa.min(k);
+      lanes.hi[k] = soa.max(k);
+    }
+    lanes.n = static_cast<std::uint32_t>(soa.size());
+    pairs = frame.update(lanes);
+  }
+  return pairs_array(pairs);
+}
+
+}  // namespace hbp::python
