@@ -524,7 +524,7 @@ TEST_F(Cli, JsonOutputsHaveTheDocumentedKeys) {
     documented[command].push_back({line.substr(at + 8, place_end - at - 8), keys});
   }
   const std::string bench_out = path("json-bench");
-  const std::map<std::string, std::vector<std::string>> runs = {
+  std::map<std::string, std::vector<std::string>> runs = {
       {"hbp run --json", {"run", "--n", "3000", "--frames", "2", "--json", "--quiet"}},
       {"hbp hw asic --json", {"hw", "asic", "--json", "--reports", std::string(HBP_SOURCE_DIR) + "/docs/results/asic"}},
       {"hbp hw energy --json",
@@ -536,13 +536,19 @@ TEST_F(Cli, JsonOutputsHaveTheDocumentedKeys) {
        {"bench", "paper", "--n", "300", "--frames", "1", "--warmup", "0", "--variants", "1", "--systems", "sw",
         "--no-plots", "--out", bench_out}},
   };
+#ifdef HBP_TEST_CUDA
+  runs.insert({"hbp bench gpu --json",
+               {"bench", "gpu", "--launcher", "host", "--n", "2000", "--frames", "2", "--threads", "2", "--json"}});
+#else
+  documented.erase("hbp bench gpu --json");  // this hbp has no CUDA room
+#endif
   ASSERT_EQ(documented.size(), runs.size()) << "a documented command without a check, or the reverse";
   for (const auto& [name, args] : runs) {
     ASSERT_TRUE(documented.count(name)) << name << " not documented";
     const Result r = hbp(args);
     ASSERT_EQ(r.status, 0) << name << ":\n" << r.output;
     nlohmann::json j;
-    if (name.rfind("hbp bench", 0) == 0) {
+    if (name.rfind("hbp bench ... --out", 0) == 0) {
       std::ifstream report(bench_out + "/report.json");
       report >> j;
     } else {

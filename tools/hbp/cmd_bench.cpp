@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "bench_machine.hpp"
+#include "bench_gpu.hpp"
 #include "bench_narrow_bullet.hpp"
 #include "bench_report.hpp"
 #include "bench_runner.hpp"
@@ -371,6 +372,7 @@ const RegisterCommand reg([](CLI::App& app) {
   scene->callback([sa] { run_bench(*sa, BenchSource::Scene); });
 
   add_bench_narrow(bench);
+  add_bench_gpu(bench);
 });
 
 }  // namespace
