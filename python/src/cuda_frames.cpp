@@ -123,13 +123,7 @@ py::object find_pairs_cuda(py::handle boxes, long long max_pairs) {
     BoxArray soa(view.boxes.size());
     for (std::size_t i = 0; i < view.boxes.size(); ++i) soa.set(i, view.boxes[i]);
     cuda::FrameBroadPhase frame(options);
-    cuda::Lanes lanes;
-    for (int k = 0; k < 3; ++k) {
-      lanes.lo[k] = soa.min(k);
-      lanes.hi[k] = soa.max(k);
-    }
-    lanes.n = static_cast<std::uint32_t>(soa.size());
-    pairs = frame.update(lanes);
+    pairs = frame.update(cuda::lanes_of(soa));
   }
   return pairs_array(pairs);
 }

@@ -14,15 +14,7 @@
 
 namespace hbp::cuda_test {
 
-inline cuda::Lanes lanes_of(const BoxArray& b) {
-  cuda::Lanes l;
-  for (int k = 0; k < 3; ++k) {
-    l.lo[k] = b.min(k);
-    l.hi[k] = b.max(k);
-  }
-  l.n = static_cast<std::uint32_t>(b.size());
-  return l;
-}
+using cuda::lanes_of;
 
 // A few frames of a scenario kind.
 inline std::vector<BoxArray> scenario_frames(ScenarioKind kind, std::uint32_t n, int frames) {

@@ -103,16 +103,6 @@ double percentile(std::vector<double> v, double q) {
   return v[i];
 }
 
-hbp::cuda::Lanes lanes_of(const hbp::BoxArray& b) {
-  hbp::cuda::Lanes l;
-  for (int k = 0; k < 3; ++k) {
-    l.lo[k] = b.min(k);
-    l.hi[k] = b.max(k);
-  }
-  l.n = static_cast<std::uint32_t>(b.size());
-  return l;
-}
-
 // Every pair holding one of `sample` (sorted ids), by brute force against
 // all objects; then the same pairs taken from `pairs`. Returns whether equal.
 bool sample_check(const hbp::BoxArray& b, const std::vector<hbp::Pair>& pairs, const std::vector<std::uint32_t>& sample,
@@ -229,9 +219,9 @@ int main(int argc, char** argv) {
     hbp::cuda::FrameInfo last{};
     for (std::uint32_t f = 0; f < args.frames; ++f) {
       scenario.compute_boxes(boxes);
-      const std::vector<hbp::Pair>& got = args.axis_sweep ? peer.update(lanes_of(boxes))
-                                          : args.lbvh     ? lbvh.update(lanes_of(boxes))
-                                                          : frame.update(lanes_of(boxes));
+      const std::vector<hbp::Pair>& got = args.axis_sweep ? peer.update(hbp::cuda::lanes_of(boxes))
+                                          : args.lbvh     ? lbvh.update(hbp::cuda::lanes_of(boxes))
+                                                          : frame.update(hbp::cuda::lanes_of(boxes));
       const hbp::cuda::FrameInfo& info = args.axis_sweep ? peer.info() : args.lbvh ? lbvh.info() : frame.info();
       last = info;
       frame_ms.push_back(info.times.frame_ms);
@@ -245,7 +235,7 @@ int main(int argc, char** argv) {
       buffer_bytes = std::max<std::uint64_t>(buffer_bytes, info.buffer_bytes);
       if (f % args.check_every == 0 || f + 1 == args.frames) {
         const auto t0 = std::chrono::steady_clock::now();
-        const std::vector<hbp::Pair>& want = reference.update(lanes_of(boxes));
+        const std::vector<hbp::Pair>& want = reference.update(hbp::cuda::lanes_of(boxes));
         reference_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
         ++checked;
         if (want != got) ++mismatches;

@@ -40,16 +40,6 @@ struct GpuBenchArgs {
 
 #ifdef HBP_HAVE_CUDA
 
-cuda::Lanes lanes_of(const BoxArray& b) {
-  cuda::Lanes l;
-  for (int k = 0; k < 3; ++k) {
-    l.lo[k] = b.min(k);
-    l.hi[k] = b.max(k);
-  }
-  l.n = static_cast<std::uint32_t>(b.size());
-  return l;
-}
-
 struct Series {
   std::vector<double> v;
   nlohmann::json summary(bool steady) const {
@@ -88,7 +78,7 @@ void run_bench_gpu(const GpuBenchArgs& a) {
   BoxArray boxes;
   for (std::uint32_t f = 0; f < a.frames; ++f) {
     scenario.compute_boxes(boxes);
-    const std::vector<Pair>& got = gpu.update(lanes_of(boxes));
+    const std::vector<Pair>& got = gpu.update(cuda::lanes_of(boxes));
     const cuda::FrameInfo& info = gpu.info();
     const cuda::StageTimes& t = info.times;
     frame.v.push_back(t.frame_ms);

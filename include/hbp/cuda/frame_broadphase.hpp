@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "hbp/box_array.hpp"
 #include "hbp/pair.hpp"
 
 namespace hbp::cuda {
@@ -53,6 +54,18 @@ struct Lanes {
   const float* hi[3] = {nullptr, nullptr, nullptr};
   std::uint32_t n = 0;
 };
+
+// A BoxArray's own lanes (no copy; valid while it is unchanged). Sizes past
+// uint32 are the frame's to refuse (the object limit).
+inline Lanes lanes_of(const BoxArray& boxes) {
+  Lanes l;
+  for (int k = 0; k < 3; ++k) {
+    l.lo[k] = boxes.min(k);
+    l.hi[k] = boxes.max(k);
+  }
+  l.n = boxes.size() > 0xffffffffu ? 0xffffffffu : static_cast<std::uint32_t>(boxes.size());
+  return l;
+}
 
 // Boxes as the rows of an (n, 6) float32 array in device memory, as CuPy
 // arrays and PyTorch tensors hold them: object i's min x, y, z, max x, y, z
