@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// The Python module hybrid_broadphase (issue 15): find_pairs on one frame and
+// The Python module hybrid_broadphase: find_pairs on one frame and
 // BroadPhase, the handle-based broad phase, on numpy arrays. docs/python.md.
 //
 // Threads: every call releases the GIL while C++ works and takes the
