@@ -83,6 +83,8 @@ class CMakeBuild(build_ext):
 
 setup(
     version=project_version(),
+    packages=[],  # the extension only: no automatic discovery of python/src (C++ sources)
+    py_modules=[],
     ext_modules=[Extension("hybrid_broadphase", sources=[])],
     cmdclass={"build_ext": CMakeBuild},
 )
