@@ -136,8 +136,9 @@ class BroadPhase {
   // - calling `visit(handle)` per hit until it returns false (early out; for
   //   a ray, hits come nearest first, so stopping after one gives the nearest
   //   object), returning the number of calls. `visit` may run queries itself.
-  // Rays take raw float[3] arrays or std::array (so braced lists work:
-  // query_ray({0, 0, 0}, {1, 0, 0}, 10)).
+  // Ray origins and directions are std::array<float, 3> (Vec3f), so braced
+  // lists work: query_ray({0, 0, 0}, {1, 0, 0}, 10); the vector-returning
+  // form also takes raw float[3] arrays.
   using HitVisitor = std::function<bool(Handle)>;
   using Vec3f = std::array<float, 3>;
   std::vector<Handle> query_box(const Aabb& box) const;
