@@ -1328,3 +1328,139 @@ TEST(BroadPhase, StatsCountChangedObjectsOnce) {
   EXPECT_EQ(bp.stats().moved, 10u + 1u + 1u);
   EXPECT_EQ(bp.stats().static_changes, 1u);
 }
+
+// ---- conveniences: one-box add, braced rays, caller buffers, visitors -------
+
+namespace {
+
+using hbp::Aabb;
+using hbp::BroadPhase;
+using hbp::Handle;
+
+// Every object the brute-force scan of `now` finds for a ray, by entry t.
+std::vector<Handle> ref_ray_hits(const float o[3], const float d[3], float max_t, const std::vector<Aabb>& now,
+                                 const std::vector<Handle>& handles) {
+  std::vector<std::pair<float, Handle>> hits;
+  for (std::size_t i = 0; i < now.size(); ++i) {
+    float t;
+    if (ref_ray(o, d, max_t, now[i], t)) hits.emplace_back(t, handles[i]);
+  }
+  std::sort(hits.begin(), hits.end());
+  std::vector<Handle> out;
+  for (const auto& h : hits) out.push_back(h.second);
+  return out;
+}
+
+TEST(BroadPhase, AddOneBoxIsTheBatchAddOfOne) {
+  std::mt19937 rng(41);
+  BroadPhase one, batch;
+  std::vector<Aabb> boxes(200);
+  for (Aabb& b : boxes) b = random_box(rng, 20);
+  std::vector<Handle> h1;
+  for (std::size_t i = 0; i < boxes.size(); ++i)
+    h1.push_back(one.add(boxes[i], {.is_static = i % 3 == 0, .layer = static_cast<std::uint8_t>(i % 4)}));
+  std::vector<Handle> h2;
+  for (std::size_t i = 0; i < boxes.size(); ++i) {
+    const auto h = batch.add(std::span<const Aabb>(&boxes[i], 1),
+                             {.is_static = i % 3 == 0, .layer = static_cast<std::uint8_t>(i % 4)});
+    h2.push_back(h[0]);
+  }
+  EXPECT_EQ(h1, h2);
+  for (std::size_t i = 0; i < boxes.size(); ++i) {
+    const Aabb got = one.box(h1[i]);
+    EXPECT_EQ(std::memcmp(&boxes[i], &got, sizeof(Aabb)), 0) << i;
+    EXPECT_EQ(one.is_static(h1[i]), i % 3 == 0);
+    EXPECT_EQ(one.layer(h1[i]), i % 4);
+  }
+  const auto& u1 = one.update();
+  EXPECT_FALSE(u1.pairs.empty());
+  EXPECT_EQ(u1.pairs, batch.update().pairs);
+  // A malformed box is refused naming it, and adds nothing.
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  try {
+    one.add(Aabb{{0, nan, 0}, {1, 1, 1}});
+    FAIL() << "NaN box accepted";
+  } catch (const hbp::InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("NaN"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(one.size(), boxes.size());
+}
+
+TEST(BroadPhase, BufferAndVisitorQueriesMatchBruteForce) {
+  std::mt19937 rng(43);
+  BroadPhase bp({.threads = 2});
+  std::vector<Aabb> now(600);
+  for (Aabb& b : now) b = random_box(rng, 25);
+  std::vector<Handle> handles = bp.add(std::span<const Aabb>(now).first(400));
+  const auto hs = bp.add(std::span<const Aabb>(now).subspan(400), {.is_static = true});
+  handles.insert(handles.end(), hs.begin(), hs.end());
+  bp.update();
+
+  std::vector<Handle> buffer{7, 7, 7};  // stale contents: cleared by the query
+  std::uint64_t box_hits = 0, ray_hits = 0, early_outs = 0;
+  std::uniform_real_distribution<float> u(-2, 27);
+  for (int q = 0; q < 200; ++q) {
+    const Aabb query = random_box(rng, 25);
+    std::vector<Handle> want;
+    for (std::size_t i = 0; i < now.size(); ++i)
+      if (hbp::overlaps(now[i], query)) want.push_back(handles[i]);
+    std::sort(want.begin(), want.end());
+
+    ASSERT_EQ(bp.query_box(query, buffer), want.size());
+    ASSERT_EQ(buffer, want) << "box " << q;
+    std::vector<Handle> visited;
+    ASSERT_EQ(bp.query_box(query, [&](Handle h) { visited.push_back(h); return true; }), want.size());
+    ASSERT_EQ(visited, want);
+    box_hits += want.size();
+    if (want.size() >= 2) {  // early out after two: the first two, two calls
+      visited.clear();
+      const std::size_t calls = bp.query_box(query, [&](Handle h) { visited.push_back(h); return visited.size() < 2; });
+      ASSERT_EQ(calls, 2u);
+      ASSERT_EQ(visited, std::vector<Handle>(want.begin(), want.begin() + 2));
+      ++early_outs;
+    }
+
+    const hbp::BroadPhase::Vec3f o{u(rng), u(rng), u(rng)}, d{u(rng) - 12, u(rng) - 12, u(rng) - 12};
+    const float max_t = q % 5 == 0 ? std::numeric_limits<float>::infinity() : 2.0f;
+    const std::vector<Handle> want_ray = ref_ray_hits(o.data(), d.data(), max_t, now, handles);
+    ASSERT_EQ(bp.query_ray(o, d, max_t), want_ray) << "ray " << q;
+    ASSERT_EQ(bp.query_ray(o, d, max_t, buffer), want_ray.size());
+    ASSERT_EQ(buffer, want_ray);
+    // Nearest hit: stop after the first.
+    Handle nearest = hbp::kInvalidHandle;
+    const std::size_t calls = bp.query_ray(o, d, max_t, [&](Handle h) { nearest = h; return false; });
+    ASSERT_EQ(calls, want_ray.empty() ? 0u : 1u);
+    ASSERT_EQ(nearest, want_ray.empty() ? hbp::kInvalidHandle : want_ray.front());
+    ray_hits += want_ray.size();
+  }
+  EXPECT_GT(box_hits, 200u);
+  EXPECT_GT(ray_hits, 100u);
+  EXPECT_GT(early_outs, 20u);
+}
+
+TEST(BroadPhase, BracedRaysAndNestedVisitorQueries) {
+  BroadPhase bp;
+  // Three unit boxes along x at 2, 4 and 6, one off the axis.
+  std::vector<Handle> h;
+  for (float x : {6.0f, 2.0f, 4.0f}) h.push_back(bp.add(Aabb{{x, 0, 0}, {x + 1, 1, 1}}));
+  const Handle off = bp.add(Aabb{{2, 5, 0}, {3, 6, 1}});
+  // Braced lists: integer literals and float ones.
+  EXPECT_EQ(bp.query_ray({0, 0.5f, 0.5f}, {1, 0, 0}, 10), (std::vector<Handle>{h[1], h[2], h[0]}));
+  EXPECT_EQ(bp.query_ray({0, 0.5f, 0.5f}, {1, 0, 0}, 4.5f), (std::vector<Handle>{h[1], h[2]}));
+  EXPECT_EQ(bp.query_ray({2.5f, 0, 0.5f}, {0, 1, 0}, 100), (std::vector<Handle>{h[1], off}));
+  // A visitor that runs queries of its own: the outer visit still sees every hit.
+  std::vector<std::pair<Handle, std::size_t>> seen;
+  const std::size_t calls = bp.query_box(Aabb{{0, 0, 0}, {10, 10, 10}}, [&](Handle a) {
+    seen.emplace_back(a, bp.query_box(bp.box(a), [](Handle) { return true; }));
+    return true;
+  });
+  EXPECT_EQ(calls, 4u);
+  const std::vector<std::pair<Handle, std::size_t>> want{{h[0], 1}, {h[1], 1}, {h[2], 1}, {off, 1}};
+  EXPECT_EQ(seen, want);
+  // Errors name the argument, as for the other forms.
+  std::vector<Handle> buffer;
+  EXPECT_THROW(bp.query_ray({0, 0, 0}, {1, 0, 0}, -1.0f, buffer), hbp::InvalidInput);
+  EXPECT_THROW(bp.query_box(Aabb{{1, 0, 0}, {0, 1, 1}}, [](Handle) { return true; }), hbp::InvalidInput);
+}
+
+}  // namespace

@@ -6,6 +6,7 @@
 //   hbp::BroadPhase bp({.engine = "sw", .threads = 2});
 //   std::vector<hbp::Handle> h = bp.add(boxes);                  // moving, layer 0
 //   bp.add(walls, {.is_static = true, .layer = 1});
+//   hbp::Handle player = bp.add(hbp::Aabb{{0, 0, 0}, {1, 2, 1}});  // one object
 //   bp.move(h, new_boxes);                                       // any time between updates
 //   const hbp::BroadPhaseUpdate& u = bp.update();
 //   for (hbp::Pair p : u.created) begin_contact(p.a, p.b);      // handles, a < b
@@ -39,6 +40,7 @@
 //   closed query box, sorted by handle; query_ray every object whose box the
 //   segment origin + t * direction, 0 <= t <= max_t, touches, sorted by entry
 //   t (0 when the origin is inside), ties by handle.
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -104,6 +106,8 @@ class BroadPhase {
   void reserve(std::size_t objects);
   // Adds boxes.size() objects; handles in the same order.
   std::vector<Handle> add(std::span<const Aabb> boxes, const AddOptions& options = {});
+  // Adds one object (the batch add of one box); its handle.
+  Handle add(const Aabb& box, const AddOptions& options = {});
   // Replaces the boxes of `handles` (same length); static objects may move too.
   void move(std::span<const Handle> handles, std::span<const Aabb> boxes);
   void remove(std::span<const Handle> handles);
@@ -123,8 +127,27 @@ class BroadPhase {
   // Safe to call concurrently with each other, not with edits. InvalidInput
   // for a malformed box, a non-finite origin or direction, or max_t < 0 or
   // NaN (infinity is allowed).
+  //
+  // Each query comes in three forms with the same hits in the same order:
+  // - returning a new vector;
+  // - writing into `out` (cleared first, its capacity reused: a caller that
+  //   keeps one vector allocates nothing once it is large enough), returning
+  //   out.size();
+  // - calling `visit(handle)` per hit until it returns false (early out; for
+  //   a ray, hits come nearest first, so stopping after one gives the nearest
+  //   object), returning the number of calls. `visit` may run queries itself.
+  // Ray origins and directions are std::array<float, 3> (Vec3f), so braced
+  // lists work: query_ray({0, 0, 0}, {1, 0, 0}, 10); the vector-returning
+  // form also takes raw float[3] arrays.
+  using HitVisitor = std::function<bool(Handle)>;
+  using Vec3f = std::array<float, 3>;
   std::vector<Handle> query_box(const Aabb& box) const;
+  std::size_t query_box(const Aabb& box, std::vector<Handle>& out) const;
+  std::size_t query_box(const Aabb& box, const HitVisitor& visit) const;
   std::vector<Handle> query_ray(const float origin[3], const float direction[3], float max_t) const;
+  std::vector<Handle> query_ray(const Vec3f& origin, const Vec3f& direction, float max_t) const;
+  std::size_t query_ray(const Vec3f& origin, const Vec3f& direction, float max_t, std::vector<Handle>& out) const;
+  std::size_t query_ray(const Vec3f& origin, const Vec3f& direction, float max_t, const HitVisitor& visit) const;
 
   std::size_t size() const;  // live objects
   bool contains(Handle h) const;

@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <memory>
 #include <string>
 #include <type_traits>
@@ -44,6 +45,22 @@ py::array as_array(py::handle obj, const char* what) {
   return a;
 }
 
+bool list_or_tuple(py::handle obj) { return PyList_Check(obj.ptr()) || PyTuple_Check(obj.ptr()); }
+
+// One box or point given as a list or tuple of Python numbers, as a float32
+// array: each number rounded to the nearest float32. Rounding is monotone, so
+// the converted box overlaps every float32 box the exact one overlaps (it
+// can only gain objects within one float32 step of its faces), and a valid
+// box stays valid.
+py::array float32_numbers(py::handle obj, const char* what) {
+  auto a = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(obj);
+  if (!a) {
+    PyErr_Clear();
+    throw ArgumentError(std::string(what) + ": a list or tuple must hold numbers only");
+  }
+  return a;
+}
+
 bool c_contiguous_aligned(const py::array& a, std::size_t alignment) {
   return (a.flags() & py::array::c_style) &&
          reinterpret_cast<std::uintptr_t>(a.data()) % alignment == 0;
@@ -58,8 +75,16 @@ std::string coord(float v) {
 }  // namespace
 
 BoxesView boxes_view(py::handle obj, const char* what, bool single) {
-  py::array a = as_array(obj, what);
   const char* expected = single ? "(6,)" : "(n, 6)";
+  // One box may be a list or tuple; many must be a float32 array (a list of
+  // rows is refused: converting it silently would cost a copy per call).
+  const bool from_list = single && list_or_tuple(obj);
+  py::array a;
+  if (from_list) {
+    a = float32_numbers(obj, what);
+  } else {
+    a = as_array(obj, what);
+  }
   if (!py::isinstance<py::array_t<float>>(a)) {
     throw ArgumentError(std::string(what) + ": dtype must be float32, got " + dtype_string(a) +
                         " (convert explicitly, e.g. " + what +
@@ -68,8 +93,9 @@ BoxesView boxes_view(py::handle obj, const char* what, bool single) {
   const bool shape_ok = single ? (a.ndim() == 1 && a.shape(0) == 6)
                                : (a.ndim() == 2 && a.shape(1) == 6);
   if (!shape_ok) {
+    const bool one_box = !single && a.ndim() == 1 && a.shape(0) == 6;
     throw ArgumentError(std::string(what) + ": shape must be " + expected + " [minx, miny, minz, maxx, maxy, maxz], got " +
-                        shape_string(a));
+                        shape_string(a) + (one_box ? " (one box: a list of one row, [[minx, ..., maxz]])" : ""));
   }
   if (!c_contiguous_aligned(a, alignof(Aabb))) a = a.attr("copy")("C");  // one copy, C order
   BoxesView view;
@@ -136,7 +162,7 @@ HandlesView handles_view(py::handle obj, const char* what) {
 }
 
 void vec3(py::handle obj, const char* what, float out[3]) {
-  py::array a = as_array(obj, what);
+  py::array a = list_or_tuple(obj) ? float32_numbers(obj, what) : as_array(obj, what);
   if (!py::isinstance<py::array_t<float>>(a)) {
     throw ArgumentError(std::string(what) + ": dtype must be float32, got " + dtype_string(a));
   }

@@ -6,7 +6,9 @@
 // changes; a C-contiguous, aligned float32 (n, 6) array is viewed in place
 // as hbp::Aabb[n] (no copy), anything else float32 is copied once into C
 // order, any other dtype is rejected (float64 -> float32 rounding could
-// shrink or invert a box and silently drop pairs).
+// shrink or invert a box and silently drop pairs). Where one box or one point
+// is expected, a Python list or tuple of numbers is accepted too, each
+// number rounded to the nearest float32 (monotone: no overlap is lost).
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 

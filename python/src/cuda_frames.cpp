@@ -90,9 +90,12 @@ void register_cuda_frames(py::module_& m) {
                         "Pairs of find_pairs(..., engine='cuda') on boxes in device memory: (k, 2) uint32, a < b, "
                         "sorted, left on the GPU. cupy.asarray(p) and torch.as_tensor(p, device='cuda') take them "
                         "without a copy (__cuda_array_interface__).")
-      .def_property_readonly("__cuda_array_interface__", &array_interface)
-      .def_property_readonly("shape", [](const CudaPairs& p) { return py::make_tuple(p.pairs.count, 2); })
-      .def("__len__", [](const CudaPairs& p) { return p.pairs.count; })
+      .def_property_readonly("__cuda_array_interface__", &array_interface,
+                             "CUDA Array Interface version 3: shape (k, 2), typestr '<u4', the device pointer")
+      .def_property_readonly(
+          "shape", [](const CudaPairs& p) { return py::make_tuple(p.pairs.count, 2); }, "(k, 2)")
+      .def(
+          "__len__", [](const CudaPairs& p) { return p.pairs.count; }, "The number of pairs, k.")
       .def("__repr__", [](const CudaPairs& p) { return "CudaPairs(" + std::to_string(p.pairs.count) + " pairs on the GPU)"; });
 }
 

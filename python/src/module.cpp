@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// The Python module hybrid_broadphase (issue 15): find_pairs on one frame and
+// The Python module hybrid_broadphase: find_pairs on one frame and
 // BroadPhase, the handle-based broad phase, on numpy arrays. docs/python.md.
 //
 // Threads: every call releases the GIL while C++ works and takes the
@@ -403,6 +403,9 @@ PYBIND11_MODULE(hybrid_broadphase, m) {
   m.attr("MAX_THREADS") = hbp::kMaxThreads;
 
   static py::exception<hbp::CapacityExceeded> capacity_exceeded(m, "CapacityExceeded", PyExc_RuntimeError);
+  capacity_exceeded.attr("__doc__") =
+      "More pairs than max_pairs (find_pairs, BroadPhase.update); a RuntimeError. The BroadPhase keeps its "
+      "previous result.";
   py::register_exception_translator([](std::exception_ptr p) {
     try {
       if (p) std::rethrow_exception(p);
@@ -423,7 +426,8 @@ PYBIND11_MODULE(hybrid_broadphase, m) {
         "a < b, sorted. engine: a cell engine name ('sw' default; 'cuda': the whole frame on the GPU, and "
         "boxes with __cuda_array_interface__ (CuPy, PyTorch) give a CudaPairs left on the GPU); "
         "threads: 0 = all cores; max_pairs: 0 = unlimited, else CapacityExceeded beyond.");
-  m.def("_boxes_address", &boxes_address, py::arg("boxes"));
+  m.def("_boxes_address", &boxes_address, py::arg("boxes"),
+        "Private (tests): the address the module reads boxes from (equals boxes.ctypes.data when no copy is made).");
 
   py::class_<UpdateResult>(m, "UpdateResult", "Pairs of one BroadPhase.update(): (k, 2) uint32 handle pairs, a < b, sorted.")
       .def_readonly("pairs", &UpdateResult::pairs, "every reported pair now")
@@ -431,52 +435,77 @@ PYBIND11_MODULE(hybrid_broadphase, m) {
       .def_readonly("removed", &UpdateResult::removed, "at the previous update, not now")
       .def("__iter__", [](const UpdateResult& r) {  // pairs, created, removed = bp.update()
         return py::iter(py::make_tuple(r.pairs, r.created, r.removed));
-      })
+      }, "Iterates pairs, created, removed: `pairs, created, removed = bp.update()`.")
       .def("__repr__", [](const UpdateResult& r) {
         return "UpdateResult(pairs=" + std::to_string(r.pairs.shape(0)) + ", created=" +
                std::to_string(r.created.shape(0)) + ", removed=" + std::to_string(r.removed.shape(0)) + ")";
-      });
+      }, "The three counts, e.g. UpdateResult(pairs=2, created=1, removed=0).");
 
   py::class_<PyBroadPhase>(m, "BroadPhase",
                            "Persistent handles, static and moving objects, pair events, layer filtering and "
                            "queries. Edits take effect at the next update(); a call that raises changes nothing.")
       .def(py::init<const std::string&, const py::object&, long long, long long>(), py::kw_only(),
-           py::arg("engine") = "sw", py::arg("threads") = 0, py::arg("cell_limit") = 0, py::arg("max_pairs") = 0)
+           py::arg("engine") = "sw", py::arg("threads") = 0, py::arg("cell_limit") = 0, py::arg("max_pairs") = 0,
+           "An empty broad phase. engine: a cell engine name ('sw' default); threads: 0 = all cores; "
+           "cell_limit: 0 = the engine's default, else >= 2; max_pairs: 0 = unlimited, else update() raises "
+           "CapacityExceeded beyond it. ValueError for an unknown engine or a bad option.")
       .def("add", &PyBroadPhase::add, py::arg("boxes"), py::kw_only(), py::arg("static") = false,
-           py::arg("layer") = 0, "Adds (n, 6) float32 boxes; returns their (n,) uint32 handles in order.")
+           py::arg("layer") = 0, "Adds (n, 6) float32 boxes, moving or static (static objects are never paired with each other), on "
+           "layer; returns their (n,) uint32 handles in order. ValueError naming the first bad row.")
       .def("reserve", &PyBroadPhase::reserve, py::arg("objects"),
            "Provisions memory for up to `objects` moving objects before they are added, so the first update() "
            "does not pay for fresh memory (optional; results are the same).")
       .def("move", &PyBroadPhase::move, py::arg("handles"), py::arg("boxes"),
            "Replaces the boxes of handles ((m,) integers) with boxes ((m, 6) float32).")
-      .def("remove", &PyBroadPhase::remove, py::arg("handles"))
-      .def("set_layer", &PyBroadPhase::set_layer, py::arg("handles"), py::arg("layer"))
+      .def("remove", &PyBroadPhase::remove, py::arg("handles"),
+           "Removes the objects of handles ((m,) integers); their pairs are reported removed at the next update(). "
+           "ValueError naming the row of an unknown, stale or repeated handle.")
+      .def("set_layer", &PyBroadPhase::set_layer, py::arg("handles"), py::arg("layer"),
+           "Moves the objects of handles ((m,) integers) to layer (0..LAYER_COUNT - 1).")
       .def("set_collides", &PyBroadPhase::set_collides, py::arg("layer_a"), py::arg("layer_b"),
            py::arg("collides"), "Symmetric; every pair of layers collides by default.")
-      .def("collides", &PyBroadPhase::collides, py::arg("layer_a"), py::arg("layer_b"))
+      .def("collides", &PyBroadPhase::collides, py::arg("layer_a"), py::arg("layer_b"),
+           "Whether objects of layer_a and layer_b are paired (set_collides).")
       .def("set_pair_filter", &PyBroadPhase::set_pair_filter, py::arg("filter"),
            "f(a, b) -> bool called for pairs passing the box and layer tests (a < b); None removes it. "
            "Runs under the GIL from worker threads (serialised).")
-      .def("update", &PyBroadPhase::update)
+      .def("update", &PyBroadPhase::update,
+           "Applies every edit since the last update and returns an UpdateResult: pairs (every reported pair "
+           "now), created (new since the previous update) and removed (gone since then), each a (k, 2) uint32 "
+           "array of handles, a < b, sorted. A pair needs overlapping boxes, at least one moving object, "
+           "colliding layers and the pair filter's consent. Raises CapacityExceeded past max_pairs, or what "
+           "the pair filter raised; a raising update() applies nothing.")
       .def("query_box", &PyBroadPhase::query_box, py::arg("box"),
-           "Handles whose box overlaps the closed (6,) float32 box, sorted.")
+           "Handles whose box overlaps the closed box, sorted: a (6,) float32 array, or a list or tuple of 6 "
+           "numbers (each rounded to the nearest float32). Sees every edit, updated or not.")
       .def("query_boxes", &PyBroadPhase::query_boxes, py::arg("boxes"),
            "query_box for each row of (m, 6) float32 boxes: (offsets (m + 1,) int64, handles); row i's hits "
            "are handles[offsets[i]:offsets[i + 1]], sorted.")
       .def("query_ray", &PyBroadPhase::query_ray, py::arg("origin"), py::arg("direction"), py::arg("max_t"),
-           "Handles whose box the segment origin + t * direction, 0 <= t <= max_t, touches, by entry t.")
-      .def("__len__", &PyBroadPhase::size)
-      .def("__contains__", &PyBroadPhase::contains)
-      .def("contains", &PyBroadPhase::contains, py::arg("handle"))
-      .def("box", &PyBroadPhase::box, py::arg("handle"))
-      .def("is_static", &PyBroadPhase::is_static, py::arg("handle"))
-      .def("layer", &PyBroadPhase::layer, py::arg("handle"))
-      .def_property_readonly("stats", &PyBroadPhase::stats)
-      .def_property_readonly("engine", [](const PyBroadPhase& b) { return b.options().engine; })
-      .def_property_readonly("threads", [](const PyBroadPhase& b) { return b.options().threads; })
-      .def_property_readonly("cell_limit", [](const PyBroadPhase& b) { return b.options().cell_limit; })
-      .def_property_readonly("max_pairs", [](const PyBroadPhase& b) { return b.options().max_pairs; })
+           "Handles whose box the segment origin + t * direction, 0 <= t <= max_t, touches, by entry t (0 "
+           "when origin is inside), ties by handle. origin, direction: (3,) float32 arrays or lists or tuples "
+           "of 3 numbers; max_t >= 0, inf for the whole ray.")
+      .def("__len__", &PyBroadPhase::size, "The number of live objects.")
+      .def("__contains__", &PyBroadPhase::contains, py::arg("handle"), "`handle in bp`: whether handle is a live object.")
+      .def("contains", &PyBroadPhase::contains, py::arg("handle"),
+           "Whether handle is a live object (False for removed, stale or non-integer handles).")
+      .def("box", &PyBroadPhase::box, py::arg("handle"),
+           "The object's box as a (6,) float32 array (ValueError for an unknown or stale handle).")
+      .def("is_static", &PyBroadPhase::is_static, py::arg("handle"),
+           "Whether the object was added with static=True.")
+      .def("layer", &PyBroadPhase::layer, py::arg("handle"), "The object's layer (0..LAYER_COUNT - 1).")
+      .def_property_readonly("stats", &PyBroadPhase::stats,
+                             "The last update(): dict of moving, statics (live objects), moved, static_changes "
+                             "(objects changed since the update before) and wall_ms (its wall time).")
+      .def_property_readonly("engine", [](const PyBroadPhase& b) { return b.options().engine; },
+                             "The cell engine's name.")
+      .def_property_readonly("threads", [](const PyBroadPhase& b) { return b.options().threads; },
+                             "The thread count asked for (0: all cores).")
+      .def_property_readonly("cell_limit", [](const PyBroadPhase& b) { return b.options().cell_limit; },
+                             "The partition's objects per cell (0: the engine's default).")
+      .def_property_readonly("max_pairs", [](const PyBroadPhase& b) { return b.options().max_pairs; },
+                             "The most pairs one update() may report (0: unlimited).")
       .def("__repr__", [](PyBroadPhase& b) {
         return "BroadPhase(engine='" + b.options().engine + "', objects=" + std::to_string(b.size()) + ")";
-      });
+      }, "The engine and the number of live objects.");
 }

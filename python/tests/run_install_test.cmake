@@ -1,6 +1,6 @@
 # ctest driver (cmake -P): cmake --install of the Python component under a
-# fresh prefix, then /usr/bin/python3 imports the module from there (and not
-# from the build tree) and finds one pair.
+# fresh prefix (the module and its type stubs), then /usr/bin/python3 imports
+# the module from there (and not from the build tree) and finds one pair.
 # Inputs: HBP_BUILD_DIR, HBP_PYTHON, HBP_PYTHON_INSTALL_DIR, HBP_WORK_DIR, HBP_VERSION.
 file(REMOVE_RECURSE ${HBP_WORK_DIR})
 set(prefix ${HBP_WORK_DIR}/prefix)
@@ -12,6 +12,9 @@ endif()
 file(GLOB module ${prefix}/${HBP_PYTHON_INSTALL_DIR}/hybrid_broadphase*.so)
 if(NOT module)
   message(FATAL_ERROR "no hybrid_broadphase*.so under ${prefix}/${HBP_PYTHON_INSTALL_DIR}:\n${out}")
+endif()
+if(NOT EXISTS ${prefix}/${HBP_PYTHON_INSTALL_DIR}/hybrid_broadphase.pyi)
+  message(FATAL_ERROR "the type stubs hybrid_broadphase.pyi are not beside the module in ${prefix}/${HBP_PYTHON_INSTALL_DIR}")
 endif()
 set(ENV{PYTHONPATH} ${prefix}/${HBP_PYTHON_INSTALL_DIR})
 execute_process(COMMAND ${HBP_PYTHON} -c [=[

@@ -87,13 +87,13 @@ hbp_status pair_list(const hbp_broad_phase* bp, const hbp_pair** pairs, std::siz
   return ok();
 }
 
-hbp_status report_hits(const std::vector<hbp::Handle>& hits, hbp_hit_callback callback, void* user,
-                       std::size_t* hits_out) {
-  std::size_t calls = 0;
-  for (hbp::Handle h : hits) {
-    ++calls;
-    if (callback(user, h) == 0) break;
-  }
+// The C callback as the query's visitor: hits in the query's order until the
+// callback returns 0, with no list of hits built for the caller.
+hbp::BroadPhase::HitVisitor c_visitor(hbp_hit_callback callback, void* user) {
+  return [callback, user](hbp::Handle h) { return callback(user, h) != 0; };
+}
+
+hbp_status report_calls(std::size_t calls, std::size_t* hits_out) {
   if (hits_out != nullptr) *hits_out = calls;
   return ok();
 }
@@ -213,7 +213,7 @@ hbp_status hbp_query_box(const hbp_broad_phase* bp, const hbp_box* box, hbp_hit_
   if (bp == nullptr || box == nullptr || callback == nullptr) {
     return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_query_box: bp, box and callback must not be NULL");
   }
-  return guarded([&] { return report_hits(bp->bp.query_box(*as_aabbs(box)), callback, user, hits_out); });
+  return guarded([&] { return report_calls(bp->bp.query_box(*as_aabbs(box), c_visitor(callback, user)), hits_out); });
 }
 
 hbp_status hbp_query_ray(const hbp_broad_phase* bp, const float origin[3], const float direction[3], float max_t,
@@ -222,7 +222,10 @@ hbp_status hbp_query_ray(const hbp_broad_phase* bp, const float origin[3], const
   if (bp == nullptr || origin == nullptr || direction == nullptr || callback == nullptr) {
     return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_query_ray: bp, origin, direction and callback must not be NULL");
   }
-  return guarded([&] { return report_hits(bp->bp.query_ray(origin, direction, max_t), callback, user, hits_out); });
+  return guarded([&] {
+    const hbp::BroadPhase::Vec3f o{origin[0], origin[1], origin[2]}, d{direction[0], direction[1], direction[2]};
+    return report_calls(bp->bp.query_ray(o, d, max_t, c_visitor(callback, user)), hits_out);
+  });
 }
 
 hbp_status hbp_size(const hbp_broad_phase* bp, size_t* count) {

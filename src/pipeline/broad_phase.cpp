@@ -947,23 +947,21 @@ struct BroadPhase::Impl {
 
   // ---- queries -------------------------------------------------------------
 
-  // The hits are collected in a per-thread scratch (no growth reallocations
-  // per query) and copied once into the answer.
-  std::vector<Handle> query_box(const Aabb& q) {
+  // Box hits are written straight into `out` (cleared first): a caller that
+  // keeps its vector pays no allocation once it is large enough.
+  void query_box(const Aabb& q, std::vector<Handle>& out) {
     if (const char* d = box_defect(q)) throw InvalidInput(std::string("BroadPhase::query_box: ") + d);
     sync_queries();
-    thread_local std::vector<Handle> hits;
-    hits.clear();
-    const auto collect = [&](std::uint32_t, const BoxTree::Item& it) { hits.push_back(it.id); };
+    out.clear();
+    const auto collect = [&](std::uint32_t, const BoxTree::Item& it) { out.push_back(it.id); };
     static_tree.for_each_overlap(q, collect);
     moving_tree.for_each_overlap(q, collect);
-    std::sort(hits.begin(), hits.end());
-    std::vector<Handle> out(hits.begin(), hits.end());
-    retained::trim(hits);
-    return out;
+    std::sort(out.begin(), out.end());
   }
 
-  std::vector<Handle> query_ray(const float origin[3], const float direction[3], float max_t) {
+  // Ray hits are sorted by entry t in a per-thread scratch (no growth
+  // reallocations per query), then their handles written into `out`.
+  void query_ray(const float origin[3], const float direction[3], float max_t, std::vector<Handle>& out) {
     for (int k = 0; k < 3; ++k) {
       if (!std::isfinite(origin[k]))
         throw InvalidInput("BroadPhase::query_ray: origin[" + std::to_string(k) + "] is not finite");
@@ -983,10 +981,9 @@ struct BroadPhase::Impl {
     static_tree.for_each_ray_hit(ray, collect);
     moving_tree.for_each_ray_hit(ray, collect);
     std::sort(hits.begin(), hits.end(), [](const Hit& a, const Hit& b) { return a.t < b.t || (a.t == b.t && a.h < b.h); });
-    std::vector<Handle> out(hits.size());
+    out.resize(hits.size());
     for (std::size_t i = 0; i < hits.size(); ++i) out[i] = hits[i].h;
     retained::trim(hits);
-    return out;
   }
 
   Handle checked(const char* call, Handle h) const {
@@ -1051,9 +1048,70 @@ const BroadPhaseUpdate& BroadPhase::update() { return impl_->update(); }
 const BroadPhaseUpdate& BroadPhase::last_update() const { return impl_->result; }
 const BroadPhaseUpdateStats& BroadPhase::stats() const { return impl_->stats; }
 
-std::vector<Handle> BroadPhase::query_box(const Aabb& box) const { return impl_->query_box(box); }
+namespace {
+
+// The hits of one query, visited in order. They are kept in a per-thread
+// buffer taken out of its slot while the visitor runs: a visitor that runs a
+// query itself finds the slot empty and uses its own buffer, so the list
+// being visited is never overwritten. (A visitor that throws loses the
+// buffer, not the result of any other query.)
+template <class Query>
+std::size_t visit_hits(const BroadPhase::HitVisitor& visit, Query query) {
+  thread_local std::vector<Handle> slot;
+  std::vector<Handle> hits;
+  hits.swap(slot);
+  query(hits);
+  std::size_t calls = 0;
+  for (const Handle h : hits) {
+    ++calls;
+    if (!visit(h)) break;
+  }
+  retained::trim(hits);
+  if (hits.capacity() >= slot.capacity()) slot.swap(hits);
+  return calls;
+}
+
+}  // namespace
+
+Handle BroadPhase::add(const Aabb& box, const AddOptions& options) {
+  return impl_->add(std::span<const Aabb>(&box, 1), options)[0];
+}
+
+// The vector-returning forms fill a per-thread scratch and copy it once into
+// an answer of the exact size (no growth reallocations in the answer).
+std::vector<Handle> BroadPhase::query_box(const Aabb& box) const {
+  thread_local std::vector<Handle> scratch;
+  impl_->query_box(box, scratch);
+  std::vector<Handle> out(scratch.begin(), scratch.end());
+  retained::trim(scratch);
+  return out;
+}
+std::size_t BroadPhase::query_box(const Aabb& box, std::vector<Handle>& out) const {
+  impl_->query_box(box, out);
+  return out.size();
+}
+std::size_t BroadPhase::query_box(const Aabb& box, const HitVisitor& visit) const {
+  return visit_hits(visit, [&](std::vector<Handle>& hits) { impl_->query_box(box, hits); });
+}
+
 std::vector<Handle> BroadPhase::query_ray(const float origin[3], const float direction[3], float max_t) const {
-  return impl_->query_ray(origin, direction, max_t);
+  thread_local std::vector<Handle> scratch;
+  impl_->query_ray(origin, direction, max_t, scratch);
+  std::vector<Handle> out(scratch.begin(), scratch.end());
+  retained::trim(scratch);
+  return out;
+}
+std::vector<Handle> BroadPhase::query_ray(const Vec3f& origin, const Vec3f& direction, float max_t) const {
+  return query_ray(origin.data(), direction.data(), max_t);
+}
+std::size_t BroadPhase::query_ray(const Vec3f& origin, const Vec3f& direction, float max_t,
+                                  std::vector<Handle>& out) const {
+  impl_->query_ray(origin.data(), direction.data(), max_t, out);
+  return out.size();
+}
+std::size_t BroadPhase::query_ray(const Vec3f& origin, const Vec3f& direction, float max_t,
+                                  const HitVisitor& visit) const {
+  return visit_hits(visit, [&](std::vector<Handle>& hits) { impl_->query_ray(origin.data(), direction.data(), max_t, hits); });
 }
 
 std::size_t BroadPhase::size() const { return impl_->table.live(); }
