@@ -36,7 +36,8 @@ py::dict array_interface(const CudaPairs& p) {
 }
 
 std::int64_t as_int(py::handle v, const char* what) {
-  if (!py::isinstance<py::int_>(v)) throw ArgumentError(std::string("boxes: __cuda_array_interface__ ") + what + " must be an int");
+  if (!py::isinstance<py::int_>(v))
+    throw ArgumentError(std::string("boxes: __cuda_array_interface__ ") + what + " must be an int");
   return v.cast<std::int64_t>();
 }
 
@@ -49,7 +50,8 @@ cuda::DeviceRows rows_of(const py::dict& cai, void** stream) {
     if (!cai.contains(key)) throw ArgumentError(std::string("boxes: __cuda_array_interface__ has no '") + key + "'");
   const py::object shape = cai["shape"];
   if (!py::isinstance<py::tuple>(shape) || py::len(shape) != 2 || as_int(shape.cast<py::tuple>()[1], "shape") != 6)
-    throw ArgumentError("boxes: a CUDA array of shape (n, 6) is needed, got shape " + py::str(shape).cast<std::string>());
+    throw ArgumentError("boxes: a CUDA array of shape (n, 6) is needed, got shape " +
+                        py::str(shape).cast<std::string>());
   const std::int64_t n = as_int(shape.cast<py::tuple>()[0], "shape");
   const std::string typestr = py::str(cai["typestr"]);
   if (typestr != "<f4" && typestr != "|f4")
@@ -61,7 +63,8 @@ cuda::DeviceRows rows_of(const py::dict& cai, void** stream) {
     throw ArgumentError("boxes: __cuda_array_interface__ 'data' must be (pointer, read_only)");
   const std::uint64_t address = py::cast<std::uint64_t>(data.cast<py::tuple>()[0]);
   if (n < 0 || n > 0xffffffffll) throw ArgumentError("boxes: " + std::to_string(n) + " rows is out of range");
-  if (n > 0 && address == 0) throw ArgumentError("boxes: __cuda_array_interface__ has a null pointer for " + std::to_string(n) + " rows");
+  if (n > 0 && address == 0)
+    throw ArgumentError("boxes: __cuda_array_interface__ has a null pointer for " + std::to_string(n) + " rows");
   cuda::DeviceRows rows;
   rows.data = reinterpret_cast<const float*>(static_cast<std::uintptr_t>(address));
   rows.n = static_cast<std::uint32_t>(n);
@@ -96,7 +99,8 @@ void register_cuda_frames(py::module_& m) {
           "shape", [](const CudaPairs& p) { return py::make_tuple(p.pairs.count, 2); }, "(k, 2)")
       .def(
           "__len__", [](const CudaPairs& p) { return p.pairs.count; }, "The number of pairs, k.")
-      .def("__repr__", [](const CudaPairs& p) { return "CudaPairs(" + std::to_string(p.pairs.count) + " pairs on the GPU)"; });
+      .def("__repr__",
+           [](const CudaPairs& p) { return "CudaPairs(" + std::to_string(p.pairs.count) + " pairs on the GPU)"; });
 }
 
 py::object find_pairs_cuda(py::handle boxes, long long max_pairs) {

@@ -114,9 +114,7 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
   }
 
   DevicePairs run_device(const DeviceRows& rows, void* stream) override {
-    info = {};
-    stream_ = static_cast<cudaStream_t>(stream);
-    record(kStart);
+    begin_device(stream);
     const std::uint32_t n = rows.n;
     size_uploads(n);
     float* lanes = boxes_.as<float>();
@@ -127,31 +125,35 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
       d.lo[k] = lanes + static_cast<std::size_t>(k) * n;
       d.hi[k] = lanes + static_cast<std::size_t>(3 + k) * n;
     }
-    record(kUploaded);
-    const std::uint64_t count = frame(d);
-    record(kDownloaded);
-    sync();
-    times(false);
-    info.times.upload_ms = between(kStart, kUploaded);
-    pairs.clear();
-    return {pair_buffer(), count};
+    return finish_device(d, true);
   }
 
   DevicePairs run_device(const Lanes& in, void* stream) override {
-    info = {};
-    stream_ = static_cast<cudaStream_t>(stream);
-    record(kStart);
-    record(kUploaded);
-    const std::uint64_t count = frame(in);
-    record(kDownloaded);
-    sync();
-    times(false);
-    pairs.clear();
-    return {pair_buffer(), count};
+    begin_device(stream);
+    return finish_device(in, false);
   }
 
  private:
   const std::uint32_t* pair_buffer() const { return pair_out_.as<std::uint32_t>(); }
+
+  // The device entries: the caller's stream, the frame over device lanes,
+  // pairs left in pair_out_. `transposed`: the lanes were made from rows on
+  // the device since begin_device (timed as the upload).
+  void begin_device(void* stream) {
+    info = {};
+    stream_ = static_cast<cudaStream_t>(stream);
+    record(kStart);
+  }
+  DevicePairs finish_device(const Lanes& lanes, bool transposed) {
+    record(kUploaded);
+    const std::uint64_t count = frame(lanes);
+    record(kDownloaded);
+    sync();
+    times(false);
+    if (transposed) info.times.upload_ms = between(kStart, kUploaded);
+    pairs.clear();
+    return {pair_buffer(), count};
+  }
 
   // The stages bounds .. order over device lanes; returns the pair count,
   // the pairs left in pair_out_.
@@ -226,8 +228,8 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
                    stream_))
       ++info.allocations;
     check_cuda(cudaMemsetAsync(cells_.as<std::uint32_t>(), 0, 4, stream_), "cells");
-    launch_gather_cells(packed_.as<float>(), sorted_keys, sorted_ids, refs, bits, lanes_.as<float>(), positions_.as<std::uint32_t>(),
-                        head_.as<std::uint32_t>(), stream_);
+    launch_gather_cells(packed_.as<float>(), sorted_keys, sorted_ids, refs, bits, lanes_.as<float>(),
+                        positions_.as<std::uint32_t>(), head_.as<std::uint32_t>(), stream_);
     scan(head_.as<std::uint32_t>(), head_scan_.as<std::uint32_t>(), refs);
     // The scan is written to out[1..refs]: the cells kernel reads it from there.
     launch_cells(g, sorted_keys, bits, head_scan_.as<std::uint32_t>() + 1, refs, cell_begin_.as<std::uint32_t>(),
@@ -346,10 +348,11 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     t.download_ms = transfers ? between(kOrdered, kDownloaded) : 0;
     t.frame_ms = between(kUploaded, kOrdered);
     std::size_t held = 0;
-    for (const DeviceBuffer* d : {&boxes_, &packed_, &kept_, &acc_, &planes_, &ref_count_, &is_large_, &ref_offset_, &large_offset_,
-                                  &keys_, &keys_alt_, &ids_, &ids_alt_, &large_list_, &lanes_, &positions_, &head_,
-                                  &head_scan_, &cell_begin_, &cell_ids_, &big_cells_, &regions_, &cells_, &counts_, &offsets_, &pair_out_, &pair_keys_,
-                                  &pair_keys_alt_, &temp_})
+    for (const DeviceBuffer* d :
+         {&boxes_, &packed_, &kept_, &acc_, &planes_, &ref_count_, &is_large_, &ref_offset_, &large_offset_, &keys_,
+          &keys_alt_, &ids_, &ids_alt_, &large_list_, &lanes_, &positions_, &head_, &head_scan_, &cell_begin_,
+          &cell_ids_, &big_cells_, &regions_, &cells_, &counts_, &offsets_, &pair_out_, &pair_keys_, &pair_keys_alt_,
+          &temp_})
       held += d->capacity();
     info.buffer_bytes = held;
   }
@@ -360,9 +363,9 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
   cudaStream_t stream_ = nullptr;
   cudaEvent_t events_[kStages] = {};
   std::uint64_t* pinned_ = nullptr;
-  DeviceBuffer boxes_, packed_, kept_, acc_, planes_, ref_count_, is_large_, ref_offset_, large_offset_, keys_, keys_alt_, ids_,
-      ids_alt_, large_list_, lanes_, positions_, head_, head_scan_, cell_begin_, cell_ids_, big_cells_, regions_, cells_,
-      counts_, offsets_, pair_out_, pair_keys_, pair_keys_alt_, temp_;
+  DeviceBuffer boxes_, packed_, kept_, acc_, planes_, ref_count_, is_large_, ref_offset_, large_offset_, keys_,
+      keys_alt_, ids_, ids_alt_, large_list_, lanes_, positions_, head_, head_scan_, cell_begin_, cell_ids_, big_cells_,
+      regions_, cells_, counts_, offsets_, pair_out_, pair_keys_, pair_keys_alt_, temp_;
 };
 
 }  // namespace

@@ -103,8 +103,8 @@ void run_bench_gpu(const GpuBenchArgs& a) {
   }
 
   const bool device = o.launcher == cuda::Launcher::Device;
-  const double gpu_median = median(std::vector<double>(frame.v.begin() + (frame.v.size() > 1 ? 1 : 0), frame.v.end()));
-  const double cpu_median = median(std::vector<double>(cpu_ms.v.begin() + (cpu_ms.v.size() > 1 ? 1 : 0), cpu_ms.v.end()));
+  const double gpu_median = frame.summary(true)["median"].get<double>();
+  const double cpu_median = cpu_ms.summary(true)["median"].get<double>();
   double mean_pairs = 0;
   for (auto p : pairs_per_frame) mean_pairs += static_cast<double>(p);
   mean_pairs /= static_cast<double>(std::max<std::size_t>(1, pairs_per_frame.size()));
