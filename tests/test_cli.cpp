@@ -453,6 +453,27 @@ TEST_F(Cli, BenchPrintsASummaryAndTheReportPath) {
 
 // bench paper's GPU column comes from a stored GPU run, labelled with its
 // GPU and date; without one (or from a dry run) it reads not measured.
+// The GPU frame as a bench system ("cuda"): a column beside the others with
+// a CUDA device, its pairs checked like every system's; without one, named
+// among the systems not built, and the run goes on.
+TEST_F(Cli, BenchRunsTheGpuFrameWhereThereIsADevice) {
+  const std::string out = path("bench-cuda");
+  const Result r = hbp({"bench", "kind", "paper", "--n", "400", "--frames", "2", "--warmup", "0", "--systems",
+                        "sw,cuda", "--no-plots", "--out", out});
+  ASSERT_EQ(r.status, 0) << r.output;
+  nlohmann::json j;
+  std::ifstream(out + "/report.json") >> j;
+  bool column = false;
+  for (const auto& s : j["systems"]) column |= s["key"] == "cuda";
+  bool named = false;
+  for (const auto& m : j["not_built"]) named |= m.get<std::string>().find("GPU frame 'cuda'") != std::string::npos;
+  EXPECT_NE(column, named) << j["not_built"].dump();
+  EXPECT_TRUE(j["mismatches"].empty()) << j["mismatches"].dump();
+#ifndef HBP_TEST_CUDA
+  EXPECT_TRUE(named);
+#endif
+}
+
 TEST_F(Cli, BenchPaperCarriesTheStoredGpuRunLabelled) {
   auto report = [&](const std::string& name, bool dry) {
     const std::string file = path(name);

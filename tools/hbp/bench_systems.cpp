@@ -13,6 +13,9 @@
 #ifdef HBP_HAVE_BASELINES
 #include "hbp/baselines/baseline.hpp"
 #endif
+#ifdef HBP_HAVE_CUDA
+#include "hbp/cuda/frame_broadphase.hpp"
+#endif
 #include "support/clock.hpp"
 
 namespace hbp::cli {
@@ -192,6 +195,39 @@ class WholeWorldModel final : public BenchSystem {
   std::uint64_t raw_ = 0;
 };
 
+#ifdef HBP_HAVE_CUDA
+// The whole frame on the GPU (docs/gpu.md), pairs sorted by (a, b). The
+// table's time is the frame's device time (CUDA events, boxes already on the
+// device); the wall time (host transfers included) goes to budgets and ETA.
+class GpuFrameSystem final : public BenchSystem {
+ public:
+  std::string key() const override { return "cuda"; }
+  std::string label() const override { return "GPU frame (" + cuda::device_name() + ", device time)"; }
+  bool modelled() const override { return false; }
+  bool applies(std::uint32_t) const override { return true; }
+  std::string not_applicable_reason(std::uint32_t) const override { return {}; }
+  void setup(const BoxArray& boxes) override {
+    cuda::FrameOptions o;
+    o.launcher = cuda::Launcher::Device;
+    frame_ = std::make_unique<cuda::FrameBroadPhase>(o);
+    frame_->reserve(static_cast<std::uint32_t>(boxes.size()));
+    frame_->update(cuda::lanes_of(boxes));
+  }
+  FrameTime update(const BoxArray& boxes) override {
+    const Stopwatch watch;
+    frame_->update(cuda::lanes_of(boxes));
+    FrameTime t = watch.stop(BenchClock::Wall);
+    t.reported_ms = frame_->info().times.frame_ms;
+    return t;
+  }
+  std::uint64_t raw_pairs() const override { return frame_->info().pairs; }
+  const std::vector<Pair>& exact_pairs() override { return frame_->pairs(); }
+
+ private:
+  std::unique_ptr<cuda::FrameBroadPhase> frame_;
+};
+#endif
+
 bool engine_built(const std::string& name) {
   try {
     (void)make_cell_engine(name);
@@ -210,7 +246,7 @@ const std::vector<Shape>*& current_bench_shapes() {
 
 std::vector<std::string> bench_system_keys() {
   std::vector<std::string> keys = {"bullet-dbvt", "bullet-dbvt-deferred", "bullet-axis-sweep", "cgal", "brute",
-                                   "sw", "sw-sorted", "sw-narrow", "ae-none", "ae-1024", "mo-none"};
+                                   "sw", "sw-sorted", "sw-narrow", "cuda", "ae-none", "ae-1024", "mo-none"};
   for (std::uint32_t c : kCellSizes) keys.push_back("mo-" + std::to_string(c));
   return keys;
 }
@@ -235,6 +271,14 @@ std::vector<std::unique_ptr<BenchSystem>> make_bench_systems(const SystemChoice&
   sw_sorted.sorted = true;
   systems.push_back(std::make_unique<HybridSystem>("sw-sorted", "hybrid sw, sorted", sw_sorted, false, choice.clock));
   if (choice.shapes) systems.push_back(std::make_unique<PipelineSystem>(sw, choice.clock));
+#ifdef HBP_HAVE_CUDA
+  if (cuda::device_available())
+    systems.push_back(std::make_unique<GpuFrameSystem>());
+  else
+    missing.push_back("GPU frame 'cuda' (no CUDA device found)");
+#else
+  missing.push_back("GPU frame 'cuda' (built without the CUDA room)");
+#endif
 
   if (engine_built("ae")) {
     systems.push_back(std::make_unique<WholeWorldModel>("ae-none", "AE none", make_cell_engine("ae")));

@@ -302,7 +302,8 @@ void add_common(CLI::App* cmd, BenchArgs& a) {
   cmd->add_option("--systems", a.systems, "Only these systems (comma list): bullet-dbvt, bullet-dbvt-deferred, "
                                            "bullet-axis-sweep, cgal, fcl-dynamic-aabb-tree, fcl-sap, "
                                            "fcl-interval-tree, fcl-spatial-hash, ode-hash, ode-sap, ode-quadtree, "
-                                           "brute, sw, sw-sorted, sw-narrow, ae-none, ae-1024, mo-none, mo-1024 ... mo-16384")
+                                           "brute, sw, sw-sorted, sw-narrow, cuda (the GPU frame, with a CUDA "
+                                           "device), ae-none, ae-1024, mo-none, mo-1024 ... mo-16384")
       ->delimiter(',');
   cmd->add_option("--out", a.out, "Output directory (default bench-results/<kind>-<time>)");
   cmd->add_option("--gpu-report", a.gpu_report, "The stored GPU run for the GPU column (bench paper)")
