@@ -18,7 +18,6 @@
 
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_reduce.h>
 #include <tbb/task_arena.h>
 
 #include <algorithm>
@@ -28,7 +27,6 @@
 #include <limits>
 #include <stdexcept>
 
-#include "geometry/box_screen.hpp"
 #include "hbp/error.hpp"
 #include "hbp/kd_partition.hpp"
 #include "partition/raw_buffer.hpp"
@@ -39,10 +37,10 @@
 #include "pipeline/cell_worker.hpp"
 #include "pipeline/first_frame_sample.hpp"
 #include "pipeline/frame_stats.hpp"
-#include "pipeline/hybrid_access.hpp"
 #include "pipeline/pair_block_move.hpp"
 #include "pipeline/pair_outputs.hpp"
 #include "pipeline/parallel_pair_sort.hpp"
+#include "pipeline/screened_boxes.hpp"
 #include "support/clock.hpp"
 #include "support/huge_pages.hpp"
 #include "support/prefault.hpp"
@@ -81,21 +79,6 @@ constexpr std::size_t kTouchPairsPerFrame = std::size_t{16} << 20;
 // The back lane's block is moved in this many chunks a worker (for balance).
 constexpr int kMoveChunksPerWorker = 4;
 
-// The frame's boxes screened in parallel; on failure the serial validate()
-// names the object.
-void validate_boxes(const BoxArray& boxes) {
-  const bool bad = tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, boxes.size(), 16384), false,
-      [&](const auto& r, bool acc) { return acc || geometry::screen_fails(boxes, r.begin(), r.end()); },
-      [](bool a, bool b) { return a || b; });
-  if (bad) boxes.validate("frame");
-}
-
-// The same on the calling thread (one-cell frames: small worlds).
-void validate_boxes_serial(const BoxArray& boxes) {
-  if (geometry::screen_fails(boxes, 0, boxes.size())) boxes.validate("frame");
-}
-
 }  // namespace
 
 struct HybridBroadPhase::Impl {
@@ -110,7 +93,6 @@ struct HybridBroadPhase::Impl {
   KdPartition own_partition;
   bool partition_in_use = false;                  // own_partition holds a tree from an earlier frame
   bool refresh_in_engine = false;                 // own_partition's cells are refreshed as the engine takes them
-  bool boxes_checked = false;  // this frame's boxes were validated by the caller (HybridAccess)
   const KdPartition* partition = &own_partition;  // this frame's cells
   tbb::enumerable_thread_specific<Worker> workers;
   std::vector<CellOutcome> outcomes;       // per cell
@@ -158,18 +140,29 @@ struct HybridBroadPhase::Impl {
 
   // ---- The frame -----------------------------------------------------------
 
-  void run(const BoxArray* boxes, const KdPartition* shared, const PairSink& sink, const PairSink& consumer) {
+  // A frame of boxes. Small frames stay on the calling thread: entering the
+  // arena would wake its workers for nothing.
+  void run_boxes(const BoxArray& boxes, bool checked, const PairSink& sink, const PairSink& consumer) {
+    if (boxes.size() <= cell_limit)
+      run(&boxes, nullptr, checked, sink, consumer);
+    else
+      arena.execute([&] { run(&boxes, nullptr, checked, sink, consumer); });
+  }
+
+  // checked: the boxes were screened by the caller (ValidatedBoxes).
+  void run(const BoxArray* boxes, const KdPartition* shared, bool checked, const PairSink& sink,
+           const PairSink& consumer) {
     running_pairs = 0;
     const auto t0 = SteadyClock::now();
     double partition_ms = 0, engine_ms = 0, merge_ms = 0;
     const bool one_cell = !shared && is_one_cell_frame(boxes);
     if (one_cell) {
       const auto t_engine = SteadyClock::now();
-      run_one_cell(*boxes, sink, consumer);
+      run_one_cell(*boxes, checked, sink, consumer);
       engine_ms = ms_since(t_engine);
     } else {
       const auto t_partition = SteadyClock::now();
-      partition_frame(boxes, shared);
+      partition_frame(boxes, shared, checked);
       partition_ms = ms_since(t_partition);
       run_cells_and_finish(sink, consumer, partition_ms, engine_ms, merge_ms);
     }
@@ -189,8 +182,8 @@ struct HybridBroadPhase::Impl {
   // Frames the partition would leave as one cell: no partition, no workers.
   bool is_one_cell_frame(const BoxArray* boxes) const { return boxes && boxes->size() <= cell_limit; }
 
-  void run_one_cell(const BoxArray& boxes, const PairSink& sink, const PairSink& consumer) {
-    if (!boxes_checked) validate_boxes_serial(boxes);
+  void run_one_cell(const BoxArray& boxes, bool checked, const PairSink& sink, const PairSink& consumer) {
+    if (!checked) detail::screen_boxes_serial(boxes);
     if (partition_in_use) own_partition.reset();  // its tree is stale by the next large frame
     partition_in_use = false;
     cell_pairs.clear();  // buffers of earlier, larger frames
@@ -206,13 +199,13 @@ struct HybridBroadPhase::Impl {
     if (sink) sink(0, pairs.data(), pairs.size());
   }
 
-  void partition_frame(const BoxArray* boxes, const KdPartition* shared) {
+  void partition_frame(const BoxArray* boxes, const KdPartition* shared, bool checked) {
     if (shared) {
       partition = shared;  // cells maintained elsewhere (the ray tracer's hierarchy)
       return;
     }
     partition = &own_partition;
-    if (!boxes_checked) validate_boxes(*boxes);
+    if (!checked) detail::screen_boxes(*boxes);
     // An engine without a capacity limit takes a cell a few objects over the
     // cell limit for one frame (split at the start of the next); others get
     // the refresh in the engine only when no cell can outgrow the limit.
@@ -648,18 +641,19 @@ HybridBroadPhase& HybridBroadPhase::operator=(HybridBroadPhase&&) noexcept = def
 
 const std::vector<Pair>& HybridBroadPhase::update(const BoxArray& boxes, const PairSink& sink,
                                                   const PairSink& parallel_consumer) {
-  // Small frames stay on the calling thread: entering the arena would wake
-  // its workers for nothing.
-  if (boxes.size() <= impl_->cell_limit)
-    impl_->run(&boxes, nullptr, sink, parallel_consumer);
-  else
-    impl_->arena.execute([&] { impl_->run(&boxes, nullptr, sink, parallel_consumer); });
+  impl_->run_boxes(boxes, false, sink, parallel_consumer);
+  return impl_->pairs;
+}
+
+const std::vector<Pair>& HybridBroadPhase::update(const ValidatedBoxes& boxes, const PairSink& sink,
+                                                  const PairSink& parallel_consumer) {
+  impl_->run_boxes(boxes.boxes(), true, sink, parallel_consumer);
   return impl_->pairs;
 }
 
 const std::vector<Pair>& HybridBroadPhase::update(const KdPartition& cells, const PairSink& sink,
                                                   const PairSink& parallel_consumer) {
-  impl_->arena.execute([&] { impl_->run(nullptr, &cells, sink, parallel_consumer); });
+  impl_->arena.execute([&] { impl_->run(nullptr, &cells, false, sink, parallel_consumer); });
   return impl_->pairs;
 }
 void HybridBroadPhase::reserve(std::size_t objects) {
@@ -674,21 +668,6 @@ const FrameStats& HybridBroadPhase::stats() const { return impl_->stats; }
 const BroadPhaseOptions& HybridBroadPhase::options() const { return impl_->options; }
 std::uint32_t HybridBroadPhase::cell_limit() const { return impl_->cell_limit; }
 
-const std::vector<Pair>& detail::HybridAccess::update_checked(HybridBroadPhase& hybrid, const BoxArray& boxes) {
-  HybridBroadPhase::Impl& impl = *hybrid.impl_;
-  impl.boxes_checked = true;
-  try {
-    hybrid.update(boxes);
-  } catch (...) {
-    impl.boxes_checked = false;
-    throw;
-  }
-  impl.boxes_checked = false;
-  return impl.pairs;
-}
-
-void detail::HybridAccess::swap_pairs(HybridBroadPhase& hybrid, std::vector<Pair>& other) {
-  hybrid.impl_->pairs.swap(other);
-}
+void HybridBroadPhase::swap_pairs(std::vector<Pair>& other) { impl_->pairs.swap(other); }
 
 }  // namespace hbp
