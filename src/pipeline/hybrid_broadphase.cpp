@@ -35,7 +35,6 @@
 #include "pipeline/cell_pairs.hpp"
 #include "pipeline/cell_stream.hpp"
 #include "pipeline/cell_worker.hpp"
-#include "pipeline/first_frame_sample.hpp"
 #include "pipeline/frame_stats.hpp"
 #include "pipeline/pair_block_move.hpp"
 #include "pipeline/pair_outputs.hpp"
@@ -85,8 +84,8 @@ struct HybridBroadPhase::Impl {
   BroadPhaseOptions options;
   std::unique_ptr<CellEngine> prototype;
   // The engine has a streaming door (CellHitStream), whose count and emit
-  // calls the frame loop drives itself (the lanes in place, the sampled
-  // first frame); other engines take whole cells through find_owned_pairs.
+  // calls the frame loop drives itself (the lanes in place, dense cells
+  // counted); other engines take whole cells through find_owned_pairs.
   bool direct_kernel;
   std::uint32_t cell_limit;
   tbb::task_arena arena;
@@ -108,7 +107,6 @@ struct HybridBroadPhase::Impl {
   std::size_t in_place_pairs = 0;    // pairs the front lane wrote straight into `pairs` this frame
   std::size_t back_pairs = 0;        // pairs the back lane wrote into `pairs`, ending at back_window
   std::size_t back_window = 0;       // the list's length while the lanes ran
-  bool estimated_list = false;       // the lanes ran in a list sized from a sample (first frame)
 
   static std::uint32_t choose_limit(const BroadPhaseOptions& o, const CellEngine& e) {
     const std::uint32_t limit = o.cell_limit ? o.cell_limit : e.default_cell_limit();
@@ -249,7 +247,6 @@ struct HybridBroadPhase::Impl {
       w.store_full = false;
     }
     count_dense_cells = last_frame_pairs == 0;
-    estimated_list = false;
     in_place_pairs = 0;
     back_pairs = 0;
     // Two lanes in place store only the cells they find no room for: the
@@ -264,14 +261,9 @@ struct HybridBroadPhase::Impl {
       return;
     }
     cell_pairs.clear();
-    estimated_list = count_dense_cells && first_frame_list();
-    if (estimated_list) {
-      count_dense_cells = false;
-    } else {
-      // The last frame's list is dead now; one much larger than this frame
-      // needs is released rather than kept as room.
-      retained::release(pairs, last_frame_pairs, kKeepPairs);
-    }
+    // The last frame's list is dead now; one much larger than this frame
+    // needs is released rather than kept as room.
+    retained::release(pairs, last_frame_pairs, kKeepPairs);
     if (front_lane_allowed())
       run_lanes(cells);
     else
@@ -546,20 +538,6 @@ struct HybridBroadPhase::Impl {
     return true;
   }
 
-  // A first frame written once (first_frame_sample.hpp): with two lanes and
-  // cells built this frame (no refresh deferred to the engine, so loading a
-  // cell twice has no side effect) the list is sized from a sample and the
-  // lanes write in place as on a steady frame. False when this frame keeps
-  // the stores (and counts its dense cells).
-  bool first_frame_list() {
-    if (refresh_in_engine || options.max_pairs || !direct_kernel || lane_count() != 2) return false;
-    const std::size_t estimate = detail::sample_frame_pairs(*partition, workers);
-    if (estimate == 0) return false;
-    reserve_output(estimate);
-    pairs.resize(estimate);
-    return true;
-  }
-
   // ---- The frame's list --------------------------------------------------------
 
   // Offsets of each cell's pairs in the frame's list, and the list sized.
@@ -583,8 +561,6 @@ struct HybridBroadPhase::Impl {
     if (to <= from) {
       move_pairs(from, to, back_pairs);
       pairs.resize(total);
-      // A first frame's estimate far too high: the list's storage follows the frame.
-      if (estimated_list) retained::trim(pairs, kKeepPairs);
     } else {
       if (total > pairs.capacity()) pairs.reserve(total + total / 8);
       pairs.resize(total);
