@@ -34,7 +34,7 @@
 #include <thread>
 #include <vector>
 
-#include "baselines/bullet_headers.hpp"
+#include "hbp/bullet/bullet_headers.hpp"
 #include "baselines/bullet_pairs.hpp"
 #include "hbp/broad_phase.hpp"
 #include "hbp/scenario.hpp"

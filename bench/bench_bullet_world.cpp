@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
 // Step time of the example Bullet world (spheres, boxes, cylinders, cones
-// falling into a container) with each broad phase: hbp::bullet::HybridBroadphase
+// falling into a container) with each broad phase: hbp::bullet::BroadphaseAdapter
 // (1 and 2 threads) and btDbvtBroadphase (Bullet's default). One iteration is
 // a whole run from the same start (the world evolves, so steps are not
 // interchangeable); world construction is not timed.
@@ -19,7 +19,7 @@
 #include <chrono>
 #include <memory>
 
-#include "hbp/bullet/hybrid_broadphase.hpp"
+#include "hbp/bullet/broadphase_adapter.hpp"
 #include "integrations/world/falling_shapes_world.hpp"
 #include "support/clock.hpp"
 
@@ -43,7 +43,7 @@ enum Kind { kHybrid1 = 0, kHybrid2 = 1, kDbvt = 2 };
 
 std::unique_ptr<btBroadphaseInterface> make_broadphase(Kind kind) {
   if (kind == kDbvt) return std::make_unique<btDbvtBroadphase>();
-  return std::make_unique<hbp::bullet::HybridBroadphase>(
+  return std::make_unique<hbp::bullet::BroadphaseAdapter>(
       hbp::BroadPhaseOptions{.engine = "sw", .threads = kind == kHybrid1 ? 1u : 2u});
 }
 

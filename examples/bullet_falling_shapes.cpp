@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
 // A Bullet world of spheres, boxes, cylinders and cones falling into a box
-// container, with hbp::bullet::HybridBroadphase as its broad phase (the one
+// container, with hbp::bullet::BroadphaseAdapter as its broad phase (the one
 // line that differs from a stock Bullet program is marked below).
 //
 //   bullet_falling_shapes                     # 5,000 bodies, 600 steps, ours
@@ -14,7 +14,7 @@
 #include <cstdio>
 #include <memory>
 
-#include "hbp/bullet/hybrid_broadphase.hpp"
+#include "hbp/bullet/broadphase_adapter.hpp"
 #include "integrations/world/falling_shapes_world.hpp"
 #include "integrations/world/side_by_side.hpp"
 
@@ -29,12 +29,12 @@ int run_one(const FallingShapesConfig& config, std::uint32_t steps, bool dbvt, c
   if (dbvt) {
     broadphase = std::make_unique<btDbvtBroadphase>();
   } else {
-    broadphase = std::make_unique<hbp::bullet::HybridBroadphase>(options);  // <- the one line
+    broadphase = std::make_unique<hbp::bullet::BroadphaseAdapter>(options);  // <- the one line
   }
   FallingShapesWorld world(config, std::move(broadphase));
   world.dispatcher().set_recording(true);
   std::printf("%s, %zu bodies (%u falling), %u steps of 1/60 s\n",
-              dbvt ? "btDbvtBroadphase" : "hbp::bullet::HybridBroadphase", world.body_count(), config.bodies, steps);
+              dbvt ? "btDbvtBroadphase" : "hbp::bullet::BroadphaseAdapter", world.body_count(), config.bodies, steps);
   double total_ms = 0, broadphase_ms = 0;
   for (std::uint32_t s = 1; s <= steps; ++s) {
     const auto t = std::chrono::steady_clock::now();
@@ -61,7 +61,7 @@ int run_one(const FallingShapesConfig& config, std::uint32_t steps, bool dbvt, c
 
 int run_compare(const FallingShapesConfig& config, std::uint32_t steps, const hbp::BroadPhaseOptions& options,
                 std::uint32_t every) {
-  std::printf("side by side: hbp::bullet::HybridBroadphase and btDbvtBroadphase, %u falling bodies, %u steps\n",
+  std::printf("side by side: hbp::bullet::BroadphaseAdapter and btDbvtBroadphase, %u falling bodies, %u steps\n",
               config.bodies, steps);
   const auto summary = hbp::bullet::world::run_side_by_side(
       config, steps, options, [&](const hbp::bullet::world::StepComparison& c) {

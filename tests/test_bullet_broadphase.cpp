@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// hbp::bullet::HybridBroadphase as Bullet's btBroadphaseInterface:
+// hbp::bullet::BroadphaseAdapter as Bullet's btBroadphaseInterface:
 // - the pair cache holds exactly the brute-force pairs the cache's filter
 //   accepts, frame after frame, while proxies move, appear and disappear;
 // - it is maintained incrementally: each frame adds exactly the pairs that
@@ -23,7 +23,7 @@
 #include <string>
 #include <vector>
 
-#include "hbp/bullet/hybrid_broadphase.hpp"
+#include "hbp/bullet/broadphase_adapter.hpp"
 #include "hbp/error.hpp"
 #include "hbp/pair.hpp"
 #include "integrations/world/falling_shapes_world.hpp"
@@ -41,7 +41,7 @@ namespace {
 
 using hbp::Aabb;
 using hbp::Pair;
-using hbp::bullet::HybridBroadphase;
+using hbp::bullet::BroadphaseAdapter;
 
 // Objects carry an id (stable across frames) as their user pointer.
 void* user_of(std::uint32_t id) { return reinterpret_cast<void*>(static_cast<std::uintptr_t>(id) + 1); }
@@ -132,7 +132,7 @@ TEST(BulletBroadphase, CacheIsExactAndIncrementalUnderChurn) {
   btHashedOverlappingPairCache cache;
   PairLog log;
   static_cast<btOverlappingPairCache&>(cache).setInternalGhostPairCallback(&log);
-  HybridBroadphase bp(&cache, {.engine = "sw", .threads = 2});
+  BroadphaseAdapter bp(&cache, {.engine = "sw", .threads = 2});
   std::mt19937 rng(7);
   std::vector<btBroadphaseProxy*> live;
   std::uint32_t next_id = 0;
@@ -214,7 +214,7 @@ TEST(BulletBroadphase, SwapRemovalKeepsPersistingPairs) {
   btHashedOverlappingPairCache cache;
   PairLog log;
   static_cast<btOverlappingPairCache&>(cache).setInternalGhostPairCallback(&log);
-  HybridBroadphase bp(&cache);
+  BroadphaseAdapter bp(&cache);
   auto make = [&](std::uint32_t id, float x) {
     return bp.createProxy(btVector3(x, 0, 0), btVector3(x + 1, 1, 1), BOX_SHAPE_PROXYTYPE, user_of(id), 1, -1,
                           nullptr);
@@ -259,7 +259,7 @@ TEST(BulletBroadphase, FilterCallbackHonoured) {
   btHashedOverlappingPairCache cache;
   OddEvenFilter filter;
   cache.setOverlapFilterCallback(&filter);
-  HybridBroadphase bp(&cache);
+  BroadphaseAdapter bp(&cache);
   std::vector<btBroadphaseProxy*> live;
   for (std::uint32_t i = 0; i < 10; ++i)  // all overlap each other
     live.push_back(bp.createProxy(btVector3(0, 0, 0) + btVector3(0.1f * i, 0, 0), btVector3(2, 2, 2),
@@ -307,7 +307,7 @@ bool contains(const std::vector<std::uint32_t>& big, const std::vector<std::uint
 }
 
 TEST(BulletBroadphase, RayAndBoxQueriesAreBruteForceAndInsideDbvt) {
-  HybridBroadphase ours;
+  BroadphaseAdapter ours;
   btDbvtBroadphase dbvt;
   std::mt19937 rng(11);
   constexpr std::uint32_t kObjects = 600;
@@ -400,7 +400,7 @@ TEST(BulletBroadphase, RayAndBoxQueriesAreBruteForceAndInsideDbvt) {
 }
 
 TEST(BulletBroadphase, BroadphaseAabbResetPoolStatsAndInvalidBoxes) {
-  HybridBroadphase bp;
+  BroadphaseAdapter bp;
   btVector3 lo, hi;
   bp.getBroadphaseAabb(lo, hi);
   EXPECT_EQ(lo, btVector3(0, 0, 0));
@@ -497,7 +497,7 @@ TEST(BulletWorld, FilterAndBodiesRemovedAndReAdded) {
   FallingShapesConfig config;
   config.bodies = 600;
   config.layers_hint = 6;
-  FallingShapesWorld world(config, std::make_unique<HybridBroadphase>(hbp::BroadPhaseOptions{.threads = 2}));
+  FallingShapesWorld world(config, std::make_unique<BroadphaseAdapter>(hbp::BroadPhaseOptions{.threads = 2}));
   world.dispatcher().set_recording(true);
   for (int s = 0; s < 120; ++s) world.step();
   EXPECT_EQ(world.dispatcher().last().exact, world_brute_force(world));
@@ -542,7 +542,7 @@ TEST(BulletWorld, FilterAndBodiesRemovedAndReAdded) {
 // Issue 17 item 5: a destroyed proxy used again is caught (it used to
 // rewrite the box of whichever live proxy took its dense slot: phantom pairs).
 TEST(BulletBroadphase, StaleProxyIsRejectedNotAppliedToAnother) {
-  HybridBroadphase bp;
+  BroadphaseAdapter bp;
   btBroadphaseProxy* a =
       bp.createProxy(btVector3(0, 0, 0), btVector3(1, 1, 1), BOX_SHAPE_PROXYTYPE, user_of(0), 1, -1, nullptr);
   btBroadphaseProxy* b =
@@ -618,7 +618,7 @@ struct CountRayHits : btBroadphaseRayCallback {
 // (a query must never hide an edit from the next frame).
 TEST(BulletBroadphase, QueriesBetweenEditsAndFrameKeepTheCacheExact) {
   btHashedOverlappingPairCache cache;
-  HybridBroadphase bp(&cache, {.engine = "sw", .threads = 2});
+  BroadphaseAdapter bp(&cache, {.engine = "sw", .threads = 2});
   std::mt19937 rng(23);
   std::vector<btBroadphaseProxy*> live, statics, dynamics;
   std::uint32_t next_id = 0;

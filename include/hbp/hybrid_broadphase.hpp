@@ -15,13 +15,11 @@
 #include "hbp/box_array.hpp"
 #include "hbp/cell_engine.hpp"
 #include "hbp/pair.hpp"
+#include "hbp/validated_boxes.hpp"
 
 namespace hbp {
 
 class KdPartition;
-namespace detail {
-struct HybridAccess;
-}
 
 struct BroadPhaseOptions {
   std::string engine = "sw";     // see make_cell_engine()
@@ -93,6 +91,10 @@ class HybridBroadPhase {
   // (checked as cells complete, so memory stays bounded).
   const std::vector<Pair>& update(const BoxArray& boxes, const PairSink& sink = {},
                                   const PairSink& parallel_consumer = {});
+  // The same on boxes already screened (BroadPhase keeps its moving boxes
+  // screened as they are written): no screen of its own.
+  const std::vector<Pair>& update(const ValidatedBoxes& boxes, const PairSink& sink = {},
+                                  const PairSink& parallel_consumer = {});
   // Runs the engines on cells partitioned elsewhere (the ray tracer's shared
   // two-level hierarchy, see two_level_hierarchy.hpp), so a frame maintains
   // one structure, not two. partition_ms is then 0.
@@ -108,12 +110,14 @@ class HybridBroadPhase {
   // std::bad_alloc when the memory cannot be had (nothing else changes).
   void reserve(std::size_t objects);
   const std::vector<Pair>& pairs() const;
+  // Exchanges the last frame's pairs with `other` (any contents) without a
+  // copy; the next frame writes into the storage it gets back.
+  void swap_pairs(std::vector<Pair>& other);
   const FrameStats& stats() const;
   const BroadPhaseOptions& options() const;
   std::uint32_t cell_limit() const;
 
  private:
-  friend struct detail::HybridAccess;  // BroadPhase's entry (src/pipeline/hybrid_access.hpp)
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

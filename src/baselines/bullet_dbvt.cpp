@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "hbp/baselines/baseline.hpp"
-#include "baselines/bullet_headers.hpp"
+#include "hbp/bullet/bullet_headers.hpp"
 #include "baselines/bullet_pairs.hpp"
 
 namespace hbp::baselines {

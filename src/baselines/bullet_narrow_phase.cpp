@@ -4,7 +4,7 @@
 #include "baselines/bullet_shapes.hpp"
 #include "hbp/error.hpp"
 
-#include "baselines/bullet_headers.hpp"
+#include "hbp/bullet/bullet_headers.hpp"
 
 namespace hbp::baselines {
 

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
 #include "baselines/bullet_pairs.hpp"
 
-#include "baselines/bullet_headers.hpp"
+#include "hbp/bullet/bullet_headers.hpp"
 
 namespace hbp::baselines {
 

@@ -4,7 +4,7 @@
 
 #include <memory>
 
-#include "baselines/bullet_headers.hpp"
+#include "hbp/bullet/bullet_headers.hpp"
 
 namespace hbp::baselines {
 namespace {

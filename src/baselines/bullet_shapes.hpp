@@ -6,7 +6,7 @@
 
 #include "hbp/shape.hpp"
 
-#include "baselines/bullet_headers.hpp"
+#include "hbp/bullet/bullet_headers.hpp"
 
 namespace hbp::baselines {
 

@@ -3,7 +3,7 @@
 #include <CGAL/version.h>
 
 #include "hbp/baselines/baseline.hpp"
-#include "baselines/bullet_headers.hpp"
+#include "hbp/bullet/bullet_headers.hpp"
 
 namespace hbp::baselines {
 

@@ -15,6 +15,7 @@
 #include <string>
 
 #include "dedup/ownership.hpp"
+#include "geometry/centre.hpp"
 #include "distributed/rank_domains.hpp"
 #include "hbp/error.hpp"
 #include "support/clock.hpp"
@@ -54,9 +55,6 @@ void put_mask(std::vector<unsigned char>& buf, const std::vector<unsigned char>&
 }
 bool bit(const unsigned char* mask, std::size_t i) { return (mask[i / 8] >> (i % 8)) & 1u; }
 bool same_box(const Aabb& a, const Aabb& b) { return std::memcmp(&a, &b, sizeof a) == 0; }
-
-// Centre by halves, so that boxes near the float limits do not overflow.
-float centre(float lo, float hi) { return 0.5f * lo + 0.5f * hi; }
 
 // Collective error: the lowest rank with an error broadcasts its message and
 // kind, and every rank throws it, so no rank is left waiting in a collective.
@@ -453,9 +451,9 @@ struct DistributedBroadPhase::Impl {
     cy.resize(n);
     cz.resize(n);
     for (std::size_t i = 0; i < n; ++i) {
-      cx[i] = centre(boxes.min(0)[i], boxes.max(0)[i]);
-      cy[i] = centre(boxes.min(1)[i], boxes.max(1)[i]);
-      cz[i] = centre(boxes.min(2)[i], boxes.max(2)[i]);
+      cx[i] = geometry::centre(boxes.min(0)[i], boxes.max(0)[i]);
+      cy[i] = geometry::centre(boxes.min(1)[i], boxes.max(1)[i]);
+      cz[i] = geometry::centre(boxes.min(2)[i], boxes.max(2)[i]);
     }
     auto t = SteadyClock::now();
     decompose(n);

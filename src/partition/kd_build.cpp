@@ -19,6 +19,7 @@
 #include <utility>
 
 #include "hbp/error.hpp"
+#include "geometry/centre.hpp"
 #include "partition/kd_sampled_build.hpp"
 #include "support/radix_sort.hpp"
 
@@ -53,7 +54,7 @@ constexpr double kCostSplitGain = 0.95;
 // its children than the widest unweighted axis would.
 constexpr double kWeightedDuplicationLimit = 1.05;
 
-float centre(const CellEntry& e, int a) { return 0.5f * e.min[a] + 0.5f * e.max[a]; }
+float centre(const CellEntry& e, int a) { return geometry::centre(e.min[a], e.max[a]); }
 
 // The k-th smallest (from 0) of the float_order_keys keys[0..n) as a float
 // (keys[n..2n) scratch): a radix select, a byte at a time from the top,

@@ -52,12 +52,11 @@
 #include "hbp/error.hpp"
 #include "geometry/box_screen.hpp"
 #include "pipeline/arena_threads.hpp"
-#include "pipeline/box_transpose.hpp"
 #include "pipeline/box_tree.hpp"
 #include "pipeline/fat_moving_pairs.hpp"
 #include "pipeline/handle_table.hpp"
-#include "pipeline/hybrid_access.hpp"
 #include "pipeline/pair_events.hpp"
+#include "pipeline/screened_boxes.hpp"
 #include "pipeline/parallel_pair_sort.hpp"
 #include "support/clock.hpp"
 #include "support/retained.hpp"
@@ -142,13 +141,12 @@ struct BroadPhase::Impl {
   // here when the moving membership changes: see box_of and sync_moving).
   std::vector<Aabb> slot_box;
 
-  // Moving objects, dense, ordered by handle.
-  BoxArray moving_boxes;
+  // Moving objects, dense, ordered by handle; every box screened as it is
+  // written (ScreenedBoxes), so the hybrid system takes them as
+  // ValidatedBoxes without a screen of its own.
+  detail::ScreenedBoxes moving_boxes;
   std::vector<Handle> moving_handle;
   bool moving_identity = false;  // moving_handle[d] == d for every d (no remapping)
-  // move() of every moving object writes the new boxes here while checking
-  // them, then swaps with moving_boxes (nothing changes when a row fails).
-  BoxArray staged_boxes;
   bool moving_membership_dirty = false;
   // Their pairs from fat-box candidates while few move (else the hybrid system).
   FatMovingPairs fat_moving;
@@ -246,10 +244,11 @@ struct BroadPhase::Impl {
   std::vector<std::uint32_t> changed_serial;
   std::uint32_t frame_serial = 1;
   // The whole-frame move (move_every_moving) was this frame's first change
-  // of a moving box: staged_boxes holds the boxes before it, in the same
-  // dense order, and the moving objects whose box differs from theirs there
-  // are counted without a mark (marking them would cost the fast path a
-  // write per object). Turned into marks before the dense order changes.
+  // of a moving box: moving_boxes.replaced() holds the boxes before it, in
+  // the same dense order, and the moving objects whose box differs from
+  // theirs there are counted without a mark (marking them would cost the
+  // fast path a write per object). Turned into marks before the dense order
+  // changes.
   bool whole_frame_moved = false;
 
   // Duplicate detection within a batch.
@@ -280,7 +279,7 @@ struct BroadPhase::Impl {
   }
   // Moving object d (dense index) was changed by the whole-frame move.
   bool changed_by_whole_frame(std::uint32_t d) const {
-    return whole_frame_moved && !same_box(staged_boxes.get(d), moving_boxes.get(d));
+    return whole_frame_moved && !same_box(moving_boxes.replaced().get(d), moving_boxes.get(d));
   }
   // Before the dense order changes: the whole-frame move's changes as marks.
   void mark_whole_frame_moves() {
@@ -396,19 +395,13 @@ struct BroadPhase::Impl {
   // The whole-frame batch: every moving object, in handle (= dense) order,
   // with no membership change pending and no moving box changed yet this
   // frame. One pass compares the handles with moving_handle, checks each
-  // box, counts the changed ones and writes it into staged_boxes, which
-  // then replaces moving_boxes: the input is read once and nothing is
-  // written in place, so a failed row (false: the general path below then
-  // names it) leaves everything as it was.
+  // box, counts the changed ones and writes it into a staging array, which
+  // then replaces moving_boxes (ScreenedBoxes::transpose): the input is read
+  // once and nothing is written in place, so a failed row (false: the
+  // general path below then names it) leaves everything as it was.
   bool move_every_moving(const Handle* h, const Aabb* b, std::size_t n) {
     if (moving_membership_dirty || n == 0 || n != moving_handle.size() || moved != 0 || whole_frame_moved)
       return false;
-    staged_boxes.resize(n);
-    float* lane[6];
-    for (int k = 0; k < 3; ++k) {
-      lane[k] = staged_boxes.min(k);
-      lane[3 + k] = staged_boxes.max(k);
-    }
     // With handles equal to dense indices the expected handle is i itself
     // (no second handle array to read).
     const Handle* want = moving_identity ? nullptr : moving_handle.data();
@@ -418,22 +411,12 @@ struct BroadPhase::Impl {
     // update().
     constexpr std::size_t kStreamBoxes = std::size_t{1} << 18;
     const bool stream = n >= kStreamBoxes;
-    const float* previous[6];
-    for (int k = 0; k < 3; ++k) {
-      previous[k] = moving_boxes.min(k);
-      previous[3 + k] = moving_boxes.max(k);
-    }
-    // Low 32 bits: ranges that failed; high 32: boxes that changed.
-    const std::uint64_t outcome = for_batch<std::uint64_t>(n, [&](std::size_t begin, std::size_t end) {
-      std::uint32_t changed = 0;
-      const bool ok = detail::check_and_transpose(b, h, want, begin, end, lane, stream, previous, &changed);
-      return std::uint64_t(!ok) | std::uint64_t(changed) << 32;
-    });
-    if (outcome & 0xFFFFFFFFu) return false;
-    std::swap(moving_boxes, staged_boxes);
+    std::uint32_t changed = 0;
+    const auto ranges = [&](std::size_t count, auto&& body) { return for_batch<std::uint64_t>(count, body); };
+    if (!moving_boxes.transpose(b, h, want, n, stream, ranges, changed)) return false;
     whole_frame_moved = true;
-    moved += static_cast<std::uint32_t>(outcome >> 32);
-    if (outcome >> 32) touched_moving();
+    moved += changed;
+    if (changed) touched_moving();
     return true;
   }
 
@@ -516,8 +499,7 @@ struct BroadPhase::Impl {
   // With no objects left, nothing the next frames need is kept (the slot
   // table stays: its generations keep old handles stale).
   void release_memory() {
-    moving_boxes = BoxArray();
-    staged_boxes = BoxArray();
+    moving_boxes.release();
     static_boxes = BoxArray();
     std::vector<Handle>().swap(moving_handle);
     std::vector<Handle>().swap(static_handle);
@@ -576,11 +558,13 @@ struct BroadPhase::Impl {
     for (std::uint32_t s = 0; s < table.slots(); ++s)
       if (table.kind(s) == HandleTable::kMoving && table.index(s) != kNoIndex)
         slot_box[s] = moving_boxes.get(table.index(s));
-    gather(HandleTable::kMoving, moving_boxes, moving_handle, &previous_index);
+    BoxArray gathered = moving_boxes.take();
+    gather(HandleTable::kMoving, gathered, moving_handle, &previous_index);
+    moving_boxes.assign(std::move(gathered));
     cache.permute(previous_index);
     retained::trim(previous_index);
     fat_moving.reset();
-    if (retained::oversized(staged_boxes.capacity(), moving_handle.size(), retained::kSlack<Aabb>)) staged_boxes = BoxArray();
+    moving_boxes.trim_staging(moving_handle.size());
     // Strictly increasing handles from 0 ending at size - 1 are 0, 1, 2 ...
     moving_identity = !moving_handle.empty() && moving_handle.back() == moving_handle.size() - 1;
     moving_membership_dirty = false;
@@ -596,9 +580,9 @@ struct BroadPhase::Impl {
       if (moving_handle.empty()) {
         moving_tree.clear();
       } else if (moving_tree_state == TreeState::Rebuild) {
-        moving_tree.build(moving_boxes, moving_handle);
+        moving_tree.build(moving_boxes.boxes(), moving_handle);
       } else if (moving_tree_state == TreeState::Refit) {
-        moving_tree.refit(moving_boxes);
+        moving_tree.refit(moving_boxes.boxes());
       }
       moving_tree_state = TreeState::Valid;
     });
@@ -629,9 +613,9 @@ struct BroadPhase::Impl {
   void find_moving_pairs() {
     moving_pairs.clear();
     if (moving_handle.size() < 2) return;
-    const std::vector<Pair>& raw = fat_moving.find(moving_boxes, hybrid, options.max_pairs, fat_moving_pairs)
+    const std::vector<Pair>& raw = fat_moving.find(moving_boxes.boxes(), hybrid, options.max_pairs, fat_moving_pairs)
                                        ? fat_moving_pairs
-                                       : hybrid.update(moving_boxes);
+                                       : hybrid.update(moving_boxes.view());
     const Handle* h = moving_handle.data();
     if (all_layers_collide() && !filter) {
       moving_pairs.resize(raw.size());
@@ -724,8 +708,8 @@ struct BroadPhase::Impl {
 
   // Appends to busy the objects of [begin, end) outside their quiet box.
   std::size_t collect_busy(std::size_t begin, std::size_t end, std::uint32_t* busy) const {
-    const float* v[6] = {moving_boxes.min(0), moving_boxes.min(1), moving_boxes.min(2),
-                         moving_boxes.max(0), moving_boxes.max(1), moving_boxes.max(2)};
+    const BoxArray& mb = moving_boxes.boxes();
+    const float* v[6] = {mb.min(0), mb.min(1), mb.min(2), mb.max(0), mb.max(1), mb.max(2)};
     const float* lo[6];
     const float* hi[6];
     for (int c = 0; c < 6; ++c) {
@@ -880,7 +864,7 @@ struct BroadPhase::Impl {
   void all_moving_frame() {
     static const std::vector<Pair> none;
     const std::vector<Pair>& raw =
-        moving_handle.size() >= 2 ? detail::HybridAccess::update_checked(hybrid, moving_boxes) : none;
+        moving_handle.size() >= 2 ? hybrid.update(moving_boxes.view()) : none;
     check_max_pairs(raw.size());
     moving_pairs.clear();
     static_pairs.clear();
@@ -890,7 +874,7 @@ struct BroadPhase::Impl {
       result.pairs.clear();
     } else if (moving_identity) {
       detail::diff_sorted_pairs(result.pairs, raw, result.created, result.removed, diff_scratch);
-      detail::HybridAccess::swap_pairs(hybrid, result.pairs);
+      hybrid.swap_pairs(result.pairs);
     } else {
       detail::map_and_diff_sorted_pairs(result.pairs, raw, moving_handle.data(), next, result.created,
                                         result.removed, diff_scratch);

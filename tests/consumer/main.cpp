@@ -1,12 +1,12 @@
 // SPDX-License-Identifier: MIT
 // Links the installed package: a small Bullet world with
-// hbp::bullet::HybridBroadphase, plus the core hbp::HybridBroadPhase directly.
+// hbp::bullet::BroadphaseAdapter, plus the core hbp::HybridBroadPhase directly.
 // Exits 0 when both find the expected pairs.
 #include <cstdio>
 
 #include <btBulletDynamicsCommon.h>
 
-#include "hbp/bullet/hybrid_broadphase.hpp"
+#include "hbp/bullet/broadphase_adapter.hpp"
 #include "hbp/hybrid_broadphase.hpp"
 
 int main() {
@@ -25,7 +25,7 @@ int main() {
   // A Bullet world: a sphere dropped onto a static box comes to rest on it.
   btDefaultCollisionConfiguration configuration;
   btCollisionDispatcher dispatcher(&configuration);
-  hbp::bullet::HybridBroadphase broadphase;
+  hbp::bullet::BroadphaseAdapter broadphase;
   btSequentialImpulseConstraintSolver solver;
   btDiscreteDynamicsWorld world(&dispatcher, &broadphase, &solver, &configuration);
   world.setGravity(btVector3(0, -10, 0));

@@ -15,7 +15,7 @@ endfunction()
 file(REMOVE_RECURSE ${HBP_WORK_DIR})
 set(prefix ${HBP_WORK_DIR}/prefix)
 run(${CMAKE_COMMAND} --install ${HBP_BUILD_DIR} --prefix ${prefix} --component hbp_development)
-foreach(f include/hbp/bullet/hybrid_broadphase.hpp include/hbp/hybrid_broadphase.hpp
+foreach(f include/hbp/bullet/broadphase_adapter.hpp include/hbp/hybrid_broadphase.hpp
           lib/libhbp_bullet.a lib/libhybrid_broadphase.a
           lib/cmake/hybrid_broadphase/hybrid_broadphaseConfig.cmake
           lib/pkgconfig/hybrid_broadphase.pc lib/pkgconfig/hbp_bullet.pc)

@@ -26,7 +26,7 @@ namespace hbp::cli {
 
 #if !HBP_HAVE_MPI
 
-void run_distributed(const DistributedRunRequest&) {
+void run_distributed(const RunRequest&) {
   throw InvalidInput("--distributed: this hbp was built without MPI (install libopenmpi-dev, see "
                      "scripts/install-deps, and rebuild)");
 }
@@ -102,7 +102,7 @@ bool distributed_pairs(const BoxArray& frame, const std::string& engine, std::ui
   return mpi.rank() == 0;
 }
 
-void run_distributed(const DistributedRunRequest& a) {
+void run_distributed(const RunRequest& a) {
   MpiSession mpi;
   const int rank = mpi.rank(), size = mpi.size();
   std::unique_ptr<tbb::global_control> limit;
@@ -118,12 +118,7 @@ void run_distributed(const DistributedRunRequest& a) {
     frames = std::min<std::uint32_t>(frames, reader->info().frame_count);
     objects = reader->info().object_count;
   } else {
-    ScenarioParams p;
-    p.kind = parse_scenario_kind(a.scene);
-    p.n = a.n;
-    p.seed = a.seed;
-    p.frames = a.frames;
-    scenario = std::make_unique<Scenario>(p);
+    scenario = std::make_unique<Scenario>(scenario_params(a));
     objects = scenario->size();
   }
   DistributedBroadPhase bp(MPI_COMM_WORLD, options_for(a.engine, a.cell_limit, a.threads));

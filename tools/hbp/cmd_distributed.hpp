@@ -9,23 +9,12 @@
 
 #include "hbp/box_array.hpp"
 #include "hbp/pair.hpp"
+#include "run_request.hpp"
 
 namespace hbp::cli {
 
-struct DistributedRunRequest {
-  std::string scene = "paper";
-  std::string in;  // scene file instead of a scenario
-  std::uint32_t n = 0;
-  std::uint32_t frames = 0;
-  std::uint64_t seed = 0;
-  std::string engine = "sw";
-  std::uint32_t cell_limit = 0;
-  unsigned threads = 0;
-  bool json = false;
-  bool quiet = false;
-};
 // Runs the frames on every rank; rank 0 prints (text or one JSON object).
-void run_distributed(const DistributedRunRequest& request);
+void run_distributed(const RunRequest& request);
 
 // Every rank holds the whole frame (read from the file); each supplies an id
 // block, the distributed broad phase finds the pairs, rank 0 gathers them.

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "cmd_distributed.hpp"
+#include "run_request.hpp"
 #include "command_registry.hpp"
 #include "option_checks.hpp"
 #include "hbp/collision_pipeline.hpp"
@@ -30,17 +31,7 @@
 namespace hbp::cli {
 namespace {
 
-struct RunArgs {
-  std::string scene = "paper";
-  std::string in;
-  std::uint32_t n = 10000;
-  std::uint32_t frames = 10;
-  std::uint64_t seed = 0;
-  std::string engine = "sw";
-  std::uint32_t cell_limit = 0;
-  unsigned threads = 0;
-  bool json = false;
-  bool quiet = false;
+struct RunArgs : RunRequest {
   bool narrow = false;
   double depth_tolerance = narrow::kContactDepthTolerance;
   bool depth_tolerance_given = false;
@@ -59,12 +50,7 @@ class FrameSource {
         throw InvalidInput(a.in + ": the scene has no frames: nothing to run");
       frames_ = std::min<std::uint32_t>(a.frames, reader_->info().frame_count);
     } else {
-      ScenarioParams p;
-      p.kind = parse_scenario_kind(a.scene);
-      p.n = a.n;
-      p.seed = a.seed;
-      p.frames = a.frames;
-      scenario_ = std::make_unique<Scenario>(p);
+      scenario_ = std::make_unique<Scenario>(scenario_params(a));
       frames_ = a.frames;
     }
   }
@@ -122,7 +108,7 @@ void run(const RunArgs& a) {
   if (a.depth_tolerance_given && !a.narrow) throw InvalidInput("--depth-tolerance needs --narrow");
   if (a.distributed) {
     if (a.narrow || a.cost_splits) throw InvalidInput("--distributed does not take --narrow or --cost-splits");
-    return run_distributed({a.scene, a.in, a.n, a.frames, a.seed, a.engine, a.cell_limit, a.threads, a.json, a.quiet});
+    return run_distributed(a);
   }
   FrameSource source(a);
   if (a.narrow && !source.shapes())

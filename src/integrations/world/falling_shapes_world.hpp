@@ -12,7 +12,7 @@
 #include <memory>
 #include <vector>
 
-#include "integrations/world/bullet_dynamics.hpp"
+#include "hbp/bullet/bullet_headers.hpp"
 #include "integrations/world/recording_dispatcher.hpp"
 
 namespace hbp::bullet::world {

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "hbp/pair.hpp"
-#include "integrations/world/bullet_dynamics.hpp"
+#include "hbp/bullet/bullet_headers.hpp"
 
 namespace hbp::bullet::world {
 

@@ -4,7 +4,7 @@
 #include <chrono>
 #include <cstring>
 
-#include "hbp/bullet/hybrid_broadphase.hpp"
+#include "hbp/bullet/broadphase_adapter.hpp"
 #include "support/clock.hpp"
 
 namespace hbp::bullet::world {
@@ -34,7 +34,7 @@ bool same_proxy_aabbs(FallingShapesWorld& a, FallingShapesWorld& b) {
 ComparisonSummary run_side_by_side(const FallingShapesConfig& config, std::uint32_t steps,
                                    const BroadPhaseOptions& options,
                                    const std::function<void(const StepComparison&)>& on_step) {
-  FallingShapesWorld hybrid(config, std::make_unique<HybridBroadphase>(options));
+  FallingShapesWorld hybrid(config, std::make_unique<BroadphaseAdapter>(options));
   FallingShapesWorld dbvt(config, std::make_unique<btDbvtBroadphase>());
   hybrid.dispatcher().set_recording(true);
   dbvt.dispatcher().set_recording(true);

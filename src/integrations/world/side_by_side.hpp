@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
 #pragma once
 // Two runs of the example world from the same start, one with
-// hbp::bullet::HybridBroadphase, one with btDbvtBroadphase, stepped side by
+// hbp::bullet::BroadphaseAdapter, one with btDbvtBroadphase, stepped side by
 // side. After each step the Dbvt world takes the hybrid world's body states,
 // so every step both broad phases see the same bodies (checked: every proxy's
 // AABB must be bit-identical in both worlds). Each step compares the

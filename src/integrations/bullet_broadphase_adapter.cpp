@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// hbp::bullet::HybridBroadphase: Bullet's btBroadphaseInterface over
+// hbp::bullet::BroadphaseAdapter: Bullet's btBroadphaseInterface over
 // hbp::BroadPhase.
 //
 // Each proxy holds its BroadPhase handle; by_slot maps a handle's slot back to
@@ -11,7 +11,7 @@
 // a FIFO quarantine, recycled only once the quarantine holds more than
 // max(1024, live proxies); until then setAabb / getAabb / destroyProxy on it
 // throw instead of reading freed memory or touching the proxy now in its slot.
-#include "hbp/bullet/hybrid_broadphase.hpp"
+#include "hbp/bullet/broadphase_adapter.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -21,15 +21,7 @@
 #include <string>
 #include <vector>
 
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wunused-parameter"
-#pragma GCC diagnostic ignored "-Wdeprecated-copy"
-#pragma GCC diagnostic ignored "-Wunused-variable"
-#pragma GCC diagnostic ignored "-Wunused-but-set-variable"
-#pragma GCC diagnostic ignored "-Wclass-memaccess"
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-#include <LinearMath/btAabbUtil2.h>
-#pragma GCC diagnostic pop
+#include "hbp/bullet/bullet_headers.hpp"
 
 #include "hbp/error.hpp"
 #include "hbp/pair.hpp"
@@ -37,7 +29,7 @@
 namespace hbp::bullet {
 
 static_assert(sizeof(btScalar) == sizeof(float),
-              "hbp::bullet::HybridBroadphase needs single-precision Bullet (the boxes are float32)");
+              "hbp::bullet::BroadphaseAdapter needs single-precision Bullet (the boxes are float32)");
 
 namespace {
 
@@ -64,7 +56,7 @@ bool same_box(const btVector3& a_lo, const btVector3& a_hi, const btVector3& b_l
 
 }  // namespace
 
-struct HybridBroadphase::Impl {
+struct BroadphaseAdapter::Impl {
   explicit Impl(btOverlappingPairCache* external, const BroadPhaseOptions& opts) : options(opts), bp(options) {
     if (external) {
       cache = external;
@@ -83,7 +75,7 @@ struct HybridBroadphase::Impl {
   Proxy* live(btBroadphaseProxy* proxy, const char* call) const {
     Proxy* p = as_proxy(proxy);
     if (p == nullptr || !p->alive || !bp.contains(p->handle)) {
-      throw InvalidInput(std::string("hbp::bullet::HybridBroadphase::") + call +
+      throw InvalidInput(std::string("hbp::bullet::BroadphaseAdapter::") + call +
                          ": the proxy was destroyed (stale proxy" +
                          (p ? ", unique id " + std::to_string(p->m_uniqueId) : std::string()) + ")");
     }
@@ -111,12 +103,12 @@ struct HybridBroadphase::Impl {
   BroadphaseCounters counters;
 };
 
-HybridBroadphase::HybridBroadphase(btOverlappingPairCache* cache, const BroadPhaseOptions& options)
+BroadphaseAdapter::BroadphaseAdapter(btOverlappingPairCache* cache, const BroadPhaseOptions& options)
     : impl_(std::make_unique<Impl>(cache, options)) {}
 
-HybridBroadphase::~HybridBroadphase() = default;
+BroadphaseAdapter::~BroadphaseAdapter() = default;
 
-btBroadphaseProxy* HybridBroadphase::createProxy(const btVector3& aabbMin, const btVector3& aabbMax, int /*shapeType*/,
+btBroadphaseProxy* BroadphaseAdapter::createProxy(const btVector3& aabbMin, const btVector3& aabbMax, int /*shapeType*/,
                                                  void* userPtr, int collisionFilterGroup, int collisionFilterMask,
                                                  btDispatcher* /*dispatcher*/) {
   Impl& s = *impl_;
@@ -129,7 +121,7 @@ btBroadphaseProxy* HybridBroadphase::createProxy(const btVector3& aabbMin, const
   try {
     h = s.bp.add(std::span<const Aabb>(&box, 1), {.is_static = is_static})[0];
   } catch (const InvalidInput& e) {
-    throw InvalidInput(std::string("hbp::bullet::HybridBroadphase::createProxy: ") + e.what());
+    throw InvalidInput(std::string("hbp::bullet::BroadphaseAdapter::createProxy: ") + e.what());
   }
   Proxy* p = s.new_proxy();
   p->m_clientObject = userPtr;
@@ -147,7 +139,7 @@ btBroadphaseProxy* HybridBroadphase::createProxy(const btVector3& aabbMin, const
   return p;
 }
 
-void HybridBroadphase::destroyProxy(btBroadphaseProxy* proxy, btDispatcher* dispatcher) {
+void BroadphaseAdapter::destroyProxy(btBroadphaseProxy* proxy, btDispatcher* dispatcher) {
   Impl& s = *impl_;
   Proxy* p = s.live(proxy, "destroyProxy");
   s.cache->removeOverlappingPairsContainingProxy(p, dispatcher);
@@ -158,7 +150,7 @@ void HybridBroadphase::destroyProxy(btBroadphaseProxy* proxy, btDispatcher* disp
   ++s.counters.proxies_destroyed;
 }
 
-void HybridBroadphase::setAabb(btBroadphaseProxy* proxy, const btVector3& aabbMin, const btVector3& aabbMax,
+void BroadphaseAdapter::setAabb(btBroadphaseProxy* proxy, const btVector3& aabbMin, const btVector3& aabbMax,
                                btDispatcher* /*dispatcher*/) {
   Impl& s = *impl_;
   Proxy* p = s.live(proxy, "setAabb");
@@ -169,20 +161,20 @@ void HybridBroadphase::setAabb(btBroadphaseProxy* proxy, const btVector3& aabbMi
   try {
     s.bp.move(std::span<const Handle>(&p->handle, 1), std::span<const Aabb>(&box, 1));
   } catch (const InvalidInput& e) {
-    throw InvalidInput("hbp::bullet::HybridBroadphase::setAabb: proxy with unique id " +
+    throw InvalidInput("hbp::bullet::BroadphaseAdapter::setAabb: proxy with unique id " +
                        std::to_string(p->m_uniqueId) + ": " + e.what());
   }
   p->m_aabbMin = aabbMin;
   p->m_aabbMax = aabbMax;
 }
 
-void HybridBroadphase::getAabb(btBroadphaseProxy* proxy, btVector3& aabbMin, btVector3& aabbMax) const {
+void BroadphaseAdapter::getAabb(btBroadphaseProxy* proxy, btVector3& aabbMin, btVector3& aabbMax) const {
   const Proxy* p = impl_->live(proxy, "getAabb");
   aabbMin = p->m_aabbMin;
   aabbMax = p->m_aabbMax;
 }
 
-void HybridBroadphase::rayTest(const btVector3& rayFrom, const btVector3& /*rayTo*/,
+void BroadphaseAdapter::rayTest(const btVector3& rayFrom, const btVector3& /*rayTo*/,
                                btBroadphaseRayCallback& rayCallback, const btVector3& aabbMin,
                                const btVector3& aabbMax) {
   Impl& s = *impl_;
@@ -222,14 +214,14 @@ void HybridBroadphase::rayTest(const btVector3& rayFrom, const btVector3& /*rayT
   for (Proxy* p : proxies) rayCallback.process(p);
 }
 
-void HybridBroadphase::aabbTest(const btVector3& aabbMin, const btVector3& aabbMax,
+void BroadphaseAdapter::aabbTest(const btVector3& aabbMin, const btVector3& aabbMax,
                                 btBroadphaseAabbCallback& callback) {
   Impl& s = *impl_;
   const std::vector<Handle> hits = s.bp.query_box(to_box(aabbMin, aabbMax));
   for (const Handle h : hits) callback.process(s.proxy_of(h));
 }
 
-void HybridBroadphase::calculateOverlappingPairs(btDispatcher* dispatcher) {
+void BroadphaseAdapter::calculateOverlappingPairs(btDispatcher* dispatcher) {
   Impl& s = *impl_;
   const auto start = std::chrono::steady_clock::now();
   const BroadPhaseUpdate& u = s.bp.update();
@@ -253,10 +245,10 @@ void HybridBroadphase::calculateOverlappingPairs(btDispatcher* dispatcher) {
   c.total_ms += c.last_ms;
 }
 
-btOverlappingPairCache* HybridBroadphase::getOverlappingPairCache() { return impl_->cache; }
-const btOverlappingPairCache* HybridBroadphase::getOverlappingPairCache() const { return impl_->cache; }
+btOverlappingPairCache* BroadphaseAdapter::getOverlappingPairCache() { return impl_->cache; }
+const btOverlappingPairCache* BroadphaseAdapter::getOverlappingPairCache() const { return impl_->cache; }
 
-void HybridBroadphase::getBroadphaseAabb(btVector3& aabbMin, btVector3& aabbMax) const {
+void BroadphaseAdapter::getBroadphaseAabb(btVector3& aabbMin, btVector3& aabbMax) const {
   bool any = false;
   for (const Proxy* p : impl_->by_slot) {
     if (!p) continue;
@@ -275,7 +267,7 @@ void HybridBroadphase::getBroadphaseAabb(btVector3& aabbMin, btVector3& aabbMax)
   }
 }
 
-void HybridBroadphase::resetPool(btDispatcher* /*dispatcher*/) {
+void BroadphaseAdapter::resetPool(btDispatcher* /*dispatcher*/) {
   Impl& s = *impl_;
   if (s.bp.size() != 0) return;
   // Dead proxies stay in quarantine (marked dead): still caught if used.
@@ -285,12 +277,12 @@ void HybridBroadphase::resetPool(btDispatcher* /*dispatcher*/) {
   s.counters = {};
 }
 
-void HybridBroadphase::printStats() {
+void BroadphaseAdapter::printStats() {
   const Impl& s = *impl_;
   const BroadphaseCounters& c = s.counters;
   const BroadPhaseUpdateStats& f = s.bp.stats();
   std::printf(
-      "hbp::bullet::HybridBroadphase: %zu proxies (%u moving, %u static), %llu frames, last frame: %llu pairs "
+      "hbp::bullet::BroadphaseAdapter: %zu proxies (%u moving, %u static), %llu frames, last frame: %llu pairs "
       "(+%llu -%llu), %u moved, %.3f ms; total %.1f ms, pairs added %llu, removed %llu\n",
       s.bp.size(), f.moving, f.statics, static_cast<unsigned long long>(c.frames),
       static_cast<unsigned long long>(c.last_pairs), static_cast<unsigned long long>(c.last_added),
@@ -298,10 +290,10 @@ void HybridBroadphase::printStats() {
       static_cast<unsigned long long>(c.pairs_added), static_cast<unsigned long long>(c.pairs_removed));
 }
 
-std::size_t HybridBroadphase::proxy_count() const { return impl_->bp.size(); }
-const BroadphaseCounters& HybridBroadphase::counters() const { return impl_->counters; }
-const BroadPhaseUpdateStats& HybridBroadphase::frame_stats() const { return impl_->bp.stats(); }
-const BroadPhase& HybridBroadphase::broad_phase() const { return impl_->bp; }
-const BroadPhaseOptions& HybridBroadphase::options() const { return impl_->options; }
+std::size_t BroadphaseAdapter::proxy_count() const { return impl_->bp.size(); }
+const BroadphaseCounters& BroadphaseAdapter::counters() const { return impl_->counters; }
+const BroadPhaseUpdateStats& BroadphaseAdapter::frame_stats() const { return impl_->bp.stats(); }
+const BroadPhase& BroadphaseAdapter::broad_phase() const { return impl_->bp; }
+const BroadPhaseOptions& BroadphaseAdapter::options() const { return impl_->options; }
 
 }  // namespace hbp::bullet

@@ -1,9 +1,11 @@
 // SPDX-License-Identifier: MIT
 #pragma once
 // Drop-in Bullet 2 broad phase backed by hbp::HybridBroadPhase (k-d partition,
-// cell engine, de-duplication). One line switches a Bullet world to it:
+// cell engine, de-duplication). Named for what it is, hbp::BroadPhase adapted
+// to Bullet's btBroadphaseInterface (not a second hybrid system). One line
+// switches a Bullet world to it:
 //
-//   hbp::bullet::HybridBroadphase broadphase;        // instead of btDbvtBroadphase
+//   hbp::bullet::BroadphaseAdapter broadphase;        // instead of btDbvtBroadphase
 //   btDiscreteDynamicsWorld world(&dispatcher, &broadphase, &solver, &config);
 //
 // Built on hbp::BroadPhase (broad_phase.hpp): each proxy is a handle, the
@@ -44,17 +46,7 @@
 
 #include "hbp/broad_phase.hpp"
 
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wunused-parameter"
-#pragma GCC diagnostic ignored "-Wdeprecated-copy"
-#pragma GCC diagnostic ignored "-Wunused-variable"
-#pragma GCC diagnostic ignored "-Wunused-but-set-variable"
-#pragma GCC diagnostic ignored "-Wclass-memaccess"
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-#include <BulletCollision/BroadphaseCollision/btBroadphaseInterface.h>
-#include <BulletCollision/BroadphaseCollision/btBroadphaseProxy.h>
-#include <BulletCollision/BroadphaseCollision/btOverlappingPairCache.h>
-#pragma GCC diagnostic pop
+#include "hbp/bullet/bullet_headers.hpp"
 
 namespace hbp::bullet {
 
@@ -71,16 +63,16 @@ struct BroadphaseCounters {
   double total_ms = 0;
 };
 
-class HybridBroadphase final : public btBroadphaseInterface {
+class BroadphaseAdapter final : public btBroadphaseInterface {
  public:
   // `cache`: an overlapping pair cache to fill (not owned), or nullptr for an
   // owned btHashedOverlappingPairCache, as btDbvtBroadphase does.
   // `options`: the hybrid system's options (BroadPhase; `sorted` is ignored).
-  explicit HybridBroadphase(btOverlappingPairCache* cache = nullptr, const BroadPhaseOptions& options = {});
-  explicit HybridBroadphase(const BroadPhaseOptions& options) : HybridBroadphase(nullptr, options) {}
-  ~HybridBroadphase() override;
-  HybridBroadphase(const HybridBroadphase&) = delete;
-  HybridBroadphase& operator=(const HybridBroadphase&) = delete;
+  explicit BroadphaseAdapter(btOverlappingPairCache* cache = nullptr, const BroadPhaseOptions& options = {});
+  explicit BroadphaseAdapter(const BroadPhaseOptions& options) : BroadphaseAdapter(nullptr, options) {}
+  ~BroadphaseAdapter() override;
+  BroadphaseAdapter(const BroadphaseAdapter&) = delete;
+  BroadphaseAdapter& operator=(const BroadphaseAdapter&) = delete;
 
   btBroadphaseProxy* createProxy(const btVector3& aabbMin, const btVector3& aabbMax, int shapeType, void* userPtr,
                                  int collisionFilterGroup, int collisionFilterMask, btDispatcher* dispatcher) override;
