@@ -414,5 +414,25 @@ TEST(NarrowWarmTetrahedron, PipelineSameContactsOnOneOrTwoThreads) {
   }
 }
 
+// CollisionPipeline passes every broad-phase option through but `sorted`
+// (its broad phase keeps cell order for the narrow phase).
+TEST(CollisionPipelineOptions, EveryOptionButSortedReachesTheBroadPhase) {
+  BroadPhaseOptions o;
+  o.engine = "brute";
+  o.cell_limit = 64;
+  o.threads = 2;
+  o.max_pairs = 12345;
+  o.cost_splits = true;
+  const CollisionPipeline pipeline(o);
+  const BroadPhaseOptions& got = pipeline.broad_phase().options();
+  EXPECT_EQ(got.engine, "brute");
+  EXPECT_EQ(got.cell_limit, 64u);
+  EXPECT_EQ(got.threads, 2u);
+  EXPECT_EQ(got.max_pairs, 12345u);
+  EXPECT_TRUE(got.cost_splits);
+  EXPECT_FALSE(got.sorted);
+}
+
 }  // namespace
 }  // namespace hbp
+

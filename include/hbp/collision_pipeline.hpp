@@ -32,6 +32,8 @@ struct PipelineStats {
 
 class CollisionPipeline {
  public:
+  // `broad`: the hybrid system's options; `sorted` does not apply (the
+  // broad phase's list stays in cell order, as the narrow phase takes it).
   explicit CollisionPipeline(const BroadPhaseOptions& broad = {}, const NarrowOptions& narrow = {});
   ~CollisionPipeline();
 
@@ -46,6 +48,8 @@ class CollisionPipeline {
   const HybridBroadPhase& broad_phase() const { return broad_; }
 
  private:
+  static BroadPhaseOptions unsorted(BroadPhaseOptions options);
+
   HybridBroadPhase broad_;
   NarrowPhase narrow_;
   // A deque: growing it never moves the vectors other threads are filling.

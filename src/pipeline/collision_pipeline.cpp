@@ -10,9 +10,16 @@
 
 namespace hbp {
 
+// The narrow phase takes the cells as they leave the engine, so the broad
+// phase's list stays in cell order (sorting it would cost and serve nobody);
+// every other option is the caller's.
 CollisionPipeline::CollisionPipeline(const BroadPhaseOptions& broad, const NarrowOptions& narrow)
-    : broad_(BroadPhaseOptions{broad.engine, broad.cell_limit, broad.threads, false, broad.max_pairs}),
-      narrow_(narrow) {}
+    : broad_(unsorted(broad)), narrow_(narrow) {}
+
+BroadPhaseOptions CollisionPipeline::unsorted(BroadPhaseOptions options) {
+  options.sorted = false;
+  return options;
+}
 
 CollisionPipeline::~CollisionPipeline() = default;
 
