@@ -8,6 +8,7 @@
 #include "bench_gpu.hpp"
 
 #include <algorithm>
+#include <memory>
 #include <cstdio>
 #include <string>
 #include <thread>
@@ -18,6 +19,7 @@
 #include "hbp/error.hpp"
 #include "hbp/hybrid_broadphase.hpp"
 #include "hbp/scenario.hpp"
+#include "hbp/scene_file.hpp"
 #include "support/clock.hpp"
 #include "support/percentile.hpp"
 #ifdef HBP_HAVE_CUDA
@@ -29,6 +31,7 @@ namespace {
 
 struct GpuBenchArgs {
   std::string kind = "paper";
+  std::string in;  // a recorded scene instead of a generated one
   std::uint32_t n = 1'024'000;
   std::uint32_t frames = 10;
   std::string launcher = "device";
@@ -50,11 +53,43 @@ struct Series {
   }
 };
 
+// The frames: a generated scene, or a recorded one (its first `frames`).
+class Frames {
+ public:
+  explicit Frames(const GpuBenchArgs& a) {
+    if (!a.in.empty()) {
+      file_ = std::make_unique<SceneReader>(a.in);
+      if (file_->info().frame_count < a.frames)
+        throw InvalidInput("--frames " + std::to_string(a.frames) + ": " + a.in + " holds " +
+                           std::to_string(file_->info().frame_count) + " frames");
+      return;
+    }
+    ScenarioParams params;
+    params.kind = parse_scenario_kind(a.kind);
+    params.n = a.n;
+    scenario_ = std::make_unique<Scenario>(params);
+  }
+  std::uint32_t objects() const {
+    return file_ ? file_->info().object_count : static_cast<std::uint32_t>(scenario_->size());
+  }
+  void read(std::uint32_t f, BoxArray& boxes) {
+    if (file_) {
+      file_->read_frame(f, boxes);
+    } else {
+      scenario_->compute_boxes(boxes);
+      scenario_->step();
+    }
+  }
+
+ private:
+  std::unique_ptr<SceneReader> file_;
+  std::unique_ptr<Scenario> scenario_;
+};
+
 void run_bench_gpu(const GpuBenchArgs& a) {
-  ScenarioParams params;
-  params.kind = parse_scenario_kind(a.kind);
-  params.n = a.n;
-  Scenario scenario(params);
+  Frames frames(a);
+  const std::uint32_t n = frames.objects();
+  const std::string scene = a.in.empty() ? a.kind : a.in;
   cuda::FrameOptions o;
   o.launcher = a.launcher == "host" ? cuda::Launcher::Host : cuda::Launcher::Device;
   o.sorted = !a.unsorted;
@@ -67,7 +102,7 @@ void run_bench_gpu(const GpuBenchArgs& a) {
   o.threads = threads;
   cuda::FrameBroadPhase gpu(o);  // Device without a GPU: "no CUDA device found"
   const auto t_reserve = SteadyClock::now();
-  gpu.reserve(a.n);
+  gpu.reserve(n);
   const double reserve_ms = ms_since(t_reserve);
 
   Series frame, upload, download, cpu_ms, stage[6];
@@ -77,7 +112,7 @@ void run_bench_gpu(const GpuBenchArgs& a) {
   std::vector<Pair> sorted_copy;
   BoxArray boxes;
   for (std::uint32_t f = 0; f < a.frames; ++f) {
-    scenario.compute_boxes(boxes);
+    frames.read(f, boxes);
     const std::vector<Pair>& got = gpu.update(cuda::lanes_of(boxes));
     const cuda::FrameInfo& info = gpu.info();
     const cuda::StageTimes& t = info.times;
@@ -99,7 +134,6 @@ void run_bench_gpu(const GpuBenchArgs& a) {
       compared = &sorted_copy;
     }
     if (*compared != want) ++mismatched;
-    scenario.step();
   }
 
   const bool device = o.launcher == cuda::Launcher::Device;
@@ -115,8 +149,9 @@ void run_bench_gpu(const GpuBenchArgs& a) {
       {"launcher", device ? "device" : "host"},
       {"device", device ? cuda::device_name() : ""},
       {"time", device ? "device time per frame (CUDA events), host transfers apart" : "wall time of the CPU twin"},
-      {"kind", a.kind},
-      {"objects", a.n},
+      {"kind", a.in.empty() ? a.kind : "file"},
+      {"scene", scene},
+      {"objects", n},
       {"frames", a.frames},
       {"order", a.unsorted ? "frame order" : "sorted by (a, b)"},
       {"sweep", a.sweep},
@@ -138,7 +173,7 @@ void run_bench_gpu(const GpuBenchArgs& a) {
   if (a.json) {
     std::printf("%s\n", j.dump(2).c_str());
   } else {
-    std::printf("%s, %u objects, %u frames: %s (%s)\n", a.kind.c_str(), a.n, a.frames,
+    std::printf("%s, %u objects, %u frames: %s (%s)\n", scene.c_str(), n, a.frames,
                 device ? ("GPU " + cuda::device_name()).c_str() : "the GPU frame's CPU twin, no device figure",
                 j["time"].get<std::string>().c_str());
     std::printf("  GPU frame: first %.3f ms, median %.3f, p99 %.3f, worst %.3f; upload %.3f, download %.3f\n",
@@ -170,6 +205,7 @@ void add_bench_gpu(CLI::App* bench) {
       ->check(CLI::IsMember({"paper", "clustered", "flat", "huge", "degenerate"}))
       ->capture_default_str();
   cmd->add_option("--n", a->n, "Objects")->check(CLI::Range(1u, 1u << 26))->capture_default_str();
+  cmd->add_option("--in", a->in, "A recorded scene (native .hbps or Broadmark .aabbs) instead of --kind/--n");
   cmd->add_option("--frames", a->frames, "Frames (the first is reported apart)")
       ->check(CLI::Range(1u, 100000u))
       ->capture_default_str();
