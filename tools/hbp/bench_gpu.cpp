@@ -7,9 +7,11 @@
 // energy per frame need the GPU machine's nvidia-smi: scripts/gpu-check.
 #include "bench_gpu.hpp"
 
+#include "bench_sources.hpp"
+
 #include <algorithm>
-#include <memory>
 #include <cstdio>
+#include <memory>
 #include <string>
 #include <thread>
 #include <vector>
@@ -19,7 +21,6 @@
 #include "hbp/error.hpp"
 #include "hbp/hybrid_broadphase.hpp"
 #include "hbp/scenario.hpp"
-#include "hbp/scene_file.hpp"
 #include "support/clock.hpp"
 #include "support/percentile.hpp"
 #ifdef HBP_HAVE_CUDA
@@ -53,42 +54,13 @@ struct Series {
   }
 };
 
-// The frames: a generated scene, or a recorded one (its first `frames`).
-class Frames {
- public:
-  explicit Frames(const GpuBenchArgs& a) {
-    if (!a.in.empty()) {
-      file_ = std::make_unique<SceneReader>(a.in);
-      if (file_->info().frame_count < a.frames)
-        throw InvalidInput("--frames " + std::to_string(a.frames) + ": " + a.in + " holds " +
-                           std::to_string(file_->info().frame_count) + " frames");
-      return;
-    }
-    ScenarioParams params;
-    params.kind = parse_scenario_kind(a.kind);
-    params.n = a.n;
-    scenario_ = std::make_unique<Scenario>(params);
-  }
-  std::uint32_t objects() const {
-    return file_ ? file_->info().object_count : static_cast<std::uint32_t>(scenario_->size());
-  }
-  void read(std::uint32_t f, BoxArray& boxes) {
-    if (file_) {
-      file_->read_frame(f, boxes);
-    } else {
-      scenario_->compute_boxes(boxes);
-      scenario_->step();
-    }
-  }
-
- private:
-  std::unique_ptr<SceneReader> file_;
-  std::unique_ptr<Scenario> scenario_;
-};
-
 void run_bench_gpu(const GpuBenchArgs& a) {
-  Frames frames(a);
-  const std::uint32_t n = frames.objects();
+  std::unique_ptr<FrameSource> frames;
+  if (a.in.empty())
+    frames = std::make_unique<PaperFrames>(a.n, parse_scenario_kind(a.kind));
+  else
+    frames = std::make_unique<SceneFrames>(a.in);
+  const std::uint32_t n = frames->object_count();
   const std::string scene = a.in.empty() ? a.kind : a.in;
   cuda::FrameOptions o;
   o.launcher = a.launcher == "host" ? cuda::Launcher::Host : cuda::Launcher::Device;
@@ -112,7 +84,10 @@ void run_bench_gpu(const GpuBenchArgs& a) {
   std::vector<Pair> sorted_copy;
   BoxArray boxes;
   for (std::uint32_t f = 0; f < a.frames; ++f) {
-    frames.read(f, boxes);
+    if (f == 0)
+      frames->begin_variant(0, boxes);
+    else
+      frames->next(boxes);
     const std::vector<Pair>& got = gpu.update(cuda::lanes_of(boxes));
     const cuda::FrameInfo& info = gpu.info();
     const cuda::StageTimes& t = info.times;
@@ -137,8 +112,9 @@ void run_bench_gpu(const GpuBenchArgs& a) {
   }
 
   const bool device = o.launcher == cuda::Launcher::Device;
-  const double gpu_median = frame.summary(true)["median"].get<double>();
-  const double cpu_median = cpu_ms.summary(true)["median"].get<double>();
+  const nlohmann::json frame_summary = frame.summary(true), cpu_summary = cpu_ms.summary(true);
+  const double gpu_median = frame_summary["median"].get<double>();
+  const double cpu_median = cpu_summary["median"].get<double>();
   double mean_pairs = 0;
   for (auto p : pairs_per_frame) mean_pairs += static_cast<double>(p);
   mean_pairs /= static_cast<double>(std::max<std::size_t>(1, pairs_per_frame.size()));
@@ -157,7 +133,7 @@ void run_bench_gpu(const GpuBenchArgs& a) {
       {"sweep", a.sweep},
       {"reserve_ms", reserve_ms},
       {"first_frame_ms", frame.v.empty() ? 0.0 : frame.v.front()},
-      {"frame_ms", frame.summary(true)},
+      {"frame_ms", frame_summary},
       {"stage_ms", stages},
       {"upload_ms", median(upload.v)},
       {"download_ms", median(download.v)},
@@ -165,7 +141,7 @@ void run_bench_gpu(const GpuBenchArgs& a) {
       {"pairs_per_second", gpu_median > 0 ? mean_pairs / (gpu_median / 1000) : 0.0},
       {"device_memory_bytes", buffer_bytes},
       {"steady_allocations", steady_allocations},
-      {"cpu", {{"engine", "sw"}, {"threads", threads}, {"frame_ms", cpu_ms.summary(true)}}},
+      {"cpu", {{"engine", "sw"}, {"threads", threads}, {"frame_ms", cpu_summary}}},
       {"cpu_over_gpu", gpu_median > 0 ? cpu_median / gpu_median : 0.0},
       {"frames_mismatched", mismatched},
       {"exact", mismatched == 0},
