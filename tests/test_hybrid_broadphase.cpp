@@ -2,6 +2,7 @@
 // The hybrid system against the brute-force oracle, frame by frame.
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -70,6 +71,80 @@ TEST(HybridBroadPhase, EveryEngineMatchesOracle) {
       check_scenario(p, {.engine = engine, .cell_limit = 128, .threads = 2}, 3);
     }
   }
+}
+
+// An engine without the streaming door that records its batch calls; its
+// pairs come from the default batch (find_owned_pairs cell by cell over the
+// brute-force loop), and each call charges one cycle per box.
+class BatchRecordingEngine final : public hbp::CellEngine {
+ public:
+  static inline std::atomic<std::uint64_t> batches{0}, cells{0}, boxes{0};
+  std::string name() const override { return "test-batches"; }
+  std::uint32_t capacity() const override { return 96; }
+  std::uint32_t default_cell_limit() const override { return 48; }
+  hbp::CellRun find_pairs(const hbp::BoxArray& cell, std::vector<hbp::Pair>& out) override {
+    hbp::append_brute_force_pairs(cell, out, pair_limit_);
+    return {cell.size()};
+  }
+  void find_owned_pairs_batch(const hbp::CellBatch& batch, std::vector<hbp::Pair>& out,
+                              std::span<hbp::CellBatchOutcome> outcomes) override {
+    ++batches;
+    cells += batch.cells();
+    boxes += batch.starts.back();
+    CellEngine::find_owned_pairs_batch(batch, out, outcomes);
+  }
+  std::unique_ptr<hbp::CellEngine> clone() const override { return std::make_unique<BatchRecordingEngine>(); }
+};
+
+TEST(HybridBroadPhase, EnginesWithoutAStreamingDoorTakeTheFrameInBatches) {
+  hbp::register_cell_engine("test-batches", [] { return std::unique_ptr<hbp::CellEngine>(new BatchRecordingEngine); });
+  hbp::ScenarioParams p;
+  p.n = 30000;
+  p.seed = 11;
+  std::vector<hbp::Pair> by_threads[2];
+  std::uint64_t cycles[2] = {};
+  for (unsigned threads : {1u, 2u}) {
+    BatchRecordingEngine::batches = BatchRecordingEngine::cells = BatchRecordingEngine::boxes = 0;
+    hbp::Scenario scene(p);
+    BoxArray boxes;
+    scene.compute_boxes(boxes);
+    hbp::HybridBroadPhase bp({.engine = "test-batches", .threads = threads});
+    const std::vector<hbp::Pair>& got = bp.update(boxes);
+    const hbp::PairSetDiff diff = hbp::diff_pairs(hbp::brute_force_pairs(boxes), got);
+    ASSERT_TRUE(diff.empty()) << diff.summary();
+    const hbp::FrameStats& st = bp.stats();
+    // Every cell went through a batch call (none is past the capacity: the
+    // partition splits to 48), many cells per call.
+    EXPECT_EQ(BatchRecordingEngine::cells.load(), st.cells);
+    EXPECT_LT(BatchRecordingEngine::batches.load() * 8, BatchRecordingEngine::cells.load());
+    // Each cell's cycles reach the frame's stats: one per box of every cell.
+    EXPECT_EQ(st.modelled_cycles, BatchRecordingEngine::boxes.load());
+    by_threads[threads - 1] = got;
+    cycles[threads - 1] = st.modelled_cycles;
+  }
+  EXPECT_EQ(by_threads[0], by_threads[1]);
+  EXPECT_EQ(cycles[0], cycles[1]);
+}
+
+TEST(HybridBroadPhase, DefaultBatchStopsAtThePairLimit) {
+  hbp::BruteForceEngine engine;
+  engine.set_pair_limit(100);
+  // Three cells of 10 coincident boxes: 45 pairs each, 135 in the batch.
+  BoxArray boxes;
+  for (int i = 0; i < 30; ++i) boxes.push_back(hbp::Aabb{{0, 0, 0}, {1, 1, 1}});
+  const std::uint32_t starts[] = {0, 10, 20, 30};
+  const hbp::CellRegion regions[] = {hbp::CellRegion::everything(), hbp::CellRegion::everything(),
+                                     hbp::CellRegion::everything()};
+  std::vector<hbp::Pair> out;
+  hbp::CellBatchOutcome outcomes[3];
+  EXPECT_THROW(engine.find_owned_pairs_batch({&boxes, starts, regions}, out, outcomes), hbp::CapacityExceeded);
+  engine.set_pair_limit(200);
+  out.clear();
+  engine.find_owned_pairs_batch({&boxes, starts, regions}, out, outcomes);
+  EXPECT_EQ(outcomes[0].end, 45u);
+  EXPECT_EQ(outcomes[1].end, 90u);
+  EXPECT_EQ(outcomes[2].end, 135u);
+  for (const hbp::Pair& q : out) EXPECT_LT(q.b, 10u);  // local to the cell
 }
 
 TEST(HybridBroadPhase, OtherScenarioKindsMatchOracle) {

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -18,6 +19,22 @@ namespace hbp {
 
 struct CellRun {
   std::uint64_t cycles = 0;  // modelled accelerator cycles (0 for software)
+};
+
+// A batch of cells for CellEngine::find_owned_pairs_batch: cell k is boxes
+// [starts[k], starts[k + 1]) of `boxes`, sorted by increasing min x, and
+// owns the pairs whose ownership point lies in regions[k].
+struct CellBatch {
+  const BoxArray* boxes = nullptr;
+  std::span<const std::uint32_t> starts;  // cells() + 1 entries, starts[0] == 0
+  std::span<const CellRegion> regions;    // cells() entries
+  std::uint32_t cells() const { return static_cast<std::uint32_t>(regions.size()); }
+};
+
+// What find_owned_pairs_batch reports for one cell of the batch.
+struct CellBatchOutcome {
+  std::size_t end = 0;  // out.size() after the cell's pairs
+  CellRun run;
 };
 
 // The streaming door of a cell engine. An engine whose kernel writes a
@@ -83,6 +100,14 @@ class CellEngine {
   // `cell` is sorted by increasing min x. Software engines fuse the filter
   // into their kernel; the default filters find_pairs' output in place.
   virtual CellRun find_owned_pairs(const BoxArray& cell, const CellRegion& region, std::vector<Pair>& out);
+  // The hybrid system's call for the cells of a frame taken together (an
+  // accelerator behind a bus wants a few large transfers and launches, not
+  // a round trip per cell): cell k's owned pairs, indices local to the cell
+  // as find_owned_pairs gives them, appended to `out` in cell order, and
+  // outcomes[k] set (outcomes.size() == batch.cells()). Every cell holds at
+  // most capacity() boxes. The default runs find_owned_pairs cell by cell.
+  virtual void find_owned_pairs_batch(const CellBatch& batch, std::vector<Pair>& out,
+                                      std::span<CellBatchOutcome> outcomes);
   // Cycles the engine would spend on a cell of n boxes, without running it
   // (analytic; equals what find_pairs reports).
   virtual std::uint64_t cycles_for(std::uint32_t n) const { (void)n; return 0; }
@@ -101,6 +126,9 @@ class CellEngine {
 
  protected:
   std::uint64_t pair_limit_ = ~std::uint64_t{0};
+
+ private:
+  BoxArray batch_cell_;  // the default batch's current cell
 };
 
 // Engines by name. The core library has "sw" (software SIMD sweep, the

@@ -157,4 +157,30 @@ CellRun CellEngine::find_owned_pairs(const BoxArray& cell, const CellRegion& reg
   return run;
 }
 
+void CellEngine::find_owned_pairs_batch(const CellBatch& batch, std::vector<Pair>& out,
+                                        std::span<CellBatchOutcome> outcomes) {
+  if (outcomes.size() != batch.cells() || batch.starts.size() != std::size_t{batch.cells()} + 1)
+    throw InvalidInput("find_owned_pairs_batch: " + std::to_string(batch.cells()) + " cells, " +
+                       std::to_string(batch.starts.size()) + " starts and " + std::to_string(outcomes.size()) +
+                       " outcomes");
+  const BoxArray& boxes = *batch.boxes;
+  const std::size_t base = out.size();
+  for (std::uint32_t k = 0; k < batch.cells(); ++k) {
+    const std::uint32_t first = batch.starts[k], n = batch.starts[k + 1] - first;
+    const bool whole = first == 0 && n == boxes.size();
+    if (!whole) {
+      batch_cell_.resize(n);
+      for (int axis = 0; axis < 3; ++axis) {
+        std::copy_n(boxes.min(axis) + first, n, batch_cell_.min(axis));
+        std::copy_n(boxes.max(axis) + first, n, batch_cell_.max(axis));
+      }
+    }
+    outcomes[k].run = find_owned_pairs(whole ? boxes : batch_cell_, batch.regions[k], out);
+    outcomes[k].end = out.size();
+    // Each call is bounded by the pair limit; so is the batch's list.
+    if (out.size() - base > pair_limit_)
+      throw CapacityExceeded("cell batch has more than the pair limit of " + std::to_string(pair_limit_) + " pairs");
+  }
+}
+
 }  // namespace hbp

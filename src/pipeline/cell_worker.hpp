@@ -44,6 +44,15 @@ struct Worker {
   RawBuffer<Pair> stored;
   std::size_t touched = 0;                 // entries of `stored`'s allocation written in earlier frames
   bool store_full = false;                 // this frame's touch budget is spent: dense cells are counted
+  // Engines without the streaming door take cells in batches
+  // (CellEngine::find_owned_pairs_batch): the cells back to back, each in
+  // min-x order, their ids, and which cell of the frame each one is.
+  struct Batch {
+    BoxArray boxes;
+    std::vector<std::uint32_t> ids, starts, cells;
+    std::vector<CellRegion> regions;
+    std::vector<CellBatchOutcome> outcomes;
+  } batch;
 };
 
 // What one cell produced this frame.

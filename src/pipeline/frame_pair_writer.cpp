@@ -14,6 +14,7 @@
 #include "pipeline/cell_pairs.hpp"
 #include "pipeline/cell_stream.hpp"
 #include "pipeline/pair_block_move.hpp"
+#include "pipeline/tiled_cells.hpp"
 #include "support/clock.hpp"
 #include "support/huge_pages.hpp"
 #include "support/prefault.hpp"
@@ -42,6 +43,11 @@ constexpr std::size_t kStoredPairsPerBox = 4;
 constexpr std::size_t kTouchPairsPerFrame = std::size_t{16} << 20;
 // The back lane's block is moved in this many chunks a worker (for balance).
 constexpr int kMoveChunksPerWorker = 4;
+// An engine without the streaming door takes consecutive cells in batches
+// of about this many boxes (at least one cell; fewer boxes when that leaves
+// each worker a few batches), one find_owned_pairs_batch call each.
+constexpr std::size_t kBatchBoxes = std::size_t{1} << 16;
+constexpr std::size_t kBatchesPerWorker = 4;
 
 }  // namespace
 
@@ -90,7 +96,9 @@ FramePairWriter::StageTimes FramePairWriter::write_cells(const FrameCells& cells
   // The last frame's list is dead now; one much larger than this frame
   // needs is released rather than kept as room.
   retained::release(pairs_, last_frame_pairs_, kKeepPairs);
-  if (front_lane_allowed())
+  if (!direct_kernel_)
+    store_batches();
+  else if (front_lane_allowed())
     run_lanes();
   else
     for_each_cell([&](std::uint32_t c) { first_pass(c); });
@@ -170,6 +178,87 @@ void FramePairWriter::for_each_cell(F&& f) {
 }
 
 // ---- The stores ----------------------------------------------------------------
+
+// Engines without the streaming door: the cells cut into batches of
+// consecutive cells (the cut does not change any cell's pairs), each batch
+// through one find_owned_pairs_batch call, its pairs stored.
+void FramePairWriter::store_batches() {
+  const std::uint32_t count = cells_.count();
+  std::size_t entries = 0;
+  for (std::uint32_t c = 0; c < count; ++c) entries += cells_.partition->cell(c).size();
+  const std::size_t batch_boxes = std::clamp<std::size_t>(
+      entries / (kBatchesPerWorker * static_cast<std::size_t>(cells_.lanes)), 1, kBatchBoxes);
+  batch_starts_.assign(1, 0);
+  std::size_t boxes = 0;
+  for (std::uint32_t c = 0; c < count; ++c) {
+    boxes += cells_.partition->cell(c).size();
+    if (boxes >= batch_boxes || c + 1 == count) {
+      batch_starts_.push_back(c + 1);
+      boxes = 0;
+    }
+  }
+  const auto batches = static_cast<std::uint32_t>(batch_starts_.size() - 1);
+  const auto run = [&](std::uint32_t b) { store_batch(batch_starts_[b], batch_starts_[b + 1]); };
+  if (cells_.lanes == 1) {
+    for (std::uint32_t b = 0; b < batches; ++b) run(b);
+    return;
+  }
+  tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, batches, 1), [&](const auto& r) {
+    for (std::uint32_t b = r.begin(); b != r.end(); ++b) run(b);
+  });
+}
+
+// Cells [first, end): each loaded in min-x order and appended to the
+// worker's batch (a cell past the engine's capacity is tiled on its own),
+// the batch run, and each cell's pairs mapped to ids into the store.
+void FramePairWriter::store_batch(std::uint32_t first, std::uint32_t end) {
+  Worker& w = workers_.local();
+  Worker::Batch& b = w.batch;
+  b.boxes.clear();
+  b.ids.clear();
+  b.starts.assign(1, 0);
+  b.cells.clear();
+  b.regions.clear();
+  for (std::uint32_t c = first; c < end; ++c) {
+    const CellRegion& region = cells_.region(c);
+    load_cell(w, cells_.engine_cell(c), region);
+    const std::uint32_t n = w.cell.size();
+    if (n > w.engine->capacity()) {
+      CellOutcome& r = outcomes_[c];
+      r.stored = &w.stored;
+      r.offset = w.stored.size();
+      emit_tiled(w, region, w.stored, r, charger());
+      continue;
+    }
+    const std::uint32_t at = b.starts.back();
+    b.boxes.resize(at + n);
+    for (int axis = 0; axis < 3; ++axis) {
+      std::copy_n(w.cell.boxes().min(axis), n, b.boxes.min(axis) + at);
+      std::copy_n(w.cell.boxes().max(axis), n, b.boxes.max(axis) + at);
+    }
+    b.ids.insert(b.ids.end(), w.cell.ids(), w.cell.ids() + n);
+    b.starts.push_back(at + n);
+    b.cells.push_back(c);
+    b.regions.push_back(region);
+  }
+  if (b.cells.empty()) return;
+  b.outcomes.resize(b.cells.size());
+  w.local.clear();
+  w.engine->find_owned_pairs_batch(CellBatch{&b.boxes, b.starts, b.regions}, w.local, b.outcomes);
+  charge(w.local.size());
+  std::size_t begin = 0;
+  for (std::size_t k = 0; k < b.cells.size(); ++k) {
+    CellOutcome& r = outcomes_[b.cells[k]];
+    const std::size_t cell_end = b.outcomes[k].end;
+    const std::uint32_t* ids = b.ids.data() + b.starts[k];
+    r.stored = &w.stored;
+    r.offset = w.stored.size();
+    for (std::size_t p = begin; p < cell_end; ++p) append(w.stored, make_pair(ids[w.local[p].a], ids[w.local[p].b]));
+    r.pairs = r.candidates = cell_end - begin;
+    r.cycles = b.outcomes[k].run.cycles;
+    begin = cell_end;
+  }
+}
 
 // Every cell through the engine, its pairs appended to the worker's store;
 // on a frame without an estimate, dense cells are only counted (see

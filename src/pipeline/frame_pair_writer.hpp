@@ -85,6 +85,8 @@ class FramePairWriter {
   void for_each_cell(F&& f);
 
   // The stores.
+  void store_batches();
+  void store_batch(std::uint32_t first, std::uint32_t end);
   void first_pass(std::uint32_t c, bool loaded = false);
   bool store_within_budget(Worker& w, const CellRegion& region, CellOutcome& r);
   void second_pass(std::uint32_t c);
@@ -107,6 +109,7 @@ class FramePairWriter {
   std::vector<CellOutcome> outcomes_;         // per cell
   std::vector<std::vector<Pair>> cell_pairs_;  // per cell, when a sink or consumer streams them
   std::vector<std::size_t> offsets_;          // per cell: first pair in pairs_
+  std::vector<std::uint32_t> batch_starts_;   // the frame's batches of cells (engines without the streaming door)
   std::vector<Pair> pairs_;                   // the frame's list
   RawBuffer<Pair> move_scratch_;              // pairs set aside while the back lane's block moves
   std::atomic<std::uint64_t> running_pairs_{0};
