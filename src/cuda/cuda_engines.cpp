@@ -55,6 +55,10 @@ class DeviceEngine final : public CudaEngineBase {
     device_.run(sweep_, region, pair_limit_, out);
     return {};
   }
+  void find_owned_pairs_batch(const CellBatch& batch, std::vector<Pair>& out,
+                              std::span<CellBatchOutcome> outcomes) override {
+    device_.run_batch(batch, pair_limit_, out, outcomes);
+  }
   std::unique_ptr<CellEngine> clone() const override {
     auto e = std::make_unique<DeviceEngine>();
     e->set_pair_limit(pair_limit_);

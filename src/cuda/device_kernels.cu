@@ -283,12 +283,11 @@ __global__ void __launch_bounds__(kBigLanes)
   }
 }
 
-// One cell sorted by exact min x (the "cuda" cell engine's cell): a block
-// of kBigLanes threads sweeping with sweep_row, its boxes in shared memory
-// when they fit.
-__global__ void __launch_bounds__(kBigLanes)
-    sorted_cell_rows_kernel(SortedLanes sorted, std::uint32_t size, CellRegion region, std::uint64_t* counts,
-                            const std::uint64_t* offsets, std::uint32_t* out) {
+// One cell sorted by exact min x (a cell of the "cuda" cell engine) swept
+// by the calling block of kBigLanes threads with sweep_row, its boxes in
+// shared memory when they fit.
+__device__ void block_sorted_cell_rows(const SortedLanes& sorted, std::uint32_t size, const CellRegion& region,
+                                       std::uint64_t* counts, const std::uint64_t* offsets, std::uint32_t* out) {
   __shared__ float lane[6][kBigCellBoxes];
   __shared__ std::uint32_t id[kBigCellBoxes];
   SortedLanes s = sorted;
@@ -313,6 +312,25 @@ __global__ void __launch_bounds__(kBigLanes)
       });
     }
   }
+}
+
+__global__ void __launch_bounds__(kBigLanes)
+    sorted_cell_rows_kernel(SortedLanes sorted, std::uint32_t size, CellRegion region, std::uint64_t* counts,
+                            const std::uint64_t* offsets, std::uint32_t* out) {
+  block_sorted_cell_rows(sorted, size, region, counts, offsets, out);
+}
+
+// Block k sweeps cell k of a batch: boxes [starts[k], starts[k + 1]) of the
+// batch's lanes, ids local to the cell (`iota`: 0, 1, 2, ...); its rows'
+// counts and offsets at the same positions.
+__global__ void __launch_bounds__(kBigLanes)
+    sorted_batch_rows_kernel(SortedLanes batch, const std::uint32_t* starts, const CellRegion* regions,
+                             std::uint64_t* counts, const std::uint64_t* offsets, std::uint32_t* out) {
+  const std::uint32_t first = starts[blockIdx.x], size = starts[blockIdx.x + 1] - first;
+  const SortedLanes cell{{batch.lo[0] + first, batch.lo[1] + first, batch.lo[2] + first},
+                         {batch.hi[0] + first, batch.hi[1] + first, batch.hi[2] + first},
+                         batch.id};
+  block_sorted_cell_rows(cell, size, regions[blockIdx.x], counts + first, offsets ? offsets + first : nullptr, out);
 }
 
 __global__ void large_rows_kernel(BoxLanesView b, std::uint32_t n, const std::uint32_t* is_large,
@@ -474,6 +492,14 @@ void launch_sorted_cell_rows(const SortedLanes& sorted, std::uint32_t size, cons
   if (!size) return;
   sorted_cell_rows_kernel<<<1, kBigLanes, 0, s>>>(sorted, size, region, counts, offsets, out);
   check_cuda(cudaGetLastError(), "sorted cell rows kernel");
+}
+
+void launch_sorted_batch_rows(const SortedLanes& batch, std::uint32_t cells, const std::uint32_t* starts,
+                              const CellRegion* regions, std::uint64_t* counts, const std::uint64_t* offsets,
+                              std::uint32_t* out, cudaStream_t s) {
+  if (!cells) return;
+  sorted_batch_rows_kernel<<<cells, kBigLanes, 0, s>>>(batch, starts, regions, counts, offsets, out);
+  check_cuda(cudaGetLastError(), "sorted batch rows kernel");
 }
 
 void launch_large_rows(const BoxLanesView& b, std::uint32_t n, const std::uint32_t* is_large,

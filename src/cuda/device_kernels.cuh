@@ -85,6 +85,12 @@ void launch_reference_rows(const GridView& g, const CellLanes& sorted, int bits,
 // swept by one block with sweep_row; counts and pairs as above.
 void launch_sorted_cell_rows(const SortedLanes& sorted, std::uint32_t size, const CellRegion& region,
                              std::uint64_t* counts, const std::uint64_t* offsets, std::uint32_t* out, cudaStream_t s);
+// A batch of such cells back to back, block k sweeping boxes [starts[k],
+// starts[k + 1]) (device arrays) with ids local to its cell: `batch.id` is
+// 0, 1, 2, ... for at least the largest cell.
+void launch_sorted_batch_rows(const SortedLanes& batch, std::uint32_t cells, const std::uint32_t* starts,
+                              const CellRegion* regions, std::uint64_t* counts, const std::uint64_t* offsets,
+                              std::uint32_t* out, cudaStream_t s);
 // The large pass: slot q = (large index) * chunks + chunk, as cell rows.
 void launch_large_rows(const BoxLanesView& b, std::uint32_t n, const std::uint32_t* is_large,
                        const std::uint32_t* large_list, std::uint32_t large, std::uint32_t chunk, std::uint64_t* counts,
