@@ -17,8 +17,6 @@
 #include "hbp/hybrid_broadphase.hpp"
 
 #include <tbb/enumerable_thread_specific.h>
-#include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <atomic>
@@ -30,18 +28,19 @@
 #include "hbp/error.hpp"
 #include "hbp/kd_partition.hpp"
 #include "partition/raw_buffer.hpp"
-#include "pipeline/arena_threads.hpp"
 #include "pipeline/cell_lanes.hpp"
 #include "pipeline/cell_pairs.hpp"
 #include "pipeline/cell_stream.hpp"
 #include "pipeline/cell_worker.hpp"
 #include "pipeline/frame_stats.hpp"
+#include "pipeline/frame_threads.hpp"
 #include "pipeline/pair_block_move.hpp"
 #include "pipeline/pair_outputs.hpp"
 #include "pipeline/parallel_pair_sort.hpp"
 #include "pipeline/screened_boxes.hpp"
 #include "support/clock.hpp"
 #include "support/huge_pages.hpp"
+#include "support/parallel_for.hpp"
 #include "support/prefault.hpp"
 #include "support/retained.hpp"
 
@@ -88,7 +87,7 @@ struct HybridBroadPhase::Impl {
   // counted); other engines take whole cells through find_owned_pairs.
   bool direct_kernel;
   std::uint32_t cell_limit;
-  tbb::task_arena arena;
+  detail::FrameThreads arena;  // the engine's task system, or an own oneTBB arena
   KdPartition own_partition;
   bool partition_in_use = false;                  // own_partition holds a tree from an earlier frame
   bool refresh_in_engine = false;                 // own_partition's cells are refreshed as the engine takes them
@@ -126,7 +125,7 @@ struct HybridBroadPhase::Impl {
         prototype(make_cell_engine(o.engine)),
         direct_kernel(prototype->hit_stream() != nullptr),
         cell_limit(choose_limit(o, *prototype)),
-        arena(detail::arena_threads(o.threads)),
+        arena(o.threads, o.task_system),
         own_partition(cell_limit, prototype->x_split_weight(), cell_cost(o, *prototype)),
         workers([this] {
           Worker w;
@@ -142,7 +141,7 @@ struct HybridBroadPhase::Impl {
   // arena would wake its workers for nothing.
   void run_boxes(const BoxArray& boxes, bool checked, const PairSink& sink, const PairSink& consumer) {
     if (boxes.size() <= cell_limit)
-      run(&boxes, nullptr, checked, sink, consumer);
+      arena.execute_here([&] { run(&boxes, nullptr, checked, sink, consumer); });
     else
       arena.execute([&] { run(&boxes, nullptr, checked, sink, consumer); });
   }
@@ -324,9 +323,7 @@ struct HybridBroadPhase::Impl {
       for (std::uint32_t c = 0; c < cells; ++c) f(c);
       return;
     }
-    tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, cells, 1), [&](const auto& r) {
-      for (std::uint32_t c = r.begin(); c != r.end(); ++c) f(c);
-    });
+    detail::parallel_for_each(cells, [&](std::size_t c) { f(static_cast<std::uint32_t>(c)); });
   }
 
   // Streaming: each cell's pairs in its own list, handed to the consumer
