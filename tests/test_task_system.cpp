@@ -460,7 +460,9 @@ TEST(TaskSystem, HybridPaperSceneSameUnderEveryTaskSystem) {
             std::vector<Pair> canonical = got;
             std::sort(canonical.begin(), canonical.end());
             ASSERT_EQ(canonical, want) << "frame " << f;
-            if (sorted) ASSERT_EQ(got, want);
+            if (sorted) {
+              ASSERT_EQ(got, want);
+            }
           }
           ASSERT_EQ(got, first) << configs[k].name << ", frame " << f << (sorted ? ", sorted" : ", cell order")
                                 << (streamed ? ", streamed" : "");
@@ -468,7 +470,9 @@ TEST(TaskSystem, HybridPaperSceneSameUnderEveryTaskSystem) {
           if (streamed) {
             ASSERT_EQ(next_cell, bps[k]->stats().cells) << configs[k].name;
             ASSERT_EQ(consumed.load(), got.size()) << configs[k].name;
-            if (!sorted) ASSERT_EQ(from_sink, got) << configs[k].name;
+            if (!sorted) {
+              ASSERT_EQ(from_sink, got) << configs[k].name;
+            }
           }
         }
       }
