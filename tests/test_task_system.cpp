@@ -81,11 +81,13 @@ class ScrambledThreads final : public hbp::TaskSystem {
 
   void run(std::uint32_t n, hbp::TaskFunction fn, void* context) override {
     log_.on_run(n, t_in_test_task);
-    order_.resize(n);
-    std::iota(order_.begin(), order_.end(), 0u);
-    std::shuffle(order_.begin(), order_.end(), rng_);
     {
-      std::lock_guard<std::mutex> lock(m_);
+      // A worker that woke late for the last batch may still be leaving it.
+      std::unique_lock<std::mutex> lock(m_);
+      all_done_.wait(lock, [&] { return active_ == 0; });
+      order_.resize(n);
+      std::iota(order_.begin(), order_.end(), 0u);
+      std::shuffle(order_.begin(), order_.end(), rng_);
       fn_ = fn;
       context_ = context;
       count_ = n;
