@@ -483,6 +483,29 @@ TEST(TaskSystem, HybridPaperSceneSameUnderEveryTaskSystem) {
   systems.expect_contract_kept();
 }
 
+// CapacityExceeded thrown inside the cell tasks (max_pairs) propagates from
+// update() under every task system, and the instance then runs a smaller
+// frame exactly.
+TEST(TaskSystem, CapacityExceededInsideTasksLeavesTheInstanceUsable) {
+  Systems systems;
+  systems.calling_from_here();
+  hbp::Scenario scene({.kind = hbp::ScenarioKind::Paper, .n = 60000, .seed = 2});
+  hbp::BoxArray boxes, few;
+  scene.compute_boxes(boxes);
+  for (std::size_t i = 0; i < 20000; ++i) few.push_back(boxes.get(i));
+  const std::vector<Pair> all = reference_pairs(boxes), want_few = reference_pairs(few);
+  const std::uint64_t limit = all.size() / 2;
+  ASSERT_LT(want_few.size(), limit);
+  for (const auto& c : systems.configs({.engine = "sw", .max_pairs = limit})) {
+    HybridBroadPhase bp(c.options);
+    EXPECT_THROW(bp.update(boxes), hbp::CapacityExceeded) << c.name;
+    EXPECT_EQ(bp.update(few), want_few) << c.name;
+    EXPECT_THROW(bp.update(boxes), hbp::CapacityExceeded) << c.name;
+    EXPECT_EQ(bp.update(few), want_few) << c.name;
+  }
+  systems.expect_contract_kept();
+}
+
 // ---- The library's task systems -----------------------------------------------------
 
 TEST(TaskSystem, LibrarySystemsRunEveryTaskOnce) {
