@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
 #pragma once
-// The one door of the library's parallel loops: [0, n) cut into FIXED
+// The one door of the library's parallel loops: [0, n) cut into fixed
 // chunks of `grain` (the last one shorter), handed to the engine's
 // TaskSystem (hbp/task_system.hpp) or, by default, to oneTBB's current
 // arena. The chunks depend on n and grain only, never on the threads, so a
@@ -8,8 +8,8 @@
 // the same result on any task system and thread count.
 //
 // Which threads: the calling thread's task context, set for the span of a
-// broad phase's call by UseTaskSystem (pipeline/frame_threads.hpp) and
-// carried into every task, so code deep in a frame (the partition, the
+// broad phase's call (UseTaskSystem below, from pipeline/frame_threads.hpp)
+// and carried into every task, so code deep in a frame (the partition, the
 // sort) reaches the engine's task system without passing it down.
 // A loop inside a task of the engine's task system runs inline on that
 // task's thread: the engine is never called nested (its contract says it
