@@ -18,6 +18,7 @@
 #include "hbp/hybrid_broadphase.hpp"
 #include "hbp/kd_partition.hpp"
 #include "hbp/scenario.hpp"
+#include "hbp/task_system.hpp"
 #include "paper_frames.hpp"
 #include "hbp/software_engine.hpp"
 
@@ -25,11 +26,11 @@ namespace {
 
 const std::vector<hbp::BoxArray>& paper_frames(std::uint32_t n) { return hbp::bench::paper_frames(n, 8); }
 
-void PaperFrame(benchmark::State& state) {
+void run_paper_frames(benchmark::State& state, hbp::TaskSystem* tasks) {
   const auto n = static_cast<std::uint32_t>(state.range(0));
   const auto threads = static_cast<unsigned>(state.range(1));
   const auto& frames = paper_frames(n);
-  hbp::HybridBroadPhase bp({.engine = "sw", .threads = threads, .sorted = false});
+  hbp::HybridBroadPhase bp({.engine = "sw", .threads = threads, .sorted = false, .task_system = tasks});
   for (const auto& f : frames) bp.update(f);  // build and warm the tree
   std::size_t k = 0;
   double partition = 0, engine = 0;
@@ -47,8 +48,22 @@ void PaperFrame(benchmark::State& state) {
   state.counters["dup"] = bp.stats().duplication;
   state.SetItemsProcessed(state.iterations() * n);
 }
+void PaperFrame(benchmark::State& state) { run_paper_frames(state, nullptr); }
 BENCHMARK(PaperFrame)
     ->ArgsProduct({{1000, 10000, 100000, 1024000}, {1, 2}})
+    ->ArgNames({"n", "threads"})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+// The same frames on an engine's task system (hbp/task_system.hpp): the
+// library's TbbTaskSystem of `threads` threads, its own arena, against
+// PaperFrame's built-in arena (the same work, through the task door).
+void PaperFrameTaskSystem(benchmark::State& state) {
+  hbp::TbbTaskSystem tasks(static_cast<unsigned>(state.range(1)));
+  run_paper_frames(state, &tasks);
+}
+BENCHMARK(PaperFrameTaskSystem)
+    ->ArgsProduct({{100000, 1024000}, {1, 2}})
     ->ArgNames({"n", "threads"})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();

@@ -89,7 +89,7 @@ class BroadPhase {
   // exception it throws leaves update() unapplied and propagates.
   using PairFilter = std::function<bool(Handle a, Handle b)>;
 
-  // options.engine / cell_limit / threads / max_pairs as for HybridBroadPhase
+  // options.engine / cell_limit / threads / task_system / max_pairs as for HybridBroadPhase
   // (max_pairs bounds the reported pairs of a frame, and the moving/moving
   // pairs before the layer filter, so memory stays bounded: update() throws
   // CapacityExceeded and keeps the previous result); `sorted` is ignored

@@ -80,11 +80,25 @@ typedef struct hbp_pair {
   hbp_handle b;
 } hbp_pair;
 
+/* The engine's job system (docs/c-api.md, "Your engine's job system").
+ * The library hands it batches of tasks: run_tasks(task_user, count, task,
+ * context) must call task(context, i) exactly once for every i in
+ * [0, count), on any threads (the calling one included, in any order), and
+ * return only when every call has returned. It is called on the thread that
+ * called into the library, never from inside one of its own tasks (no
+ * nesting to support). task never fails and never unwinds: the library
+ * keeps a task's error and reports it from the call that ran the batch. */
+typedef void (*hbp_task_fn)(void* context, uint32_t task);
+typedef void (*hbp_run_tasks_fn)(void* task_user, uint32_t task_count, hbp_task_fn task, void* context);
+
 typedef struct hbp_options {
   const char* engine;   /* cell engine: NULL or "sw" (default), "sw-allpairs", "brute" */
-  uint32_t threads;     /* worker threads; 0: all cores; at most 1024 */
+  uint32_t threads;     /* worker threads; 0: all cores; at most 1024. With run_tasks: how many
+                           tasks run_tasks can run at once (0: the machine's cores) */
   uint32_t cell_limit;  /* objects per k-d cell; 0: the engine's default, else >= 2 */
   uint64_t max_pairs;   /* most pairs one update may report; 0: unlimited */
+  hbp_run_tasks_fn run_tasks;  /* the engine's job system; NULL: the library's own threads */
+  void* task_user;             /* passed to run_tasks as is */
 } hbp_options;
 
 /* "0.1.0": the library's version. */
@@ -98,7 +112,8 @@ const char* hbp_status_string(hbp_status status);
  * this thread. */
 const char* hbp_last_error(void);
 
-/* Fills *options with the defaults (engine "sw", all cores, no limits). */
+/* Fills *options with the defaults (engine "sw", all cores on the library's
+ * own threads, no limits). */
 void hbp_options_init(hbp_options* options);
 
 /* Creates a broad phase; options may be NULL (the defaults). On failure

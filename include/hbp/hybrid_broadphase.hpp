@@ -15,6 +15,7 @@
 #include "hbp/box_array.hpp"
 #include "hbp/cell_engine.hpp"
 #include "hbp/pair.hpp"
+#include "hbp/task_system.hpp"
 #include "hbp/validated_boxes.hpp"
 
 namespace hbp {
@@ -34,6 +35,11 @@ struct BroadPhaseOptions {
   // Hardware engines: keep splitting cells under the limit while that lowers
   // the summed modelled cycles (the paper splits only down to the limit).
   bool cost_splits = false;
+  // The engine's job system (hbp/task_system.hpp), which then runs every
+  // parallel loop of a call in place of the library's own oneTBB arena
+  // (`threads` is unused but still checked). Null: that arena. Not owned:
+  // it must outlive the broad phase. The output is the same either way.
+  TaskSystem* task_system = nullptr;
 };
 
 struct FrameStats {

@@ -3,12 +3,15 @@
 // everything: a C++ exception becomes a status and a thread-local message.
 #include "hbp/hbp.h"
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <exception>
 #include <limits>
 #include <new>
+#include <optional>
 #include <span>
+#include <thread>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -18,6 +21,7 @@
 #include "hbp/error.hpp"
 #include "hbp/limits.hpp"
 #include "hbp/pair.hpp"
+#include "hbp/task_system.hpp"
 
 #ifndef HBP_VERSION_STRING
 #error "HBP_VERSION_STRING is set by CMakeLists.txt"
@@ -32,9 +36,35 @@ static_assert(sizeof(hbp_pair) == sizeof(hbp::Pair) && offsetof(hbp_pair, b) == 
 static_assert(std::is_same_v<hbp_handle, hbp::Handle> && HBP_INVALID_HANDLE == hbp::kInvalidHandle);
 static_assert(HBP_MAX_OBJECTS == hbp::kMaxObjects && HBP_LAYER_COUNT == hbp::kLayerCount);
 
+// hbp_options::run_tasks as the engine's task system. The library's task
+// functions are hbp_task_fn's: same signature, and they never throw.
+class CallbackTaskSystem final : public hbp::TaskSystem {
+ public:
+  CallbackTaskSystem(hbp_run_tasks_fn run, void* user, std::uint32_t threads)
+      : run_(run), user_(user), threads_(threads ? threads : std::max(1u, std::thread::hardware_concurrency())) {}
+  void run(std::uint32_t task_count, hbp::TaskFunction fn, void* context) override {
+    run_(user_, task_count, fn, context);
+  }
+  unsigned concurrency() const override { return threads_; }
+
+ private:
+  hbp_run_tasks_fn run_;
+  void* user_;
+  unsigned threads_;
+};
+
 struct hbp_broad_phase {
+  std::optional<CallbackTaskSystem> tasks;  // outlives bp (declared first)
   hbp::BroadPhase bp;
   explicit hbp_broad_phase(const hbp::BroadPhaseOptions& options) : bp(options) {}
+  hbp_broad_phase(const hbp::BroadPhaseOptions& options, hbp_run_tasks_fn run, void* user)
+      : tasks(std::in_place, run, user, options.threads), bp(with_tasks(options, &*tasks)) {}
+
+ private:
+  static hbp::BroadPhaseOptions with_tasks(hbp::BroadPhaseOptions o, hbp::TaskSystem* tasks) {
+    o.task_system = tasks;
+    return o;
+  }
 };
 
 namespace {
@@ -123,6 +153,8 @@ void hbp_options_init(hbp_options* options) {
   options->threads = 0;
   options->cell_limit = 0;
   options->max_pairs = 0;
+  options->run_tasks = nullptr;
+  options->task_user = nullptr;
 }
 
 hbp_status hbp_create(const hbp_options* options, hbp_broad_phase** out) {
@@ -136,7 +168,11 @@ hbp_status hbp_create(const hbp_options* options, hbp_broad_phase** out) {
       o.cell_limit = options->cell_limit;
       o.max_pairs = options->max_pairs;
     }
-    *out = new hbp_broad_phase(o);
+    // (threads above the limit: InvalidInput from the broad phase, either way)
+    if (options != nullptr && options->run_tasks != nullptr)
+      *out = new hbp_broad_phase(o, options->run_tasks, options->task_user);
+    else
+      *out = new hbp_broad_phase(o);
     return ok();
   });
 }

@@ -1,11 +1,11 @@
 // SPDX-License-Identifier: MIT
 #include "hierarchy/cell_bvh.hpp"
 
-#include <tbb/parallel_invoke.h>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
+
+#include "support/parallel_for.hpp"
 
 namespace hbp::bvh {
 
@@ -132,8 +132,8 @@ void build_range(CellEntry* items, std::uint32_t count, BvhNode* nodes, std::uin
   n.right = right;
   n.object = BvhNode::kInternal;
   if (count >= kParallelBuild) {
-    tbb::parallel_invoke([&] { build_range(items, mid, nodes, left); },
-                         [&] { build_range(items + mid, count - mid, nodes, right); });
+    detail::parallel_invoke([&] { build_range(items, mid, nodes, left); },
+                            [&] { build_range(items + mid, count - mid, nodes, right); });
   } else {
     build_range(items, mid, nodes, left);
     build_range(items + mid, count - mid, nodes, right);
@@ -171,8 +171,8 @@ double refit_parallel(BvhNode* nodes, std::uint32_t begin, std::uint32_t end, co
   if (end - begin < kParallelRefit) return refit_serial(nodes, begin, end, leaf_box);
   BvhNode& n = nodes[begin];
   double a = 0, b = 0;
-  tbb::parallel_invoke([&] { a = refit_parallel(nodes, begin + 1, n.right, leaf_box); },
-                       [&] { b = refit_parallel(nodes, n.right, end, leaf_box); });
+  detail::parallel_invoke([&] { a = refit_parallel(nodes, begin + 1, n.right, leaf_box); },
+                          [&] { b = refit_parallel(nodes, n.right, end, leaf_box); });
   set_union(n, nodes[begin + 1], nodes[n.right]);
   return a + b + node_area(n);
 }

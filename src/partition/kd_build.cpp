@@ -2,9 +2,6 @@
 #include "partition/kd_build.hpp"
 
 #include <tbb/enumerable_thread_specific.h>
-#include <tbb/parallel_for.h>
-#include <tbb/parallel_reduce.h>
-#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <atomic>
@@ -21,6 +18,7 @@
 #include "hbp/error.hpp"
 #include "geometry/centre.hpp"
 #include "partition/kd_sampled_build.hpp"
+#include "support/parallel_for.hpp"
 #include "support/radix_sort.hpp"
 
 namespace hbp::kd {
@@ -153,10 +151,10 @@ bool choose_split(const CellEntry* e, std::uint32_t n, std::uint32_t depth, cons
       // The root and the first levels: counted across threads (integer sums,
       // the same for any thread count).
       using Counts = std::pair<std::uint32_t, std::uint32_t>;
-      const Counts c = tbb::parallel_reduce(
-          tbb::blocked_range<std::uint32_t>(0, n, kParallelCountMin / 4), Counts{0, 0},
-          [&](const tbb::blocked_range<std::uint32_t>& r, Counts acc) {
-            for (std::uint32_t i = r.begin(); i != r.end(); ++i) {
+      const Counts c = hbp::detail::parallel_reduce(
+          n, kParallelCountMin / 4, Counts{0, 0},
+          [&](std::size_t begin, std::size_t end, Counts acc) {
+            for (std::size_t i = begin; i != end; ++i) {
               acc.first += e[i].min[a] < split;
               acc.second += e[i].max[a] >= split;
             }
@@ -415,8 +413,8 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
   std::stable_sort(order.begin(), order.end(),
                    [&](std::uint32_t x, std::uint32_t y) { return frontier[x].n > frontier[y].n; });
   std::atomic<std::size_t> next{0};
-  const int workers = std::min<int>(tbb::this_task_arena::max_concurrency(), static_cast<int>(order.size()));
-  tbb::parallel_for(0, workers, [&](int) {
+  const auto workers = std::min<std::size_t>(static_cast<std::size_t>(hbp::detail::concurrency()), order.size());
+  hbp::detail::parallel_for_each(workers, [&](std::size_t) {
     for (std::size_t k; (k = next.fetch_add(1, std::memory_order_relaxed)) < order.size();) {
       const std::uint32_t t = order[k];
       const BuildTask& it = frontier[t];
@@ -454,7 +452,7 @@ void build_tree(const BoxArray& boxes, const SplitRule& rule, BuildBuffers& buff
   // buffers, not three (fresh pages are its largest cost).
   a.clear();  // not kept if it must grow
   a.resize(entry_base.back());
-  tbb::parallel_for(std::size_t{0}, tasks.size(), [&](std::size_t t) {
+  hbp::detail::parallel_for_each(tasks.size(), [&](std::size_t t) {
     const std::uint32_t root = frontier[t].node;
     const std::vector<KdTreeNode>& local = tasks[t].nodes;
     const CellEntry* in_slot = b.data() + slot[t];

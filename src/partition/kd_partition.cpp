@@ -2,7 +2,6 @@
 #include "hbp/kd_partition.hpp"
 
 #include <tbb/enumerable_thread_specific.h>
-#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cmath>
@@ -18,6 +17,7 @@
 #include "hbp/limits.hpp"
 #include "partition/kd_build.hpp"
 #include "partition/raw_buffer.hpp"
+#include "support/parallel_for.hpp"
 #include "support/prefault.hpp"
 #include "support/retained.hpp"
 
@@ -649,7 +649,7 @@ void KdPartition::find_crossings(const BoxArray& boxes) {
   if (chunks <= 1) {
     for (std::uint32_t c = 0; c < chunks; ++c) chunk(c);
   } else {
-    tbb::parallel_for(std::uint32_t{0}, chunks, chunk);
+    detail::parallel_for_each(chunks, [&](std::size_t c) { chunk(static_cast<std::uint32_t>(c)); });
   }
 }
 
@@ -696,8 +696,8 @@ void KdPartition::lay_out_cells() {
 
 void KdPartition::refresh_cells() {
   const auto cells = static_cast<std::uint32_t>(leaf_nodes_.size());
-  tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, cells, 4), [&](const auto& range) {
-    for (std::uint32_t c = range.begin(); c != range.end(); ++c) refresh_cell(c);
+  detail::parallel_for(cells, 4, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t c = begin; c != end; ++c) refresh_cell(static_cast<std::uint32_t>(c));
   });
 }
 
@@ -865,7 +865,7 @@ void KdPartition::rebuild_step() {
     const auto count = static_cast<std::uint32_t>(s.batch.size());
     auto build = [&](std::uint32_t k) { build_subtree(k); };
     if (count == 1) build(0);
-    else tbb::parallel_for(std::uint32_t{0}, count, build);
+    else detail::parallel_for_each(count, [&](std::size_t k) { build(static_cast<std::uint32_t>(k)); });
     std::uint64_t done = 0;
     for (std::uint32_t k = 0; k < count; ++k) done += splice_subtree(k);
     stats_.rebuilt_subtrees = count;

@@ -1,8 +1,6 @@
 // SPDX-License-Identifier: MIT
 #include "partition/kd_sampled_build.hpp"
 
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
 #include <array>
 #include <cstring>
@@ -16,6 +14,7 @@
 
 #include "hbp/error.hpp"
 #include "partition/kd_build.hpp"
+#include "support/parallel_for.hpp"
 #include "support/radix_sort.hpp"
 #include "support/retained.hpp"
 
@@ -241,7 +240,8 @@ void build_top_levels(const BoxArray& boxes, const SplitRule& rule, std::uint32_
 #if HBP_X86_64_GNU
   const bool avx2 = cpu_has_avx2();
 #endif
-  tbb::parallel_for(std::uint32_t{0}, chunks, [&, tree, walk, counts, task_of](std::uint32_t c) {
+  hbp::detail::parallel_for_each(chunks, [&, tree, walk, counts, task_of](std::size_t chunk_index) {
+    const auto c = static_cast<std::uint32_t>(chunk_index);
     std::uint32_t* const count = counts + std::size_t{c} * task_count;
     std::fill(count, count + task_count, 0u);
     const std::uint32_t begin = c * chunk, end = std::min(n, (c + 1) * chunk);
@@ -306,7 +306,8 @@ void build_top_levels(const BoxArray& boxes, const SplitRule& rule, std::uint32_
   scratch.clear();  // nothing kept: never copied if it must grow
   scratch.resize(total);
   CellEntry* const staged = scratch.data();
-  tbb::parallel_for(std::uint32_t{0}, chunks, [&, counts, task_of, staged](std::uint32_t c) {
+  hbp::detail::parallel_for_each(chunks, [&, counts, task_of, staged](std::size_t chunk_index) {
+    const auto c = static_cast<std::uint32_t>(chunk_index);
     std::uint32_t* const cursor = counts + std::size_t{c} * task_count;
     const std::uint32_t* listed = buffers.forked_tasks[c].data();
     const std::uint32_t end = std::min(n, (c + 1) * chunk);
@@ -339,7 +340,8 @@ void build_top_levels(const BoxArray& boxes, const SplitRule& rule, std::uint32_
   out.clear();
   out.resize(total);
   CellEntry* const sorted = out.data();
-  tbb::parallel_for(std::uint32_t{0}, task_count, [&, staged, sorted](std::uint32_t t) {
+  hbp::detail::parallel_for_each(task_count, [&, staged, sorted](std::size_t task_index) {
+    const auto t = static_cast<std::uint32_t>(task_index);
     const BuildTask& task = tasks[t];
     const std::uint32_t m = task.n;
     if (m == 0) return;

@@ -51,7 +51,7 @@
 
 #include "hbp/error.hpp"
 #include "geometry/box_screen.hpp"
-#include "pipeline/arena_threads.hpp"
+#include "pipeline/frame_threads.hpp"
 #include "pipeline/box_tree.hpp"
 #include "pipeline/fat_moving_pairs.hpp"
 #include "pipeline/handle_table.hpp"
@@ -104,8 +104,7 @@ void parallel_collect(std::size_t n, std::vector<Pair>& out, Body&& body) {
     return;
   }
   std::vector<std::vector<Pair>> parts(chunks);
-  tbb::parallel_for(std::size_t(0), chunks,
-                    [&](std::size_t c) { body(c * kChunk, std::min(n, (c + 1) * kChunk), parts[c]); });
+  detail::parallel_for_each(chunks, [&](std::size_t c) { body(c * kChunk, std::min(n, (c + 1) * kChunk), parts[c]); });
   std::size_t total = 0;
   for (const auto& p : parts) total += p.size();
   out.reserve(total);
@@ -121,7 +120,7 @@ std::string row_text(const char* call, std::size_t row) {
 struct BroadPhase::Impl {
   explicit Impl(const BroadPhaseOptions& o)
       : options(o),
-        arena(detail::arena_threads(o.threads)),
+        arena(o.threads, o.task_system),
         hybrid(hybrid_options(o)) {
     collide_mask.fill(0xFFFFFFFFu);
   }
@@ -132,7 +131,7 @@ struct BroadPhase::Impl {
   }
 
   BroadPhaseOptions options;
-  tbb::task_arena arena;
+  detail::FrameThreads arena;  // the engine's task system, or an own oneTBB arena
   HybridBroadPhase hybrid;
 
   HandleTable table;
@@ -375,9 +374,8 @@ struct BroadPhase::Impl {
     constexpr std::size_t kEdits = 16384;  // edits per parallel task
     if (n < 2 * kEdits) return body(std::size_t(0), n);
     return arena.execute([&] {
-      return tbb::parallel_reduce(
-          tbb::blocked_range<std::size_t>(0, n, kEdits), Result{},
-          [&](const tbb::blocked_range<std::size_t>& r, Result sum) { return sum + body(r.begin(), r.end()); },
+      return detail::parallel_reduce(
+          n, kEdits, Result{}, [&](std::size_t begin, std::size_t end, Result sum) { return sum + body(begin, end); },
           [](const Result& a, const Result& b) { return a + b; });
     });
   }
@@ -619,8 +617,8 @@ struct BroadPhase::Impl {
     const Handle* h = moving_handle.data();
     if (all_layers_collide() && !filter) {
       moving_pairs.resize(raw.size());
-      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, raw.size(), kChunk), [&](const auto& r) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i) moving_pairs[i] = Pair{h[raw[i].a], h[raw[i].b]};
+      detail::parallel_for(raw.size(), kChunk, [&](std::size_t begin, std::size_t end) {
+        for (std::size_t i = begin; i != end; ++i) moving_pairs[i] = Pair{h[raw[i].a], h[raw[i].b]};
       });
       return;
     }

@@ -13,10 +13,10 @@
 // sum of the pairs of cells before it in any case. A lane that finds no room
 // left for a cell stores that cell and its later ones (the middle cells,
 // between the two blocks after the merge).
-#include <tbb/parallel_for.h>
-
 #include <atomic>
 #include <cstdint>
+
+#include "support/parallel_for.hpp"
 
 namespace hbp::detail {
 
@@ -82,7 +82,7 @@ void run_lanes(std::uint32_t cells, int lanes, bool in_place, Front&& front_cell
   if (lanes == 1)
     lane(0);
   else
-    tbb::parallel_for(0, lanes, 1, lane);
+    parallel_for_each(static_cast<std::size_t>(lanes), [&](std::size_t k) { lane(static_cast<int>(k)); });
 }
 
 }  // namespace hbp::detail

@@ -1,8 +1,6 @@
 // SPDX-License-Identifier: MIT
 #include "pipeline/frame_pair_writer.hpp"
 
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
 #include <cstring>
 #include <limits>
@@ -17,6 +15,7 @@
 #include "pipeline/tiled_cells.hpp"
 #include "support/clock.hpp"
 #include "support/huge_pages.hpp"
+#include "support/parallel_for.hpp"
 #include "support/prefault.hpp"
 #include "support/retained.hpp"
 
@@ -172,9 +171,7 @@ void FramePairWriter::for_each_cell(F&& f) {
     for (std::uint32_t c = 0; c < count; ++c) f(c);
     return;
   }
-  tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, count, 1), [&](const auto& r) {
-    for (std::uint32_t c = r.begin(); c != r.end(); ++c) f(c);
-  });
+  parallel_for_each(count, [&](std::size_t c) { f(static_cast<std::uint32_t>(c)); });
 }
 
 // ---- The stores ----------------------------------------------------------------
@@ -203,9 +200,7 @@ void FramePairWriter::store_batches() {
     for (std::uint32_t b = 0; b < batches; ++b) run(b);
     return;
   }
-  tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, batches, 1), [&](const auto& r) {
-    for (std::uint32_t b = r.begin(); b != r.end(); ++b) run(b);
-  });
+  parallel_for_each(batches, [&](std::size_t b) { run(static_cast<std::uint32_t>(b)); });
 }
 
 // Cells [first, end): each loaded in min-x order and appended to the

@@ -10,7 +10,6 @@
 //   4. the list sorted by (a, b) when options().sorted.
 #include "hbp/hybrid_broadphase.hpp"
 
-#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <cstdint>
@@ -18,10 +17,10 @@
 
 #include "hbp/error.hpp"
 #include "hbp/kd_partition.hpp"
-#include "pipeline/arena_threads.hpp"
 #include "pipeline/cell_worker.hpp"
 #include "pipeline/frame_pair_writer.hpp"
 #include "pipeline/frame_stats.hpp"
+#include "pipeline/frame_threads.hpp"
 #include "pipeline/parallel_pair_sort.hpp"
 #include "pipeline/screened_boxes.hpp"
 #include "support/clock.hpp"
@@ -45,7 +44,7 @@ struct HybridBroadPhase::Impl {
   BroadPhaseOptions options;
   std::unique_ptr<CellEngine> prototype;
   std::uint32_t cell_limit;
-  tbb::task_arena arena;
+  detail::FrameThreads arena;  // the engine's task system, or an own oneTBB arena
   KdPartition own_partition;
   bool partition_in_use = false;                  // own_partition holds a tree from an earlier frame
   bool refresh_in_engine = false;                 // own_partition's cells are refreshed as the engine takes them
@@ -72,7 +71,7 @@ struct HybridBroadPhase::Impl {
       : options(o),
         prototype(make_cell_engine(o.engine)),
         cell_limit(choose_limit(o, *prototype)),
-        arena(detail::arena_threads(o.threads)),
+        arena(o.threads, o.task_system),
         own_partition(cell_limit, prototype->x_split_weight(), cell_cost(o, *prototype)),
         workers([this] {
           Worker w;
@@ -89,7 +88,7 @@ struct HybridBroadPhase::Impl {
   // arena would wake its workers for nothing.
   void run_boxes(const BoxArray& boxes, bool checked, const PairSink& sink, const PairSink& consumer) {
     if (boxes.size() <= cell_limit)
-      run(&boxes, nullptr, checked, sink, consumer);
+      arena.execute_here([&] { run(&boxes, nullptr, checked, sink, consumer); });
     else
       arena.execute([&] { run(&boxes, nullptr, checked, sink, consumer); });
   }

@@ -1,10 +1,10 @@
 // SPDX-License-Identifier: MIT
 #include "pipeline/pair_block_move.hpp"
 
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
 #include <cstring>
+
+#include "support/parallel_for.hpp"
 
 namespace hbp::detail {
 
@@ -34,7 +34,7 @@ void move_pair_block(Pair* base, std::size_t from, std::size_t to, std::size_t c
     return;
   }
   auto copy = [&](std::size_t src, std::size_t dst, std::size_t n) {  // no overlap: in parallel
-    tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t j) {
+    parallel_for_each(chunks, [&](std::size_t j) {
       const std::size_t lo = n * j / chunks, hi = n * (j + 1) / chunks;
       std::memcpy(base + dst + lo, base + src + lo, (hi - lo) * sizeof(Pair));
     });
@@ -53,7 +53,7 @@ void move_pair_block(Pair* base, std::size_t from, std::size_t to, std::size_t c
     return;
   }
   scratch.resize(chunks * d);
-  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t j) {
+  parallel_for_each(chunks, [&](std::size_t j) {
     const std::size_t lo = from + count * j / chunks, hi = from + count * (j + 1) / chunks;
     Pair* aside = scratch.data() + j * d;
     if (down) {
@@ -64,7 +64,7 @@ void move_pair_block(Pair* base, std::size_t from, std::size_t to, std::size_t c
       std::memmove(base + lo + d, base + lo, (hi - lo - d) * sizeof(Pair));
     }
   });
-  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t j) {
+  parallel_for_each(chunks, [&](std::size_t j) {
     const std::size_t lo = from + count * j / chunks, hi = from + count * (j + 1) / chunks;
     std::memcpy(down ? base + lo - d : base + hi, scratch.data() + j * d, d * sizeof(Pair));
   });

@@ -1,11 +1,10 @@
 // SPDX-License-Identifier: MIT
 #include "pipeline/pair_events.hpp"
 
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
 #include <cstring>
 
+#include "support/parallel_for.hpp"
 #include "support/retained.hpp"
 
 namespace hbp::detail {
@@ -77,7 +76,7 @@ void diff_ranges(const std::vector<Pair>& previous, const Pair* current, std::si
     const std::uint64_t k = key(source(c * kChunk));
     return std::partition_point(prev_begin, prev_end, [k](const Pair& q) { return key(q) < k; });
   };
-  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
+  parallel_for_each(chunks, [&](std::size_t c) {
     const std::size_t begin = c * kChunk, end = std::min(n, begin + kChunk);
     fill(begin, end);
     std::vector<Pair>& made = scratch.created[c];

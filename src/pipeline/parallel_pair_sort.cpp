@@ -1,16 +1,13 @@
 // SPDX-License-Identifier: MIT
 #include "pipeline/parallel_pair_sort.hpp"
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-#include <tbb/parallel_reduce.h>
-
 #include <algorithm>
 #include <array>
 #include <bit>
 #include <cstdint>
 #include <limits>
 
+#include "support/parallel_for.hpp"
 #include "support/radix_sort.hpp"
 
 namespace hbp {
@@ -82,9 +79,8 @@ class Sorter {
  private:
   Bits bits(const Pair* data, std::size_t n) const {
     const std::size_t grain = std::max<std::size_t>(4096, n / chunks_);
-    return tbb::parallel_reduce(
-        tbb::blocked_range<std::size_t>(0, n, grain), Bits{},
-        [data](const tbb::blocked_range<std::size_t>& r, Bits s) { return s += bits_of(data, r.begin(), r.end()); },
+    return detail::parallel_reduce(
+        n, grain, Bits{}, [data](std::size_t begin, std::size_t end, Bits s) { return s += bits_of(data, begin, end); },
         [](Bits x, const Bits& y) { return x += y; });
   }
 
@@ -110,7 +106,7 @@ class Sorter {
     // Per-chunk histograms, then each chunk's first slot in each bucket
     // (bucket-major: chunk 0's pairs of a bucket before chunk 1's, so the
     // split is stable).
-    tbb::parallel_for(std::size_t{0}, chunks_, [&](std::size_t c) {
+    detail::parallel_for_each(chunks_, [&](std::size_t c) {
       std::uint32_t* row = counts_ + c * buckets;
       std::fill(row, row + buckets, 0u);
       for (std::size_t i = chunk_begin(c, n), e = chunk_begin(c + 1, n); i != e; ++i) ++row[digit(data[i])];
@@ -127,7 +123,7 @@ class Sorter {
       }
     }
     start[buckets] = sum;
-    tbb::parallel_for(std::size_t{0}, chunks_, [&](std::size_t c) {
+    detail::parallel_for_each(chunks_, [&](std::size_t c) {
       std::uint32_t* row = counts_ + c * buckets;
       for (std::size_t i = chunk_begin(c, n), e = chunk_begin(c + 1, n); i != e; ++i) spare[row[digit(data[i])]++] = data[i];
     });
@@ -135,11 +131,9 @@ class Sorter {
     // The buckets are in spare; each ends where the block's result goes.
     const std::uint64_t low = (std::uint64_t{1} << shift) - 1;
     auto too_big = [&](std::size_t len) { return len > limits_.split_again_above && shift > 0; };
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, buckets, 1), [&](const tbb::blocked_range<std::size_t>& r) {
-      for (std::size_t k = r.begin(); k != r.end(); ++k) {
-        const std::size_t s = start[k], len = start[k + 1] - s;
-        if (!too_big(len)) finish(spare + s, data + s, len, !in_data, shift, low);
-      }
+    detail::parallel_for_each(buckets, [&](std::size_t k) {
+      const std::size_t s = start[k], len = start[k + 1] - s;
+      if (!too_big(len)) finish(spare + s, data + s, len, !in_data, shift, low);
     });
     // A skewed list's big buckets: split again, one after another, each on
     // all threads (the histograms' storage is free again).
@@ -214,6 +208,10 @@ class Sorter {
 
 }  // namespace
 
+void parallel_sort_pairs(std::vector<Pair>& pairs, std::vector<Pair>& scratch) {
+  detail::parallel_sort_pairs(pairs, scratch, detail::PairSortLimits{});
+}
+
 void parallel_sort_pairs(std::vector<Pair>& pairs, std::vector<Pair>& scratch, tbb::task_arena& arena) {
   detail::parallel_sort_pairs(pairs, scratch, arena, detail::PairSortLimits{});
 }
@@ -222,8 +220,15 @@ namespace detail {
 
 void parallel_sort_pairs(std::vector<Pair>& pairs, std::vector<Pair>& scratch, tbb::task_arena& arena,
                          const PairSortLimits& limits) {
+  arena.execute([&] {
+    UseTaskSystem tbb_threads(nullptr);
+    parallel_sort_pairs(pairs, scratch, limits);
+  });
+}
+
+void parallel_sort_pairs(std::vector<Pair>& pairs, std::vector<Pair>& scratch, const PairSortLimits& limits) {
   const std::size_t n = pairs.size();
-  const auto threads = static_cast<std::size_t>(std::max(1, arena.max_concurrency()));
+  const auto threads = static_cast<std::size_t>(std::max(1, concurrency()));
   if (n < std::max<std::size_t>(limits.parallel_from, 2) || (threads == 1 && limits.serial_on_one_thread) ||
       n > std::numeric_limits<std::uint32_t>::max()) {
     sort_pairs(pairs, scratch);
@@ -242,10 +247,8 @@ void parallel_sort_pairs(std::vector<Pair>& pairs, std::vector<Pair>& scratch, t
   auto* count_storage = reinterpret_cast<std::uint32_t*>(scratch.data() + n);
   PairSortLimits used = limits;
   used.bucket_target = std::max<std::size_t>(limits.bucket_target, 1);
-  arena.execute([&] {
-    Sorter sorter(used, chunks, max_split_bits, count_storage);
-    sorter.sort_top(pairs.data(), scratch.data(), n, true);
-  });
+  Sorter sorter(used, chunks, max_split_bits, count_storage);
+  sorter.sort_top(pairs.data(), scratch.data(), n, true);
 }
 
 }  // namespace detail

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
 #pragma once
-// The frame's pair list sorted by (a, b) on all threads of the broad phase's
-// arena: what HybridBroadPhase's default sorted output and the
+// The frame's pair list sorted by (a, b) on all threads of the broad phase
+// (its arena or the engine's task system): what HybridBroadPhase's default sorted output and the
 // engine API BroadPhase pay every frame.
 //
 // An MSD split, then independent buckets. One pass finds the range of the
@@ -30,6 +30,7 @@
 #include <vector>
 
 #include "hbp/pair.hpp"
+#include "pipeline/frame_threads.hpp"
 
 namespace hbp {
 
@@ -37,9 +38,16 @@ namespace hbp {
 // threads: bench_pair_sort).
 inline constexpr std::size_t kParallelPairSortFrom = 40000;
 
-// Orders pairs by (a, b), exactly as sort_pairs, on the threads of `arena`
-// (entered if the caller is not in it already).
+// Orders pairs by (a, b), exactly as sort_pairs, on the calling thread's
+// threads (support/parallel_for.hpp: the engine's task system inside a
+// broad phase's call, else oneTBB's current arena).
+void parallel_sort_pairs(std::vector<Pair>& pairs, std::vector<Pair>& scratch);
+// The same on the threads of `arena` (entered if the caller is not in it already).
 void parallel_sort_pairs(std::vector<Pair>& pairs, std::vector<Pair>& scratch, tbb::task_arena& arena);
+// The same on a broad phase's threads.
+inline void parallel_sort_pairs(std::vector<Pair>& pairs, std::vector<Pair>& scratch, detail::FrameThreads& threads) {
+  threads.execute([&] { parallel_sort_pairs(pairs, scratch); });
+}
 
 namespace detail {
 // The sizes that choose a path, for tests that cross them on small lists and
@@ -52,6 +60,7 @@ struct PairSortLimits {
 };
 void parallel_sort_pairs(std::vector<Pair>& pairs, std::vector<Pair>& scratch, tbb::task_arena& arena,
                          const PairSortLimits& limits);
+void parallel_sort_pairs(std::vector<Pair>& pairs, std::vector<Pair>& scratch, const PairSortLimits& limits);
 }  // namespace detail
 
 }  // namespace hbp

@@ -1,20 +1,18 @@
 // SPDX-License-Identifier: MIT
 #include "hbp/validated_boxes.hpp"
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_reduce.h>
-
 #include "geometry/box_screen.hpp"
 #include "pipeline/screened_boxes.hpp"
+#include "support/parallel_for.hpp"
 
 namespace hbp {
 
 namespace detail {
 
 void screen_boxes(const BoxArray& boxes, const char* what) {
-  const bool bad = tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, boxes.size(), 16384), false,
-      [&](const auto& r, bool acc) { return acc || geometry::screen_fails(boxes, r.begin(), r.end()); },
+  const bool bad = parallel_reduce(
+      boxes.size(), 16384, false,
+      [&](std::size_t begin, std::size_t end, bool acc) { return acc || geometry::screen_fails(boxes, begin, end); },
       [](bool a, bool b) { return a || b; });
   if (bad) boxes.validate(what);
 }

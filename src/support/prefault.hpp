@@ -7,12 +7,11 @@
 // first writer is a later frame, would take every fault there. One write
 // per 4 KiB page, in 2 MiB chunks (a huge page each where advised). The
 // contents are left undefined: only for storage about to be overwritten.
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
 #include <cstddef>
 
 #include "support/huge_pages.hpp"
+#include "support/parallel_for.hpp"
 
 namespace hbp {
 
@@ -21,7 +20,7 @@ inline void prefault_pages(void* data, std::size_t bytes) {
   constexpr std::size_t kPage = 4096;
   auto* const base = static_cast<volatile unsigned char*>(data);
   const std::size_t chunks = (bytes + kChunk - 1) / kChunk;
-  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t k) {
+  detail::parallel_for_each(chunks, [&](std::size_t k) {
     const std::size_t end = std::min(bytes, (k + 1) * kChunk);
     for (std::size_t at = k * kChunk; at < end; at += kPage) base[at] = 0;
   });
