@@ -1101,10 +1101,17 @@ struct BroadPhase::Impl {
     const AabbD* box = slot_box_d.data();
     const std::uint8_t* exact = slot_exact.data();
     Pair* data = v.data();
+    // The second objects' boxes are scattered (the first ones' come in
+    // order): fetched kAhead pairs before they are tested.
+    constexpr std::size_t kAhead = 16;
     const auto chunk = [&](std::size_t c) {
       const std::size_t begin = c * kPairs, end = std::min(n, begin + kPairs);
       std::size_t w = begin;
       for (std::size_t i = begin; i < end; ++i) {
+        if (i + kAhead < end) {
+          const Handle ahead = map ? map[data[i + kAhead].b] : data[i + kAhead].b;
+          __builtin_prefetch(box + HandleTable::slot_of(ahead));
+        }
         Pair p = data[i];
         if (map) p = Pair{map[p.a], map[p.b]};
         const std::uint32_t sa = HandleTable::slot_of(p.a), sb = HandleTable::slot_of(p.b);
