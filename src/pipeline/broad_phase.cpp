@@ -513,6 +513,7 @@ struct BroadPhase::Impl {
     std::vector<std::uint32_t>().swap(previous_index);
     std::vector<AabbD>().swap(slot_box_d);
     std::vector<std::uint8_t>().swap(slot_exact);
+    std::vector<Aabb>().swap(slot_inner);
     static_pairs_valid = false;
   }
 
@@ -957,8 +958,11 @@ struct BroadPhase::Impl {
   // By slot: the double box as given, and whether the outward box equals it
   // (then a pair of two such objects needs no double test). Written only
   // after the float edit succeeded, so a call that throws changes neither.
+  // slot_inner: the inward float box (outward_box.hpp), the compact record
+  // confirm() reads first.
   std::vector<AabbD> slot_box_d;
   std::vector<std::uint8_t> slot_exact;
+  std::vector<Aabb> slot_inner;
   // The pair filter in double-precision mode, asked after the double test
   // (`filter` stays empty there, so the float engine keeps its fast paths).
   PairFilter confirm_filter;
@@ -999,6 +1003,7 @@ struct BroadPhase::Impl {
         const std::uint32_t s = HandleTable::slot_of(handles[i]);
         slot_box_d[s] = boxes[i];
         slot_exact[s] = outward_exact[i];
+        slot_inner[s] = detail::inward_box(boxes[i]);
       }
       return std::uint64_t(0);
     });
@@ -1014,6 +1019,7 @@ struct BroadPhase::Impl {
     if (slot_box_d.size() < slots) {
       slot_box_d.resize(slots);
       slot_exact.resize(slots);
+      slot_inner.resize(slots);
     }
     std::vector<Handle> handles = add(outward, o);
     store_d(handles, boxes);
@@ -1092,16 +1098,18 @@ struct BroadPhase::Impl {
   // parallel, then the chunks' survivors packed together in parallel: the
   // same list for any thread count, and no allocation once the scratch has
   // grown. A pair of two objects whose float boxes are exact is kept
-  // without reading the double boxes (the float test was exact).
+  // without reading any box (the float test was exact); a pair whose
+  // inward boxes overlap is kept without reading the double boxes.
   void confirm(std::vector<Pair>& v, const Handle* map) {
     constexpr std::size_t kPairs = 16384;
     const std::size_t n = v.size();
     const std::size_t chunks = (n + kPairs - 1) / kPairs;
     confirm_kept.resize(chunks);
     const AabbD* box = slot_box_d.data();
+    const Aabb* inner = slot_inner.data();
     const std::uint8_t* exact = slot_exact.data();
     Pair* data = v.data();
-    // The second objects' boxes are scattered (the first ones' come in
+    // The second objects' records are scattered (the first ones' come in
     // order): fetched kAhead pairs before they are tested.
     constexpr std::size_t kAhead = 16;
     const auto chunk = [&](std::size_t c) {
@@ -1110,12 +1118,12 @@ struct BroadPhase::Impl {
       for (std::size_t i = begin; i < end; ++i) {
         if (i + kAhead < end) {
           const Handle ahead = map ? map[data[i + kAhead].b] : data[i + kAhead].b;
-          __builtin_prefetch(box + HandleTable::slot_of(ahead));
+          __builtin_prefetch(inner + HandleTable::slot_of(ahead));
         }
         Pair p = data[i];
         if (map) p = Pair{map[p.a], map[p.b]};
         const std::uint32_t sa = HandleTable::slot_of(p.a), sb = HandleTable::slot_of(p.b);
-        bool keep = (exact[sa] & exact[sb]) || overlaps(box[sa], box[sb]);
+        bool keep = (exact[sa] & exact[sb]) || overlaps(inner[sa], inner[sb]) || overlaps(box[sa], box[sb]);
         if (keep && confirm_filter) keep = confirm_filter(p.a, p.b);
         data[w] = p;  // w <= i: the pair at w was read already
         w += keep;

@@ -6,7 +6,8 @@
 // overlap their outward boxes overlap too: the float engine finds every true
 // pair (plus pairs that only the rounding made touch, which the double
 // confirmation drops). When every coordinate was a float already the outward
-// box is the box itself and its float test is exact.
+// box is the box itself and its float test is exact. The inward box (below)
+// settles most of the other candidates without the doubles.
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -37,6 +38,20 @@ inline bool outward_box(const AabbD& b, Aabb& out) {
     exact &= (static_cast<double>(out.min[k]) == b.min[k]) & (static_cast<double>(out.max[k]) == b.max[k]);
   }
   return exact;
+}
+
+// b's inward float box: each min rounded up, each max rounded down (empty,
+// min > max, when b is thinner than a float step on an axis). It lies
+// inside b, so when the inward boxes of two objects overlap their double
+// boxes do: most true pairs are confirmed from these 24 bytes an object,
+// and only pairs within a float step of touching need the double boxes.
+inline Aabb inward_box(const AabbD& b) {
+  Aabb in;
+  for (int k = 0; k < 3; ++k) {
+    in.min[k] = round_up(b.min[k]);
+    in.max[k] = round_down(b.max[k]);
+  }
+  return in;
 }
 
 }  // namespace hbp::detail
