@@ -94,6 +94,12 @@ inline bool same_box(const Aabb& a, const Aabb& b) {
          a.max[1] == b.max[1] && a.max[2] == b.max[2];
 }
 
+// overlaps(a, b) as one expression: no branch per condition.
+inline bool overlaps_branch_free(const Aabb& a, const Aabb& b) {
+  return (a.max[0] >= b.min[0]) & (a.min[0] <= b.max[0]) & (a.max[1] >= b.min[1]) & (a.min[1] <= b.max[1]) &
+         (a.max[2] >= b.min[2]) & (a.min[2] <= b.max[2]);
+}
+
 // Runs body(begin, end, out) over fixed chunks of [0, n) in parallel and
 // concatenates the chunks' outputs in chunk order.
 template <class Body>
@@ -1123,7 +1129,7 @@ struct BroadPhase::Impl {
         Pair p = data[i];
         if (map) p = Pair{map[p.a], map[p.b]};
         const std::uint32_t sa = HandleTable::slot_of(p.a), sb = HandleTable::slot_of(p.b);
-        bool keep = (exact[sa] & exact[sb]) || overlaps(inner[sa], inner[sb]) || overlaps(box[sa], box[sb]);
+        bool keep = (exact[sa] & exact[sb]) || overlaps_branch_free(inner[sa], inner[sb]) || overlaps(box[sa], box[sb]);
         if (keep && confirm_filter) keep = confirm_filter(p.a, p.b);
         data[w] = p;  // w <= i: the pair at w was read already
         w += keep;
