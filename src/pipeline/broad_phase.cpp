@@ -24,6 +24,10 @@
 // filter apply before a pair is kept; the sorted lists are merged, and
 // created/removed come from a merge with the previous frame's pairs.
 //
+// Double precision: the structures above hold each object's outward float
+// box; the frame's pairs are confirmed on the double boxes before the event
+// merge (see "large worlds" below).
+//
 // The all-moving frame (no statics, no layer table or filter in force) is
 // the whole-frame path plus events: move() of every moving object in handle
 // order checks and writes the boxes in one pass, the hybrid system runs
