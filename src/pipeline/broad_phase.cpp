@@ -1268,6 +1268,11 @@ void BroadPhase::reserve(std::size_t objects) {
   m.moving_boxes.reserve(objects);
   m.moving_handle.reserve(objects);
   m.hybrid.reserve(objects);
+  if (m.options.double_precision) {
+    m.slot_box_d.reserve(objects);
+    m.slot_exact.reserve(objects);
+    m.slot_inner.reserve(objects);
+  }
 }
 void BroadPhase::move(std::span<const Handle> handles, std::span<const Aabb> boxes) {
   impl_->require_precision("move", false);
