@@ -446,6 +446,9 @@ TEST(BroadPhaseLargeWorld, InvalidInputChangesNothing) {
   // Beyond the float range a double box still works (its float box clamps).
   const Handle dnear = d.add(AabbD{{1.2e308, 0, 0}, {1.3e308, 1, 1}});
   EXPECT_EQ(d.update().pairs, (std::vector<Pair>{{std::min(dhuge, dnear), std::max(dhuge, dnear)}}));
+  d.add(AabbD{{1.55e308, 0, 0}, {1.7e308, 1, 1}});  // beyond dhuge, one float box with it
+  d.add(AabbD{{-1.7e308, 0, 0}, {-1.6e308, 1, 1}});
+  d.add(AabbD{{-1.5e308, 0, 0}, {-1.55e308 / 2, 1, 1}});
   EXPECT_EQ(d.update().pairs.size(), 1u);
 }
 

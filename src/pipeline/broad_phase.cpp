@@ -976,8 +976,9 @@ struct BroadPhase::Impl {
   // The pair filter in double-precision mode, asked after the double test
   // (`filter` stays empty there, so the float engine keeps its fast paths).
   PairFilter confirm_filter;
-  // Scratch of the double edits: a batch's outward boxes and exactness.
-  std::vector<Aabb> outward;
+  // Scratch of the double edits: a batch's outward and inward boxes and
+  // exactness.
+  std::vector<Aabb> outward, inward;
   std::vector<std::uint8_t> outward_exact;
   // Scratch of confirm(): pairs kept per chunk, and the compacted list.
   std::vector<std::size_t> confirm_kept;
@@ -998,10 +999,11 @@ struct BroadPhase::Impl {
   // outward / outward_exact for a batch of well-formed double boxes.
   void make_outward(std::span<const AabbD> boxes) {
     outward.resize(boxes.size());
+    inward.resize(boxes.size());
     outward_exact.resize(boxes.size());
     for_batch<std::uint64_t>(boxes.size(), [&](std::size_t begin, std::size_t end) {
       for (std::size_t i = begin; i < end; ++i)
-        outward_exact[i] = detail::outward_box(boxes[i], outward[i]);
+        outward_exact[i] = detail::round_box(boxes[i], outward[i], inward[i]);
       return std::uint64_t(0);
     });
   }
@@ -1013,11 +1015,12 @@ struct BroadPhase::Impl {
         const std::uint32_t s = HandleTable::slot_of(handles[i]);
         slot_box_d[s] = boxes[i];
         slot_exact[s] = outward_exact[i];
-        slot_inner[s] = detail::inward_box(boxes[i]);
+        slot_inner[s] = inward[i];
       }
       return std::uint64_t(0);
     });
     retained::trim(outward);
+    retained::trim(inward);
     retained::trim(outward_exact);
   }
 
@@ -1186,8 +1189,7 @@ struct BroadPhase::Impl {
 
   void query_box_d(const AabbD& q, std::vector<Handle>& out) {
     if (const char* d = box_defect(q)) throw InvalidInput(std::string("BroadPhase::query_box: ") + d);
-    Aabb f;
-    detail::outward_box(q, f);
+    const Aabb f = detail::outward_box(q);
     sync_queries();
     out.clear();
     const auto collect = [&](std::uint32_t, const BoxTree::Item& it) {
