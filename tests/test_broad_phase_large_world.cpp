@@ -180,6 +180,69 @@ TEST(BroadPhaseLargeWorld, DoubleMatchesBruteForceAtLargeCoordinates) {
     for (unsigned threads : {1u, 2u}) run_double_world(scale, threads, 2000, seed++);
 }
 
+// Doubles that are all floats (the float test is the double test, and the
+// confirmation has nothing to do), then some of them nudged off the float
+// grid and back; with and without a filter, handles past dense indices.
+TEST(BroadPhaseLargeWorld, FloatExactDoublesAndMixedWorlds) {
+  for (unsigned threads : {1u, 2u}) {
+    std::mt19937_64 rng(40 + threads);
+    BroadPhase bp({.threads = threads, .double_precision = true});
+    std::uniform_real_distribution<float> pos(0, 60), side(0.1f, 6);
+    std::vector<Object> objs;
+    std::vector<AabbD> boxes;
+    const auto float_box = [&] {
+      AabbD b;
+      for (int k = 0; k < 3; ++k) {
+        const float lo = pos(rng);
+        b.min[k] = lo;
+        b.max[k] = lo + side(rng);  // a float sum: exact as a double
+      }
+      return b;
+    };
+    for (int i = 0; i < 400; ++i) {
+      const AabbD b = float_box();
+      objs.push_back({bp.add(b), false, 0});
+      boxes.push_back(b);
+    }
+    std::vector<Pair> previous;
+    std::uniform_int_distribution<std::size_t> pick(0, objs.size() - 1);
+    for (int step = 0; step < 600; ++step) {
+      if (step == 200) {  // handles no longer dense indices
+        bp.remove(std::span<const Handle>(&objs[3].h, 1));
+        objs.erase(objs.begin() + 3);
+        boxes.erase(boxes.begin() + 3);
+      }
+      if (step == 400)
+        bp.set_pair_filter([](Handle a, Handle b) { return (a + b) % 5 != 0; });
+      std::vector<Handle> mh;
+      std::vector<AabbD> mb;
+      std::vector<char> taken(objs.size(), 0);
+      for (int m = 0; m < 20; ++m) {
+        const std::size_t i = pick(rng);
+        if (taken[i]) continue;
+        taken[i] = 1;
+        AabbD b = float_box();
+        if (step % 100 >= 50 && m % 4 == 0) {  // off the float grid (for a while)
+          b.min[0] += 1e-9;
+          b.max[0] += 1e-9;
+        }
+        mh.push_back(objs[i].h);
+        mb.push_back(b);
+        boxes[i] = b;
+      }
+      bp.move(mh, mb);
+      const hbp::BroadPhaseUpdate& u = bp.update();
+      std::vector<Pair> want = brute_pairs(objs, boxes, bp);
+      if (step >= 400)
+        std::erase_if(want, [](const Pair& p) { return (p.a + p.b) % 5 == 0; });
+      ASSERT_EQ(u.pairs, want) << "step " << step;
+      ASSERT_EQ(u.created, minus(want, previous)) << "step " << step;
+      ASSERT_EQ(u.removed, minus(previous, want)) << "step " << step;
+      previous = want;
+    }
+  }
+}
+
 // Boxes a float32 world cannot tell apart: a 1e-6 gap at 1e7 (a float step
 // there is 1) merges the float boxes; the double path keeps them apart, and
 // keeps exactly touching faces together.

@@ -1114,6 +1114,15 @@ struct BroadPhase::Impl {
   // without reading any box (the float test was exact); a pair whose
   // inward boxes overlap is kept without reading the double boxes.
   void confirm(std::vector<Pair>& v, const Handle* map) {
+    // Live objects whose float box is exact: all of them, and the float
+    // test was the double test for every pair (nothing to do unless pairs
+    // need mapping or filtering); none, and the flag test is skipped. (One
+    // pass over the slots: a fraction of the pass below.)
+    std::size_t live_exact = 0;
+    for (std::uint32_t s = 0; s < table.slots(); ++s)
+      live_exact += (table.kind(s) != HandleTable::kFree) & slot_exact[s];
+    if (live_exact == table.live() && !map && !confirm_filter) return;
+    const bool some_exact = live_exact != 0;
     constexpr std::size_t kPairs = 16384;
     const std::size_t n = v.size();
     const std::size_t chunks = (n + kPairs - 1) / kPairs;
@@ -1136,7 +1145,8 @@ struct BroadPhase::Impl {
         Pair p = data[i];
         if (map) p = Pair{map[p.a], map[p.b]};
         const std::uint32_t sa = HandleTable::slot_of(p.a), sb = HandleTable::slot_of(p.b);
-        bool keep = (exact[sa] & exact[sb]) || overlaps_branch_free(inner[sa], inner[sb]) || overlaps(box[sa], box[sb]);
+        bool keep = (some_exact && (exact[sa] & exact[sb])) || overlaps_branch_free(inner[sa], inner[sb]) ||
+                    overlaps(box[sa], box[sb]);
         if (keep && confirm_filter) keep = confirm_filter(p.a, p.b);
         data[w] = p;  // w <= i: the pair at w was read already
         w += keep;
