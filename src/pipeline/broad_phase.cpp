@@ -1140,7 +1140,9 @@ struct BroadPhase::Impl {
       for (std::size_t i = begin; i < end; ++i) {
         if (i + kAhead < end) {
           const Handle ahead = map ? map[data[i + kAhead].b] : data[i + kAhead].b;
-          __builtin_prefetch(inner + HandleTable::slot_of(ahead));
+          const Aabb* record = inner + HandleTable::slot_of(ahead);
+          __builtin_prefetch(record);
+          __builtin_prefetch(reinterpret_cast<const char*>(record) + sizeof(Aabb) - 1);  // a record may cross a line
         }
         Pair p = data[i];
         if (map) p = Pair{map[p.a], map[p.b]};
