@@ -296,6 +296,22 @@ TEST(BroadPhaseLargeWorld, DoubleQueriesAreExact) {
       ASSERT_EQ(bp.query_box(box, out), want.size());
       ASSERT_EQ(out, want);
     }
+    // Rays test the outward float boxes: every box the segment touches is
+    // among the hits (a ray along x through the middle of box i, from well
+    // before it).
+    int rays = 0;
+    for (std::size_t i = 0; i < boxes.size(); i += 7) {
+      const AabbD& b = boxes[i];
+      const std::array<float, 3> o{static_cast<float>(b.min[0] - 100), static_cast<float>(std::ceil(b.min[1])),
+                                   static_cast<float>(std::ceil(b.min[2]))};
+      if (o[1] < b.min[1] || o[1] > b.max[1] || o[2] < b.min[2] || o[2] > b.max[2]) continue;  // rounded out of it
+      const std::vector<Handle> hits = bp.query_ray(o, {1, 0, 0}, 1000);
+      ASSERT_NE(std::find(hits.begin(), hits.end(), h[i]), hits.end()) << i;
+      ++rays;
+    }
+    if (scale < 1e8) {
+      EXPECT_GT(rays, 5);  // integers are floats there
+    }
     // A float query box on a double BroadPhase is the double box it denotes.
     Aabb fq;
     for (int k = 0; k < 3; ++k) {
