@@ -16,6 +16,14 @@
 //     calling thread's CPU time is all the work of each side: the
 //     *_cpu_* counters (not another process's time slices; memory-bound stages
 //     still take longer when the other cores load the memory bus).
+//   DoublePrecision/<n>/<threads>/<exact>: the paper scene through a float
+//     BroadPhase (move + update of float boxes) and a double_precision one
+//     (move + update of the same boxes as AabbD) on the same frames:
+//     update() alone and move + update, medians of both and their ratio.
+//     exact = 1: the doubles are the float coordinates (every float box
+//     exact: the confirmation is a flag test; pairs checked equal each
+//     frame); exact = 0: every coordinate moved by 2^-30 (no float box
+//     exact: every candidate pair goes through the double test).
 //   BoxQueries/<n>, RayQueries/<n>: one thread, the paper frame of n objects
 //     as static objects; boxes of the objects' sizes, rays of 500 m; beside
 //     btDbvtBroadphase::aabbTest / rayTest on the same boxes (answers checked
@@ -255,6 +263,91 @@ void AllMoving(benchmark::State& state) {
   state.counters["pairs"] = static_cast<double>(pairs);
 }
 
+void DoublePrecision(benchmark::State& state) {
+  const auto n = static_cast<std::uint32_t>(state.range(0));
+  const auto threads = static_cast<unsigned>(state.range(1));
+  const bool exact = state.range(2) != 0;
+  hbp::ScenarioParams p;
+  p.n = n;
+  hbp::Scenario scenario(p);
+  BoxArray boxes;
+  std::vector<Aabb> aabbs;
+  std::vector<hbp::AabbD> doubles;
+  const double nudge = exact ? 0.0 : std::ldexp(1.0, -30);
+  const auto next_frame = [&] {
+    scenario.compute_boxes(boxes);
+    to_aabbs(boxes, aabbs);
+    doubles.resize(aabbs.size());
+    for (std::size_t i = 0; i < aabbs.size(); ++i)
+      for (int k = 0; k < 3; ++k) {
+        doubles[i].min[k] = static_cast<double>(aabbs[i].min[k]) + nudge;
+        doubles[i].max[k] = static_cast<double>(aabbs[i].max[k]) + nudge;
+      }
+  };
+  next_frame();
+  hbp::BroadPhase single({.threads = threads});
+  hbp::BroadPhase dbl({.threads = threads, .double_precision = true});
+  const auto hs = single.add(aabbs);
+  const auto hd = dbl.add(doubles);
+  single.update();
+  dbl.update();
+  std::vector<double> float_update, double_update, float_frame, double_frame, float_cpu, double_cpu;
+  std::uint64_t pairs = 0;
+  auto run_frame = [&](bool timed) {
+    scenario.step();
+    next_frame();
+    const bool float_first = float_update.size() % 2 == 0;  // neither always gets the warm cache
+    double fu = 0, du = 0, ff = 0, df = 0, fc = 0, dc = 0;
+    for (int k = 0; k < 2; ++k) {
+      if ((k == 0) == float_first) {
+        const auto t0 = SteadyClock::now();
+        single.move(hs, aabbs);
+        const auto t1 = SteadyClock::now();
+        const double c1 = thread_cpu_ms();
+        single.update();
+        fc = thread_cpu_ms() - c1;
+        fu = ms_since(t1);
+        ff = ms_since(t0);
+      } else {
+        const auto t0 = SteadyClock::now();
+        dbl.move(hd, doubles);
+        const auto t1 = SteadyClock::now();
+        const double c1 = thread_cpu_ms();
+        dbl.update();
+        dc = thread_cpu_ms() - c1;
+        du = ms_since(t1);
+        df = ms_since(t0);
+      }
+    }
+    if (exact && dbl.last_update().pairs != single.last_update().pairs)
+      throw std::runtime_error("double and float BroadPhase differ on float-exact boxes");
+    if (timed) {
+      float_update.push_back(fu);
+      double_update.push_back(du);
+      float_frame.push_back(ff);
+      double_frame.push_back(df);
+      float_cpu.push_back(fc);
+      double_cpu.push_back(dc);
+      pairs = dbl.last_update().pairs.size();
+    }
+    return du;
+  };
+  run_frame(false);
+  for (auto _ : state) state.SetIterationTime(run_frame(true) / 1000.0);
+  state.counters["float_update_median_ms"] = median(float_update);
+  state.counters["double_update_median_ms"] = median(double_update);
+  state.counters["double_over_float_update"] = median(double_update) / median(float_update);
+  state.counters["float_move_update_median_ms"] = median(float_frame);
+  state.counters["double_move_update_median_ms"] = median(double_frame);
+  state.counters["double_over_float_move_update"] = median(double_frame) / median(float_frame);
+  if (threads == 1) {  // the calling thread does all the work: its CPU time is all of it
+    state.counters["float_update_cpu_median_ms"] = median(float_cpu);
+    state.counters["double_update_cpu_median_ms"] = median(double_cpu);
+    state.counters["double_over_float_update_cpu"] = median(double_cpu) / median(float_cpu);
+  }
+  state.counters["pairs"] = static_cast<double>(pairs);
+}
+
 // A paper frame loaded into both systems, for queries.
 struct QueryWorld {
   BoxArray boxes;
@@ -461,6 +554,9 @@ BENCHMARK(MostlyStatic)->Args({1000000, 10000, 2, 1})->Args({1000000, 10000, 1, 
 // 20 frames: the ratio of medians moves by a few percent between runs of 10.
 BENCHMARK(AllMoving)->Args({128000, 2})->Args({1024000, 2})->Args({1024000, 1})->UseManualTime()->Unit(benchmark::kMillisecond)
     ->Iterations(20);
+BENCHMARK(DoublePrecision)->Args({1000000, 2, 1})->Args({1000000, 2, 0})->Args({1000000, 1, 1})->Args({1000000, 1, 0})
+    ->UseManualTime()
+    ->Unit(benchmark::kMillisecond)->Iterations(15);
 BENCHMARK(BoxQueries)->Arg(1000000)->UseManualTime()->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK(RayQueries)->Arg(1000000)->UseManualTime()->Unit(benchmark::kMillisecond)->Iterations(3);
 

@@ -42,12 +42,14 @@
 //   t (0 when the origin is inside), ties by handle.
 #include <array>
 #include <cstdint>
+#include <concepts>
 #include <functional>
 #include <memory>
 #include <span>
 #include <vector>
 
 #include "hbp/aabb.hpp"
+#include "hbp/aabb_d.hpp"
 #include "hbp/hybrid_broadphase.hpp"
 #include "hbp/limits.hpp"
 #include "hbp/pair.hpp"
@@ -158,7 +160,81 @@ class BroadPhase {
 
   const BroadPhaseOptions& options() const;
 
+  // ---- large worlds ------------------------------------------------------
+  //
+  // Origin shift (PhysX shiftOrigin): re-bases every object, static and
+  // moving, by subtracting `offset` in one pass; boxes given afterwards (add,
+  // move, queries) are in the new frame. Each coordinate x becomes
+  // fl(x - offset[k]) in the box's own precision (float32 subtraction here,
+  // float64 in double-precision mode, with the offset taken exactly as a
+  // double); min and max go through the same monotone operation, so a box
+  // never inverts. The pairs after the shift are those of the shifted boxes;
+  // the next update() reports events only for the pairs whose overlap the
+  // rounding of the shift changed (none when every x - offset is exact, e.g.
+  // offsets that are multiples of the float spacing of the coordinates).
+  // Every cache (static tree, candidate lists, quiet and fat boxes, the
+  // moving tree of the queries) follows; shifted objects count as moved in
+  // stats(). InvalidInput, nothing applied, for a non-finite offset or a
+  // shift that would take a coordinate outside the finite range.
+  void shift_origin(const std::array<float, 3>& offset);
+  // The same with a double offset: exact in double-precision mode; a float
+  // BroadPhase rounds each offset[k] to the nearest float first.
+  void shift_origin_d(const std::array<double, 3>& offset);
+
+  // Double precision (options.double_precision): boxes are AabbD, kept as
+  // given. The float engine runs on each box rounded outward to float32
+  // (min down, max up), so every true pair is among its candidates; each
+  // candidate is then confirmed on the double boxes before it is stored,
+  // so the pairs, created and removed are exactly those of the double boxes
+  // (candidates whose two float boxes equal their double boxes skip the
+  // confirmation: their float test was exact). The pair filter is asked
+  // only about confirmed pairs; max_pairs bounds the float candidates too.
+  // The float filter is finest near the origin (float spacing grows with
+  // |x|: 1 at 1e7, 64 at 1e9): far from it more candidates reach the double
+  // test, so keep the action near the origin with shift_origin.
+  // Float boxes on a double BroadPhase (add, move, box) and double boxes on
+  // a float one throw InvalidInput.
+  std::vector<Handle> add(std::span<const AabbD> boxes, const AddOptions& options = {});
+  // One object. (A template so that a braced list, add({{..}, {..}}), stays
+  // an Aabb.)
+  template <std::same_as<AabbD> Box>
+  Handle add(const Box& box, const AddOptions& options = {}) {
+    return add(std::span<const AabbD>(&box, 1), options)[0];
+  }
+  void move(std::span<const Handle> handles, std::span<const AabbD> boxes);
+  // The object's double box as given (after any shift_origin).
+  AabbD box_d(Handle h) const;
+  // Double-precision mode only: every object whose double box overlaps the
+  // closed double box, sorted by handle (the float tree finds candidates,
+  // each is confirmed in double). The float query_box forms take the Aabb
+  // as the double box it denotes (exact). query_ray tests the outward float
+  // boxes: every object the segment touches, and possibly objects within
+  // one float rounding of it.
+  template <std::same_as<AabbD> Box>
+  std::vector<Handle> query_box(const Box& box) const {
+    std::vector<Handle> out;
+    query_box_d(box, out);
+    return out;
+  }
+  template <std::same_as<AabbD> Box>
+  std::size_t query_box(const Box& box, std::vector<Handle>& out) const {
+    query_box_d(box, out);
+    return out.size();
+  }
+  template <std::same_as<AabbD> Box>
+  std::size_t query_box(const Box& box, const HitVisitor& visit) const {
+    std::vector<Handle> hits;
+    query_box_d(box, hits);
+    std::size_t calls = 0;
+    for (const Handle h : hits) {
+      ++calls;
+      if (!visit(h)) break;
+    }
+    return calls;
+  }
+
  private:
+  void query_box_d(const AabbD& box, std::vector<Handle>& out) const;
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

@@ -99,6 +99,10 @@ typedef struct hbp_options {
   uint64_t max_pairs;   /* most pairs one update may report; 0: unlimited */
   hbp_run_tasks_fn run_tasks;  /* the engine's job system; NULL: the library's own threads */
   void* task_user;             /* passed to run_tasks as is */
+  /* Non-zero: boxes are hbp_box_d (hbp_add_d, hbp_move_d, hbp_get_box_d),
+   * pairs exact on the doubles; hbp_add / hbp_move / hbp_get_box are then
+   * errors. 0 (default): float boxes, and the _d functions are errors. */
+  int double_precision;
 } hbp_options;
 
 /* "0.1.0": the library's version. */
@@ -174,6 +178,40 @@ hbp_status hbp_get_box(const hbp_broad_phase* bp, hbp_handle handle, hbp_box* bo
 
 /* 1 when the handle names a live object, else 0 (also for bp == NULL). */
 int hbp_contains(const hbp_broad_phase* bp, hbp_handle handle);
+
+/* ---- Large worlds ------------------------------------------------------
+ *
+ * Re-bases every object (static and moving) by subtracting offset: each
+ * coordinate x becomes x - offset[i] rounded in the box's precision (float
+ * for a float broad phase, which first rounds each offset[i] to the nearest
+ * float; double in double-precision mode). Boxes given afterwards are in the
+ * new frame. The next hbp_update reports events only for pairs whose overlap
+ * the rounding changed (none for exact shifts). A non-finite offset, or a
+ * shift that takes a coordinate out of the finite range, is an error and
+ * changes nothing. */
+hbp_status hbp_shift_origin(hbp_broad_phase* bp, const double offset[3]);
+
+/* A box in double precision (options.double_precision): min[i] <= max[i].
+ * The broad phase filters with each box rounded outward to float and
+ * confirms every candidate pair on the doubles, so pairs and events are
+ * exactly those of the double boxes; the float filter is finest near the
+ * origin (keep the action there with hbp_shift_origin). */
+typedef struct hbp_box_d {
+  double min[3];
+  double max[3];
+} hbp_box_d;
+
+/* hbp_add, hbp_move, hbp_get_box and hbp_query_box for hbp_box_d boxes
+ * (double-precision broad phases only). hbp_query_box and hbp_query_ray
+ * also work in double-precision mode: the float box is the double box it
+ * denotes (exact); a ray is tested against the outward float boxes, so it
+ * may also report objects within one float rounding of the segment. */
+hbp_status hbp_add_d(hbp_broad_phase* bp, const hbp_box_d* boxes, size_t count, int is_static, uint8_t layer,
+                     hbp_handle* handles_out);
+hbp_status hbp_move_d(hbp_broad_phase* bp, const hbp_handle* handles, const hbp_box_d* boxes, size_t count);
+hbp_status hbp_get_box_d(const hbp_broad_phase* bp, hbp_handle handle, hbp_box_d* box_out);
+hbp_status hbp_query_box_d(const hbp_broad_phase* bp, const hbp_box_d* box, hbp_hit_callback callback, void* user,
+                           size_t* hits_out);
 
 #ifdef __cplusplus
 }

@@ -35,6 +35,10 @@ struct BroadPhaseOptions {
   // Hardware engines: keep splitting cells under the limit while that lowers
   // the summed modelled cycles (the paper splits only down to the limit).
   bool cost_splits = false;
+  // Double-precision boxes (AabbD) with a float32 filter and exact double
+  // confirmation: honoured by BroadPhase alone (hbp/broad_phase.hpp);
+  // HybridBroadPhase and every other consumer reject it (InvalidInput).
+  bool double_precision = false;
   // The engine's job system (hbp/task_system.hpp), which then runs every
   // parallel loop of a call in place of the library's own oneTBB arena
   // (`threads` is unused but still checked). Null: that arena. Not owned:

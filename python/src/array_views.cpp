@@ -116,6 +116,41 @@ BoxesView boxes_view(py::handle obj, const char* what, bool single) {
   return view;
 }
 
+BoxesDView boxes_d_view(py::handle obj, const char* what, bool single) {
+  const char* expected = single ? "(6,)" : "(n, 6)";
+  py::array a;
+  if (single && list_or_tuple(obj)) {
+    a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(obj);
+    if (!a) throw ArgumentError(std::string(what) + ": must be 6 numbers [minx, miny, minz, maxx, maxy, maxz]");
+  } else {
+    a = as_array(obj, what);
+  }
+  if (!py::isinstance<py::array_t<double>>(a) && !py::isinstance<py::array_t<float>>(a)) {
+    throw ArgumentError(std::string(what) + ": dtype must be float64 (or float32, widened exactly) on a "
+                        "double_precision BroadPhase, got " + dtype_string(a));
+  }
+  const bool shape_ok = single ? (a.ndim() == 1 && a.shape(0) == 6) : (a.ndim() == 2 && a.shape(1) == 6);
+  if (!shape_ok) {
+    throw ArgumentError(std::string(what) + ": shape must be " + expected +
+                        " [minx, miny, minz, maxx, maxy, maxz], got " + shape_string(a));
+  }
+  // float32 -> float64 is exact; one copy only when the input is not
+  // already C-order float64.
+  if (!py::isinstance<py::array_t<double>>(a) || !c_contiguous_aligned(a, alignof(AabbD)))
+    a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(a);
+  BoxesDView view;
+  const std::size_t n = single ? 1 : static_cast<std::size_t>(a.shape(0));
+  view.boxes = std::span<const AabbD>(static_cast<const AabbD*>(a.data()), n);
+  view.holder = std::move(a);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (const char* defect = box_defect(view.boxes[i])) {
+      std::string where = single ? std::string(what) : std::string(what) + " row " + std::to_string(i);
+      throw ArgumentError(where + ": " + defect);
+    }
+  }
+  return view;
+}
+
 HandlesView handles_view(py::handle obj, const char* what) {
   py::array a = as_array(obj, what);
   const char kind = a.dtype().kind();

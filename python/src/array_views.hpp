@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "hbp/aabb.hpp"
+#include "hbp/aabb_d.hpp"
 #include "hbp/broad_phase.hpp"
 #include "hbp/pair.hpp"
 
@@ -37,6 +38,14 @@ struct BoxesView {
 // `what` names the argument in messages ("boxes", "box"). single: one box of
 // shape (6,) instead of (n, 6).
 BoxesView boxes_view(py::handle obj, const char* what, bool single = false);
+
+// Double-precision boxes (a BroadPhase(double_precision=True)): (n, 6)
+// float64, or float32 widened exactly; one box may be a list or tuple.
+struct BoxesDView {
+  py::array holder;
+  std::span<const AabbD> boxes;
+};
+BoxesDView boxes_d_view(py::handle obj, const char* what, bool single = false);
 
 struct HandlesView {
   py::array holder;

@@ -38,7 +38,7 @@ namespace hbp::python {
 namespace {
 
 BroadPhaseOptions make_options(const std::string& engine, const py::object& threads, long long cell_limit,
-                               long long max_pairs) {
+                               long long max_pairs, bool double_precision = false) {
   if (cell_limit < 0 || cell_limit == 1 || cell_limit > 0xFFFFFFFFll) {
     throw ArgumentError("cell_limit: must be 0 (engine default) or >= 2, got " + std::to_string(cell_limit));
   }
@@ -49,6 +49,7 @@ BroadPhaseOptions make_options(const std::string& engine, const py::object& thre
   o.cell_limit = static_cast<std::uint32_t>(cell_limit);
   o.max_pairs = static_cast<std::uint64_t>(max_pairs);
   o.sorted = true;
+  o.double_precision = double_precision;
   return o;
 }
 
@@ -143,10 +144,12 @@ struct PythonPairFilter {
 
 class PyBroadPhase {
  public:
-  PyBroadPhase(const std::string& engine, const py::object& threads, long long cell_limit, long long max_pairs)
-      : bp_(make_options(engine, threads, cell_limit, max_pairs)) {}
+  PyBroadPhase(const std::string& engine, const py::object& threads, long long cell_limit, long long max_pairs,
+               bool double_precision)
+      : bp_(make_options(engine, threads, cell_limit, max_pairs, double_precision)) {}
 
   py::array_t<std::uint32_t> add(py::handle boxes_obj, bool is_static, const py::object& layer) {
+    if (double_precision()) return add_d(boxes_obj, is_static, layer);
     const BoxesView view = boxes_view(boxes_obj, "boxes");
     const AddOptions options{.is_static = is_static, .layer = layer_arg(layer)};
     std::vector<Handle> handles;
@@ -171,6 +174,7 @@ class PyBroadPhase {
   }
 
   void move(py::handle handles_obj, py::handle boxes_obj) {
+    if (double_precision()) return move_d(handles_obj, boxes_obj);
     const HandlesView h = handles_view(handles_obj);
     const BoxesView b = boxes_view(boxes_obj, "boxes");
     if (h.handles.size() != b.boxes.size()) {
@@ -252,6 +256,7 @@ class PyBroadPhase {
   }
 
   py::array_t<std::uint32_t> query_box(py::handle box_obj) {
+    if (double_precision()) return query_box_d(box_obj);
     const BoxesView view = boxes_view(box_obj, "box", /*single=*/true);
     std::vector<Handle> hits;
     {
@@ -263,6 +268,7 @@ class PyBroadPhase {
 
   // Many box queries in one call: row i's hits are handles[offsets[i]:offsets[i + 1]].
   py::tuple query_boxes(py::handle boxes_obj) {
+    if (double_precision()) return query_boxes_d(boxes_obj);
     const BoxesView view = boxes_view(boxes_obj, "boxes");
     py::array_t<std::int64_t> offsets(static_cast<py::ssize_t>(view.boxes.size() + 1));
     std::int64_t* off = offsets.mutable_data();
@@ -313,7 +319,8 @@ class PyBroadPhase {
     Exclusive lock(mutex_);
     return bp_.contains(static_cast<Handle>(v));
   }
-  py::array_t<float> box(const py::object& h) {
+  py::array box(const py::object& h) {
+    if (double_precision()) return box_d(h);
     const Handle handle = handle_arg(h);
     Aabb b;
     {
@@ -352,6 +359,84 @@ class PyBroadPhase {
     return d;
   }
   const BroadPhaseOptions& options() const { return bp_.options(); }
+
+  // ---- large worlds ----------------------------------------------------------
+
+  bool double_precision() const { return bp_.options().double_precision; }
+
+  void shift_origin(py::handle offset_obj) {
+    const auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(offset_obj);
+    if (!a || a.ndim() != 1 || a.shape(0) != 3)
+      throw ArgumentError("offset: must be 3 numbers (x, y, z)");
+    const std::array<double, 3> offset{a.data()[0], a.data()[1], a.data()[2]};
+    Exclusive lock(mutex_);
+    bp_.shift_origin_d(offset);
+  }
+
+  // The double-precision forms of add, move, query_box(es) and box.
+  py::array_t<std::uint32_t> add_d(py::handle boxes_obj, bool is_static, const py::object& layer) {
+    const BoxesDView view = boxes_d_view(boxes_obj, "boxes");
+    const AddOptions options{.is_static = is_static, .layer = layer_arg(layer)};
+    std::vector<Handle> handles;
+    {
+      Exclusive lock(mutex_);
+      if (size_without_lock() + view.boxes.size() > kMaxObjects) {
+        throw ArgumentError("boxes: adding " + std::to_string(view.boxes.size()) + " objects to " +
+                            std::to_string(bp_.size()) + " exceeds the limit of " + std::to_string(kMaxObjects) +
+                            " live objects");
+      }
+      handles = bp_.add(view.boxes, options);
+    }
+    return handles_array(std::move(handles));
+  }
+  void move_d(py::handle handles_obj, py::handle boxes_obj) {
+    const HandlesView h = handles_view(handles_obj);
+    const BoxesDView b = boxes_d_view(boxes_obj, "boxes");
+    if (h.handles.size() != b.boxes.size()) {
+      throw ArgumentError("move: " + std::to_string(h.handles.size()) + " handles but " +
+                          std::to_string(b.boxes.size()) + " boxes (must be equal)");
+    }
+    Exclusive lock(mutex_);
+    check_live(h.handles);
+    bp_.move(h.handles, b.boxes);
+  }
+  py::array_t<std::uint32_t> query_box_d(py::handle box_obj) {
+    const BoxesDView view = boxes_d_view(box_obj, "box", /*single=*/true);
+    std::vector<Handle> hits;
+    {
+      Exclusive lock(mutex_);
+      hits = bp_.query_box(view.boxes[0]);
+    }
+    return handles_array(std::move(hits));
+  }
+  py::tuple query_boxes_d(py::handle boxes_obj) {
+    const BoxesDView view = boxes_d_view(boxes_obj, "boxes");
+    py::array_t<std::int64_t> offsets(static_cast<py::ssize_t>(view.boxes.size() + 1));
+    std::int64_t* off = offsets.mutable_data();
+    std::vector<Handle> all, hits;
+    {
+      Exclusive lock(mutex_);
+      off[0] = 0;
+      for (std::size_t i = 0; i < view.boxes.size(); ++i) {
+        bp_.query_box(view.boxes[i], hits);
+        all.insert(all.end(), hits.begin(), hits.end());
+        off[i + 1] = static_cast<std::int64_t>(all.size());
+      }
+    }
+    return py::make_tuple(std::move(offsets), handles_array(std::move(all)));
+  }
+  py::array box_d(const py::object& h) {
+    const Handle handle = handle_arg(h);
+    AabbD b;
+    {
+      Exclusive lock(mutex_);
+      check_live(std::span<const Handle>(&handle, 1), "handle");
+      b = bp_.box_d(handle);
+    }
+    py::array_t<double> out(6);
+    std::memcpy(out.mutable_data(), &b, sizeof b);
+    return out;
+  }
 
  private:
   std::size_t size_without_lock() const { return bp_.size(); }
@@ -444,19 +529,31 @@ PYBIND11_MODULE(hybrid_broadphase, m) {
   py::class_<PyBroadPhase>(m, "BroadPhase",
                            "Persistent handles, static and moving objects, pair events, layer filtering and "
                            "queries. Edits take effect at the next update(); a call that raises changes nothing.")
-      .def(py::init<const std::string&, const py::object&, long long, long long>(), py::kw_only(),
+      .def(py::init<const std::string&, const py::object&, long long, long long, bool>(), py::kw_only(),
            py::arg("engine") = "sw", py::arg("threads") = 0, py::arg("cell_limit") = 0, py::arg("max_pairs") = 0,
+           py::arg("double_precision") = false,
            "An empty broad phase. engine: a cell engine name ('sw' default); threads: 0 = all cores; "
            "cell_limit: 0 = the engine's default, else >= 2; max_pairs: 0 = unlimited, else update() raises "
-           "CapacityExceeded beyond it. ValueError for an unknown engine or a bad option.")
+           "CapacityExceeded beyond it; double_precision: boxes are float64 (add, move, query_box(es), box), "
+           "pairs exact on the doubles. ValueError for an unknown engine or a bad option.")
+      .def("shift_origin", &PyBroadPhase::shift_origin, py::arg("offset"),
+           "Re-bases every object by subtracting offset (3 numbers): each coordinate becomes x - offset rounded "
+           "in the box's precision (float32, the offset rounded to float32 first; float64 in double_precision "
+           "mode). Later boxes are in the new frame; the next update() reports events only for pairs whose "
+           "overlap the rounding changed. ValueError for a non-finite offset or a coordinate leaving the finite "
+           "range (nothing applied).")
+      .def_property_readonly("double_precision", [](const PyBroadPhase& b) { return b.double_precision(); },
+                             "Whether boxes are float64 (BroadPhase(double_precision=True)).")
       .def("add", &PyBroadPhase::add, py::arg("boxes"), py::kw_only(), py::arg("static") = false,
            py::arg("layer") = 0, "Adds (n, 6) float32 boxes, moving or static (static objects are never paired with each other), on "
-           "layer; returns their (n,) uint32 handles in order. ValueError naming the first bad row.")
+           "layer; returns their (n,) uint32 handles in order. ValueError naming the first bad row. On a double_precision "
+           "BroadPhase the boxes are (n, 6) float64 (float32 is widened exactly).")
       .def("reserve", &PyBroadPhase::reserve, py::arg("objects"),
            "Provisions memory for up to `objects` moving objects before they are added, so the first update() "
            "does not pay for fresh memory (optional; results are the same).")
       .def("move", &PyBroadPhase::move, py::arg("handles"), py::arg("boxes"),
-           "Replaces the boxes of handles ((m,) integers) with boxes ((m, 6) float32).")
+           "Replaces the boxes of handles ((m,) integers) with boxes ((m, 6) float32; float64 on a double_precision "
+           "BroadPhase).")
       .def("remove", &PyBroadPhase::remove, py::arg("handles"),
            "Removes the objects of handles ((m,) integers); their pairs are reported removed at the next update(). "
            "ValueError naming the row of an unknown, stale or repeated handle.")
@@ -490,7 +587,8 @@ PYBIND11_MODULE(hybrid_broadphase, m) {
       .def("contains", &PyBroadPhase::contains, py::arg("handle"),
            "Whether handle is a live object (False for removed, stale or non-integer handles).")
       .def("box", &PyBroadPhase::box, py::arg("handle"),
-           "The object's box as a (6,) float32 array (ValueError for an unknown or stale handle).")
+           "The object's box as a (6,) float32 array, float64 on a double_precision BroadPhase (ValueError for an "
+           "unknown or stale handle).")
       .def("is_static", &PyBroadPhase::is_static, py::arg("handle"),
            "Whether the object was added with static=True.")
       .def("layer", &PyBroadPhase::layer, py::arg("handle"), "The object's layer (0..LAYER_COUNT - 1).")

@@ -29,7 +29,8 @@ class Pair(C.Structure):
 
 class Options(C.Structure):
     _fields_ = [("engine", C.c_char_p), ("threads", C.c_uint32), ("cell_limit", C.c_uint32),
-                ("max_pairs", C.c_uint64), ("run_tasks", C.c_void_p), ("task_user", C.c_void_p)]
+                ("max_pairs", C.c_uint64), ("run_tasks", C.c_void_p), ("task_user", C.c_void_p),
+                ("double_precision", C.c_int)]
 
 
 HIT = C.CFUNCTYPE(C.c_int, C.c_void_p, C.c_uint32)

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "hbp/aabb.hpp"
+#include "hbp/aabb_d.hpp"
 #include "hbp/broad_phase.hpp"
 #include "hbp/error.hpp"
 #include "hbp/limits.hpp"
@@ -31,6 +32,8 @@
 // without copies.
 static_assert(std::is_standard_layout_v<hbp_box> && std::is_standard_layout_v<hbp::Aabb>);
 static_assert(sizeof(hbp_box) == sizeof(hbp::Aabb) && offsetof(hbp_box, max) == offsetof(hbp::Aabb, max));
+static_assert(std::is_standard_layout_v<hbp_box_d> && std::is_standard_layout_v<hbp::AabbD>);
+static_assert(sizeof(hbp_box_d) == sizeof(hbp::AabbD) && offsetof(hbp_box_d, max) == offsetof(hbp::AabbD, max));
 static_assert(std::is_standard_layout_v<hbp_pair> && std::is_standard_layout_v<hbp::Pair>);
 static_assert(sizeof(hbp_pair) == sizeof(hbp::Pair) && offsetof(hbp_pair, b) == offsetof(hbp::Pair, b));
 static_assert(std::is_same_v<hbp_handle, hbp::Handle> && HBP_INVALID_HANDLE == hbp::kInvalidHandle);
@@ -104,6 +107,7 @@ hbp_status guarded(F&& f) noexcept {
 }
 
 const hbp::Aabb* as_aabbs(const hbp_box* boxes) { return reinterpret_cast<const hbp::Aabb*>(boxes); }
+const hbp::AabbD* as_aabbs(const hbp_box_d* boxes) { return reinterpret_cast<const hbp::AabbD*>(boxes); }
 
 hbp_status pair_list(const hbp_broad_phase* bp, const hbp_pair** pairs, std::size_t* count, const char* function,
                      const std::vector<hbp::Pair> hbp::BroadPhaseUpdate::*list) {
@@ -155,6 +159,7 @@ void hbp_options_init(hbp_options* options) {
   options->max_pairs = 0;
   options->run_tasks = nullptr;
   options->task_user = nullptr;
+  options->double_precision = 0;
 }
 
 hbp_status hbp_create(const hbp_options* options, hbp_broad_phase** out) {
@@ -167,6 +172,7 @@ hbp_status hbp_create(const hbp_options* options, hbp_broad_phase** out) {
       o.threads = options->threads;
       o.cell_limit = options->cell_limit;
       o.max_pairs = options->max_pairs;
+      o.double_precision = options->double_precision != 0;
     }
     // (threads above the limit: InvalidInput from the broad phase, either way)
     if (options != nullptr && options->run_tasks != nullptr)
@@ -293,6 +299,61 @@ int hbp_contains(const hbp_broad_phase* bp, hbp_handle handle) {
   } catch (...) {
     return 0;
   }
+}
+
+// ---- large worlds ----------------------------------------------------------
+
+hbp_status hbp_shift_origin(hbp_broad_phase* bp, const double offset[3]) {
+  if (bp == nullptr || offset == nullptr)
+    return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_shift_origin: bp and offset must not be NULL");
+  return guarded([&] {
+    bp->bp.shift_origin_d({offset[0], offset[1], offset[2]});
+    return ok();
+  });
+}
+
+hbp_status hbp_add_d(hbp_broad_phase* bp, const hbp_box_d* boxes, size_t count, int is_static, uint8_t layer,
+                     hbp_handle* handles_out) {
+  if (bp == nullptr) return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_add_d: bp must not be NULL");
+  if (count > 0 && (boxes == nullptr || handles_out == nullptr))
+    return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_add_d: boxes and handles_out must not be NULL when count > 0");
+  return guarded([&] {
+    const std::vector<hbp::Handle> handles = bp->bp.add(std::span<const hbp::AabbD>(as_aabbs(boxes), count),
+                                                        {.is_static = is_static != 0, .layer = layer});
+    std::copy(handles.begin(), handles.end(), handles_out);
+    return ok();
+  });
+}
+
+hbp_status hbp_move_d(hbp_broad_phase* bp, const hbp_handle* handles, const hbp_box_d* boxes, size_t count) {
+  if (bp == nullptr) return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_move_d: bp must not be NULL");
+  if (count > 0 && (boxes == nullptr || handles == nullptr))
+    return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_move_d: handles and boxes must not be NULL when count > 0");
+  return guarded([&] {
+    bp->bp.move(std::span<const hbp::Handle>(handles, count), std::span<const hbp::AabbD>(as_aabbs(boxes), count));
+    return ok();
+  });
+}
+
+hbp_status hbp_get_box_d(const hbp_broad_phase* bp, hbp_handle handle, hbp_box_d* box_out) {
+  if (bp == nullptr || box_out == nullptr)
+    return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_get_box_d: bp and box_out must not be NULL");
+  return guarded([&] {
+    const hbp::AabbD b = bp->bp.box_d(handle);
+    for (int i = 0; i < 3; ++i) {
+      box_out->min[i] = b.min[i];
+      box_out->max[i] = b.max[i];
+    }
+    return ok();
+  });
+}
+
+hbp_status hbp_query_box_d(const hbp_broad_phase* bp, const hbp_box_d* box, hbp_hit_callback callback, void* user,
+                           size_t* hits_out) {
+  if (hits_out != nullptr) *hits_out = 0;
+  if (bp == nullptr || box == nullptr || callback == nullptr)
+    return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_query_box_d: bp, box and callback must not be NULL");
+  return guarded([&] { return report_calls(bp->bp.query_box(*as_aabbs(box), c_visitor(callback, user)), hits_out); });
 }
 
 }  // extern "C"

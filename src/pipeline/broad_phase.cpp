@@ -24,6 +24,10 @@
 // filter apply before a pair is kept; the sorted lists are merged, and
 // created/removed come from a merge with the previous frame's pairs.
 //
+// Double precision: the structures above hold each object's outward float
+// box; the frame's pairs are confirmed on the double boxes before the event
+// merge (see "large worlds" below).
+//
 // The all-moving frame (no statics, no layer table or filter in force) is
 // the whole-frame path plus events: move() of every moving object in handle
 // order checks and writes the boxes in one pass, the hybrid system runs
@@ -55,6 +59,7 @@
 #include "pipeline/box_tree.hpp"
 #include "pipeline/fat_moving_pairs.hpp"
 #include "pipeline/handle_table.hpp"
+#include "pipeline/outward_box.hpp"
 #include "pipeline/pair_events.hpp"
 #include "pipeline/screened_boxes.hpp"
 #include "pipeline/parallel_pair_sort.hpp"
@@ -93,6 +98,12 @@ inline bool same_box(const Aabb& a, const Aabb& b) {
          a.max[1] == b.max[1] && a.max[2] == b.max[2];
 }
 
+// overlaps(a, b) as one expression: no branch per condition.
+inline bool overlaps_branch_free(const Aabb& a, const Aabb& b) {
+  return (a.max[0] >= b.min[0]) & (a.min[0] <= b.max[0]) & (a.max[1] >= b.min[1]) & (a.min[1] <= b.max[1]) &
+         (a.max[2] >= b.min[2]) & (a.min[2] <= b.max[2]);
+}
+
 // Runs body(begin, end, out) over fixed chunks of [0, n) in parallel and
 // concatenates the chunks' outputs in chunk order.
 template <class Body>
@@ -127,6 +138,7 @@ struct BroadPhase::Impl {
 
   static BroadPhaseOptions hybrid_options(BroadPhaseOptions o) {
     o.sorted = true;
+    o.double_precision = false;  // the hybrid system gets the outward float boxes
     return o;
   }
 
@@ -507,6 +519,9 @@ struct BroadPhase::Impl {
     std::vector<Pair>().swap(fat_moving_pairs);
     cache = StaticCaches();
     std::vector<std::uint32_t>().swap(previous_index);
+    std::vector<AabbD>().swap(slot_box_d);
+    std::vector<std::uint8_t>().swap(slot_exact);
+    std::vector<Aabb>().swap(slot_inner);
     static_pairs_valid = false;
   }
 
@@ -889,23 +904,39 @@ struct BroadPhase::Impl {
       sync_statics();
       sync_moving();
       if (static_handle.empty() && all_layers_collide() && !filter) {
-        all_moving_frame();
-        return;
-      }
-      find_moving_pairs();
-      find_static_pairs(incremental);
-      if (static_pairs.empty()) {
-        next.swap(moving_pairs);
-      } else if (moving_pairs.empty()) {
-        next.assign(static_pairs.begin(), static_pairs.end());  // static_pairs is kept for the next frame
+        if (!options.double_precision) {
+          all_moving_frame();
+          return;
+        }
+        all_moving_candidates();
       } else {
-        next.resize(moving_pairs.size() + static_pairs.size());
-        std::merge(moving_pairs.begin(), moving_pairs.end(), static_pairs.begin(), static_pairs.end(), next.begin());
+        find_moving_pairs();
+        find_static_pairs(incremental);
+        merge_found_pairs();
+        check_max_pairs(next.size());
+        if (options.double_precision) confirm(next, nullptr);
       }
-      check_max_pairs(next.size());
       detail::diff_sorted_pairs(result.pairs, next, result.created, result.removed, diff_scratch);
       result.pairs.swap(next);
     });
+    finish_update(start);
+    return result;
+  }
+
+  // The frame's pairs into `next`: the moving/moving and moving/static
+  // lists merged.
+  void merge_found_pairs() {
+    if (static_pairs.empty()) {
+      next.swap(moving_pairs);
+    } else if (moving_pairs.empty()) {
+      next.assign(static_pairs.begin(), static_pairs.end());  // static_pairs is kept for the next frame
+    } else {
+      next.resize(moving_pairs.size() + static_pairs.size());
+      std::merge(moving_pairs.begin(), moving_pairs.end(), static_pairs.begin(), static_pairs.end(), next.begin());
+    }
+  }
+
+  void finish_update(SteadyClock::time_point start) {
     structure_changed = false;  // only once the frame is complete: a frame that throws is not applied
     retained::trim(next);
     retained::trim(moving_pairs);
@@ -924,7 +955,259 @@ struct BroadPhase::Impl {
       frame_serial = 1;
     }
     stats.wall_ms = ms_since(start);
-    return result;
+  }
+
+  // ---- large worlds --------------------------------------------------------
+  //
+  // Double precision (hbp/broad_phase.hpp): the float engine holds each
+  // object's outward float box (outward_box.hpp), so its pairs are a superset
+  // of the double boxes' pairs; confirm() keeps those whose double boxes
+  // overlap before the frame's list is compared with the previous one.
+  // By slot: the double box as given, and whether the outward box equals it
+  // (then a pair of two such objects needs no double test). Written only
+  // after the float edit succeeded, so a call that throws changes neither.
+  // slot_inner: the inward float box (outward_box.hpp), the compact record
+  // confirm() reads first.
+  std::vector<AabbD> slot_box_d;
+  std::vector<std::uint8_t> slot_exact;
+  std::vector<Aabb> slot_inner;
+  // The pair filter in double-precision mode, asked after the double test
+  // (`filter` stays empty there, so the float engine keeps its fast paths).
+  PairFilter confirm_filter;
+  // Scratch of the double edits: a batch's outward and inward boxes and
+  // exactness.
+  std::vector<Aabb> outward, inward;
+  std::vector<std::uint8_t> outward_exact;
+  // Scratch of confirm(): pairs kept per chunk, and the compacted list.
+  std::vector<std::size_t> confirm_kept;
+  std::vector<Pair> confirm_scratch;
+
+  void require_precision(const char* call, bool double_boxes) const {
+    if (options.double_precision == double_boxes) return;
+    throw InvalidInput(std::string("BroadPhase::") + call +
+                       (double_boxes ? ": double boxes (AabbD) need options.double_precision"
+                                     : ": float boxes (Aabb) on a double_precision BroadPhase (use AabbD)"));
+  }
+
+  static void check_boxes_d(const char* call, std::span<const AabbD> boxes) {
+    for (std::size_t i = 0; i < boxes.size(); ++i)
+      if (const char* d = box_defect(boxes[i])) throw InvalidInput(row_text(call, i) + d);
+  }
+
+  // outward / outward_exact for a batch of well-formed double boxes.
+  void make_outward(std::span<const AabbD> boxes) {
+    outward.resize(boxes.size());
+    inward.resize(boxes.size());
+    outward_exact.resize(boxes.size());
+    for_batch<std::uint64_t>(boxes.size(), [&](std::size_t begin, std::size_t end) {
+      for (std::size_t i = begin; i < end; ++i)
+        outward_exact[i] = detail::round_box(boxes[i], outward[i], inward[i]);
+      return std::uint64_t(0);
+    });
+  }
+
+  // After the float edit of `handles` (distinct, live) succeeded.
+  void store_d(std::span<const Handle> handles, std::span<const AabbD> boxes) {
+    for_batch<std::uint64_t>(handles.size(), [&](std::size_t begin, std::size_t end) {
+      for (std::size_t i = begin; i < end; ++i) {
+        const std::uint32_t s = HandleTable::slot_of(handles[i]);
+        slot_box_d[s] = boxes[i];
+        slot_exact[s] = outward_exact[i];
+        slot_inner[s] = inward[i];
+      }
+      return std::uint64_t(0);
+    });
+    retained::trim(outward);
+    retained::trim(inward);
+    retained::trim(outward_exact);
+  }
+
+  std::vector<Handle> add_d(std::span<const AabbD> boxes, const AddOptions& o) {
+    require_precision("add", true);
+    check_boxes_d("add", boxes);
+    make_outward(boxes);
+    const std::size_t slots = std::size_t(table.slots()) + boxes.size();  // at most, after the add
+    if (slot_box_d.size() < slots) {
+      slot_box_d.resize(slots);
+      slot_exact.resize(slots);
+      slot_inner.resize(slots);
+    }
+    std::vector<Handle> handles = add(outward, o);
+    store_d(handles, boxes);
+    return handles;
+  }
+
+  void move_d(std::span<const Handle> handles, std::span<const AabbD> boxes) {
+    require_precision("move", true);
+    if (handles.size() != boxes.size())
+      throw InvalidInput("BroadPhase::move: " + std::to_string(handles.size()) + " handles but " +
+                         std::to_string(boxes.size()) + " boxes");
+    check_boxes_d("move", boxes);
+    make_outward(boxes);
+    move(handles, outward);
+    store_d(handles, boxes);
+  }
+
+  // Every live object's handle, in slot order.
+  std::vector<Handle> live_handles() const {
+    std::vector<Handle> h;
+    h.reserve(table.live());
+    for (std::uint32_t s = 0; s < table.slots(); ++s)
+      if (table.kind(s) != HandleTable::kFree) h.push_back(table.handle_of(s));
+    return h;
+  }
+
+  // shift_origin: every box re-based as a move of every object (the move
+  // keeps each cache valid or invalidates it: candidate lists, quiet and fat
+  // boxes follow the moved boxes, a static change rebuilds the static tree,
+  // the queries' moving tree is refit). The shifted boxes are all checked
+  // before anything is applied.
+  void shift_origin(const double offset[3]) {
+    for (int k = 0; k < 3; ++k)
+      if (!std::isfinite(offset[k]))
+        throw InvalidInput("BroadPhase::shift_origin: offset[" + std::to_string(k) + "] is not finite");
+    const std::vector<Handle> handles = live_handles();
+    if (handles.empty()) return;
+    const auto shifted_defect = [&](std::size_t i, const char* d) {
+      throw InvalidInput("BroadPhase::shift_origin: handle " + std::to_string(handles[i]) +
+                         ": the shifted box has an " + d + " (outside the finite range)");
+    };
+    if (options.double_precision) {
+      std::vector<AabbD> boxes(handles.size());
+      for (std::size_t i = 0; i < handles.size(); ++i) {
+        const AabbD& b = slot_box_d[HandleTable::slot_of(handles[i])];
+        for (int k = 0; k < 3; ++k) {
+          boxes[i].min[k] = b.min[k] - offset[k];
+          boxes[i].max[k] = b.max[k] - offset[k];
+        }
+        if (const char* d = box_defect(boxes[i])) shifted_defect(i, d);
+      }
+      move_d(handles, boxes);
+      return;
+    }
+    float off[3];
+    for (int k = 0; k < 3; ++k) {
+      off[k] = static_cast<float>(offset[k]);  // nearest (exact for shift_origin's float offsets)
+      if (!std::isfinite(off[k]))
+        throw InvalidInput("BroadPhase::shift_origin: offset[" + std::to_string(k) + "] is beyond the float range");
+    }
+    std::vector<Aabb> boxes(handles.size());
+    for (std::size_t i = 0; i < handles.size(); ++i) {
+      const Aabb b = box_of(HandleTable::slot_of(handles[i]));
+      for (int k = 0; k < 3; ++k) {
+        boxes[i].min[k] = b.min[k] - off[k];
+        boxes[i].max[k] = b.max[k] - off[k];
+      }
+      if (const char* d = box_defect(boxes[i])) shifted_defect(i, d);
+    }
+    move(handles, boxes);
+  }
+
+  // Keeps the pairs of `v` whose double boxes overlap (and that the pair
+  // filter accepts), in order. `map` (may be null) turns dense moving
+  // indices into handles first. Fixed chunks, each compacted in place in
+  // parallel, then the chunks' survivors packed together in parallel: the
+  // same list for any thread count, and no allocation once the scratch has
+  // grown. A pair of two objects whose float boxes are exact is kept
+  // without reading any box (the float test was exact); a pair whose
+  // inward boxes overlap is kept without reading the double boxes.
+  void confirm(std::vector<Pair>& v, const Handle* map) {
+    // Live objects whose float box is exact: all of them, and the float
+    // test was the double test for every pair (nothing to do unless pairs
+    // need mapping or filtering); none, and the flag test is skipped. (One
+    // pass over the slots: a fraction of the pass below.)
+    std::size_t live_exact = 0;
+    for (std::uint32_t s = 0; s < table.slots(); ++s)
+      live_exact += (table.kind(s) != HandleTable::kFree) & slot_exact[s];
+    if (live_exact == table.live() && !map && !confirm_filter) return;
+    const bool some_exact = live_exact != 0;
+    constexpr std::size_t kPairs = 16384;
+    const std::size_t n = v.size();
+    const std::size_t chunks = (n + kPairs - 1) / kPairs;
+    confirm_kept.resize(chunks);
+    const AabbD* box = slot_box_d.data();
+    const Aabb* inner = slot_inner.data();
+    const std::uint8_t* exact = slot_exact.data();
+    Pair* data = v.data();
+    // The second objects' records are scattered (the first ones' come in
+    // order): fetched kAhead pairs before they are tested.
+    constexpr std::size_t kAhead = 16;
+    const auto chunk = [&](std::size_t c) {
+      const std::size_t begin = c * kPairs, end = std::min(n, begin + kPairs);
+      std::size_t w = begin;
+      for (std::size_t i = begin; i < end; ++i) {
+        if (i + kAhead < end) {
+          const Handle ahead = map ? map[data[i + kAhead].b] : data[i + kAhead].b;
+          const Aabb* record = inner + HandleTable::slot_of(ahead);
+          __builtin_prefetch(record);
+          __builtin_prefetch(reinterpret_cast<const char*>(record) + sizeof(Aabb) - 1);  // a record may cross a line
+        }
+        Pair p = data[i];
+        if (map) p = Pair{map[p.a], map[p.b]};
+        const std::uint32_t sa = HandleTable::slot_of(p.a), sb = HandleTable::slot_of(p.b);
+        bool keep = (some_exact && (exact[sa] & exact[sb])) || overlaps_branch_free(inner[sa], inner[sb]) ||
+                    overlaps(box[sa], box[sb]);
+        if (keep && confirm_filter) keep = confirm_filter(p.a, p.b);
+        data[w] = p;  // w <= i: the pair at w was read already
+        w += keep;
+      }
+      confirm_kept[c] = w - begin;
+    };
+    if (chunks == 1) {
+      chunk(0);
+    } else if (chunks > 1) {
+      tbb::parallel_for(std::size_t(0), chunks, chunk);
+    }
+    std::size_t total = 0;
+    bool gaps = false;
+    for (std::size_t c = 0; c < chunks; ++c) {
+      gaps |= total != c * kPairs;
+      total += confirm_kept[c];
+    }
+    if (!gaps) {  // only the last chunk may have dropped pairs
+      v.resize(total);
+      return;
+    }
+    confirm_scratch.resize(total);
+    // confirm_kept becomes each chunk's first output position.
+    std::size_t at = 0;
+    for (std::size_t c = 0; c < chunks; ++c) {
+      const std::size_t kept = confirm_kept[c];
+      confirm_kept[c] = at;
+      at += kept;
+    }
+    tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
+      const std::size_t first = confirm_kept[c], last = c + 1 < chunks ? confirm_kept[c + 1] : total;
+      std::copy(data + c * kPairs, data + c * kPairs + (last - first), confirm_scratch.data() + first);
+    });
+    v.swap(confirm_scratch);
+    retained::trim(confirm_scratch);
+  }
+
+  // The all-moving frame in double-precision mode: the hybrid system's
+  // candidates, confirmed, into `next`.
+  void all_moving_candidates() {
+    moving_pairs.clear();
+    static_pairs.clear();
+    static_pairs_valid = false;
+    next.clear();
+    if (moving_handle.size() < 2) return;
+    check_max_pairs(hybrid.update(moving_boxes.view()).size());
+    hybrid.swap_pairs(next);
+    confirm(next, moving_identity ? nullptr : moving_handle.data());
+  }
+
+  void query_box_d(const AabbD& q, std::vector<Handle>& out) {
+    if (const char* d = box_defect(q)) throw InvalidInput(std::string("BroadPhase::query_box: ") + d);
+    const Aabb f = detail::outward_box(q);
+    sync_queries();
+    out.clear();
+    const auto collect = [&](std::uint32_t, const BoxTree::Item& it) {
+      if (overlaps(slot_box_d[HandleTable::slot_of(it.id)], q)) out.push_back(it.id);
+    };
+    static_tree.for_each_overlap(f, collect);
+    moving_tree.for_each_overlap(f, collect);
+    std::sort(out.begin(), out.end());
   }
 
   // ---- queries -------------------------------------------------------------
@@ -933,6 +1216,10 @@ struct BroadPhase::Impl {
   // keeps its vector pays no allocation once it is large enough.
   void query_box(const Aabb& q, std::vector<Handle>& out) {
     if (const char* d = box_defect(q)) throw InvalidInput(std::string("BroadPhase::query_box: ") + d);
+    if (options.double_precision) {  // the double box the float box denotes
+      query_box_d({{q.min[0], q.min[1], q.min[2]}, {q.max[0], q.max[1], q.max[2]}}, out);
+      return;
+    }
     sync_queries();
     out.clear();
     const auto collect = [&](std::uint32_t, const BoxTree::Item& it) { out.push_back(it.id); };
@@ -981,6 +1268,7 @@ BroadPhase::BroadPhase(BroadPhase&&) noexcept = default;
 BroadPhase& BroadPhase::operator=(BroadPhase&&) noexcept = default;
 
 std::vector<Handle> BroadPhase::add(std::span<const Aabb> boxes, const AddOptions& options) {
+  impl_->require_precision("add", false);
   return impl_->add(boxes, options);
 }
 void BroadPhase::reserve(std::size_t objects) {
@@ -992,8 +1280,16 @@ void BroadPhase::reserve(std::size_t objects) {
   m.moving_boxes.reserve(objects);
   m.moving_handle.reserve(objects);
   m.hybrid.reserve(objects);
+  if (m.options.double_precision) {
+    m.slot_box_d.reserve(objects);
+    m.slot_exact.reserve(objects);
+    m.slot_inner.reserve(objects);
+  }
 }
-void BroadPhase::move(std::span<const Handle> handles, std::span<const Aabb> boxes) { impl_->move(handles, boxes); }
+void BroadPhase::move(std::span<const Handle> handles, std::span<const Aabb> boxes) {
+  impl_->require_precision("move", false);
+  impl_->move(handles, boxes);
+}
 void BroadPhase::remove(std::span<const Handle> handles) { impl_->remove(handles); }
 void BroadPhase::set_layer(std::span<const Handle> handles, std::uint8_t layer) {
   impl_->set_layer(handles, layer);
@@ -1022,7 +1318,7 @@ bool BroadPhase::collides(std::uint32_t layer_a, std::uint32_t layer_b) const {
 }
 
 void BroadPhase::set_pair_filter(PairFilter filter) {
-  impl_->filter = std::move(filter);
+  (impl_->options.double_precision ? impl_->confirm_filter : impl_->filter) = std::move(filter);
   impl_->static_pairs_valid = false;
 }
 
@@ -1056,6 +1352,7 @@ std::size_t visit_hits(const BroadPhase::HitVisitor& visit, Query query) {
 }  // namespace
 
 Handle BroadPhase::add(const Aabb& box, const AddOptions& options) {
+  impl_->require_precision("add", false);
   return impl_->add(std::span<const Aabb>(&box, 1), options)[0];
 }
 
@@ -1099,6 +1396,7 @@ std::size_t BroadPhase::query_ray(const Vec3f& origin, const Vec3f& direction, f
 std::size_t BroadPhase::size() const { return impl_->table.live(); }
 bool BroadPhase::contains(Handle h) const { return impl_->table.live(h); }
 Aabb BroadPhase::box(Handle h) const {
+  impl_->require_precision("box", false);
   return impl_->box_of(HandleTable::slot_of(impl_->checked("box", h)));
 }
 bool BroadPhase::is_static(Handle h) const {
@@ -1108,5 +1406,25 @@ std::uint8_t BroadPhase::layer(Handle h) const {
   return impl_->table.layer(HandleTable::slot_of(impl_->checked("layer", h)));
 }
 const BroadPhaseOptions& BroadPhase::options() const { return impl_->options; }
+
+// ---- large worlds ----------------------------------------------------------
+
+void BroadPhase::shift_origin(const std::array<float, 3>& offset) {
+  const double d[3] = {offset[0], offset[1], offset[2]};
+  impl_->shift_origin(d);
+}
+void BroadPhase::shift_origin_d(const std::array<double, 3>& offset) { impl_->shift_origin(offset.data()); }
+std::vector<Handle> BroadPhase::add(std::span<const AabbD> boxes, const AddOptions& options) {
+  return impl_->add_d(boxes, options);
+}
+void BroadPhase::move(std::span<const Handle> handles, std::span<const AabbD> boxes) { impl_->move_d(handles, boxes); }
+AabbD BroadPhase::box_d(Handle h) const {
+  impl_->require_precision("box_d", true);
+  return impl_->slot_box_d[HandleTable::slot_of(impl_->checked("box_d", h))];
+}
+void BroadPhase::query_box_d(const AabbD& box, std::vector<Handle>& out) const {
+  impl_->require_precision("query_box", true);
+  impl_->query_box_d(box, out);
+}
 
 }  // namespace hbp

@@ -67,8 +67,16 @@ struct HybridBroadPhase::Impl {
     return [engine](std::uint32_t n) { return static_cast<double>(engine->cycles_for(n)); };
   }
 
+  // double_precision is BroadPhase's alone (it runs this system on float
+  // boxes); every other consumer builds one of these and so rejects it.
+  static const BroadPhaseOptions& float_only(const BroadPhaseOptions& o) {
+    if (o.double_precision)
+      throw InvalidInput("double_precision is honoured by hbp::BroadPhase only (HybridBroadPhase takes float boxes)");
+    return o;
+  }
+
   explicit Impl(const BroadPhaseOptions& o)
-      : options(o),
+      : options(float_only(o)),
         prototype(make_cell_engine(o.engine)),
         cell_limit(choose_limit(o, *prototype)),
         arena(o.threads, o.task_system),
