@@ -44,6 +44,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -80,6 +81,13 @@ struct BroadPhaseUpdateStats {
   std::uint32_t moved = 0;                // moving objects added, or moved to another box, since the last update
   std::uint32_t static_changes = 0;       // static objects added, moved to another box or removed since then
   double wall_ms = 0;                     // measured wall time of update()
+};
+
+// The nearest object a ray touches (BroadPhase::raycast_closest): its
+// handle and entry t (0 when the origin is inside its box).
+struct RayHit {
+  Handle handle;
+  float t;
 };
 
 class BroadPhase {
@@ -148,6 +156,24 @@ class BroadPhase {
   std::vector<Handle> query_ray(const Vec3f& origin, const Vec3f& direction, float max_t) const;
   std::size_t query_ray(const Vec3f& origin, const Vec3f& direction, float max_t, std::vector<Handle>& out) const;
   std::size_t query_ray(const Vec3f& origin, const Vec3f& direction, float max_t, const HitVisitor& visit) const;
+
+  // The first hit of query_ray(origin, direction, max_t) (smallest entry t,
+  // ties by smallest handle), or nothing; same validation. It walks both
+  // trees nearest-first and skips every subtree whose entry t is beyond the
+  // best hit so far, so it reads a few blocks where query_ray reads all the
+  // hits and sorts them.
+  std::optional<RayHit> raycast_closest(const Vec3f& origin, const Vec3f& direction, float max_t) const;
+  // Box cast: every object whose box the moving box box + t * displacement,
+  // 0 <= t <= 1, touches (closed boxes), sorted by the first such t, ties
+  // by handle. Exact under the slab test of the target grown by the box
+  // (Minkowski sum: [min - box.max, max - box.min] per axis, one float
+  // subtraction each) against the segment from 0 along displacement: on an
+  // axis the displacement leaves at 0 it is exactly the closed overlap, and
+  // with displacement 0 the hits are query_box(box)'s. InvalidInput for a
+  // malformed box or a non-finite displacement.
+  std::vector<Handle> query_box_cast(const Aabb& box, const Vec3f& displacement) const;
+  std::size_t query_box_cast(const Aabb& box, const Vec3f& displacement, std::vector<Handle>& out) const;
+  std::size_t query_box_cast(const Aabb& box, const Vec3f& displacement, const HitVisitor& visit) const;
 
   std::size_t size() const;  // live objects
   bool contains(Handle h) const;

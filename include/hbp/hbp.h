@@ -151,6 +151,21 @@ hbp_status hbp_query_box(const hbp_broad_phase* bp, const hbp_box* box, hbp_hit_
 hbp_status hbp_query_ray(const hbp_broad_phase* bp, const float origin[3], const float direction[3], float max_t,
                          hbp_hit_callback callback, void* user, size_t* hits_out);
 
+/* The first hit of hbp_query_ray (smallest entry t, ties by smallest
+ * handle), found without visiting the others: *hit_out is 1 and
+ * *handle_out, *t_out are its handle and entry t, or *hit_out is 0 (and
+ * *handle_out is HBP_INVALID_HANDLE, *t_out 0) when the segment touches
+ * nothing. Same arguments and errors as hbp_query_ray. */
+hbp_status hbp_raycast_closest(const hbp_broad_phase* bp, const float origin[3], const float direction[3], float max_t,
+                               hbp_handle* handle_out, float* t_out, int* hit_out);
+
+/* Box cast: every object whose box the moving box box + t * displacement,
+ * 0 <= t <= 1, touches, in order of the first such t, ties by handle (the
+ * slab test of each target grown by the box, docs/broad-phase.md). With a
+ * zero displacement the hits are hbp_query_box's. */
+hbp_status hbp_box_cast(const hbp_broad_phase* bp, const hbp_box* box, const float displacement[3],
+                        hbp_hit_callback callback, void* user, size_t* hits_out);
+
 /* Live objects (writes *count). */
 hbp_status hbp_size(const hbp_broad_phase* bp, size_t* count);
 

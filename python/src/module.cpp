@@ -15,6 +15,7 @@
 #include <limits>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -296,6 +297,37 @@ class PyBroadPhase {
     return handles_array(std::move(hits));
   }
 
+  // query_ray's first hit as (handle, t), or None.
+  py::object raycast_closest(py::handle origin_obj, py::handle direction_obj, double max_t) {
+    float origin[3], direction[3];
+    vec3(origin_obj, "origin", origin);
+    vec3(direction_obj, "direction", direction);
+    if (!(max_t >= 0)) {  // NaN too; infinity: the whole ray
+      throw ArgumentError("max_t: must be >= 0 (infinity allowed), got " + py::repr(py::float_(max_t)).cast<std::string>());
+    }
+    std::optional<RayHit> hit;
+    {
+      Exclusive lock(mutex_);
+      const float t = max_t > std::numeric_limits<float>::max() ? std::numeric_limits<float>::infinity()
+                                                                : static_cast<float>(max_t);
+      hit = bp_.raycast_closest({origin[0], origin[1], origin[2]}, {direction[0], direction[1], direction[2]}, t);
+    }
+    if (!hit) return py::none();
+    return py::make_tuple(hit->handle, static_cast<double>(hit->t));
+  }
+
+  py::array_t<std::uint32_t> box_cast(py::handle box_obj, py::handle displacement_obj) {
+    const BoxesView view = boxes_view(box_obj, "box", /*single=*/true);
+    float d[3];
+    vec3(displacement_obj, "displacement", d);
+    std::vector<Handle> hits;
+    {
+      Exclusive lock(mutex_);
+      hits = bp_.query_box_cast(view.boxes[0], {d[0], d[1], d[2]});
+    }
+    return handles_array(std::move(hits));
+  }
+
   std::size_t size() {
     Exclusive lock(mutex_);
     return bp_.size();
@@ -485,6 +517,15 @@ PYBIND11_MODULE(hybrid_broadphase, m) {
            "Handles whose box the segment origin + t * direction, 0 <= t <= max_t, touches, by entry t (0 "
            "when origin is inside), ties by handle. origin, direction: (3,) float32 arrays or lists or tuples "
            "of 3 numbers; max_t >= 0, inf for the whole ray.")
+      .def("raycast_closest", &PyBroadPhase::raycast_closest, py::arg("origin"), py::arg("direction"),
+           py::arg("max_t"),
+           "query_ray's first hit as (handle, t): the smallest entry t (0 when origin is inside), ties by "
+           "handle; None when the segment touches nothing. Walks nearest-first and skips what lies beyond the "
+           "best hit so far. Same arguments as query_ray.")
+      .def("box_cast", &PyBroadPhase::box_cast, py::arg("box"), py::arg("displacement"),
+           "Handles whose box the moving box box + t * displacement, 0 <= t <= 1, touches, by the first such t, "
+           "ties by handle (uint32 array). box as for query_box, displacement a (3,) float32 array or 3 "
+           "numbers; a zero displacement gives query_box(box).")
       .def("__len__", &PyBroadPhase::size, "The number of live objects.")
       .def("__contains__", &PyBroadPhase::contains, py::arg("handle"), "`handle in bp`: whether handle is a live object.")
       .def("contains", &PyBroadPhase::contains, py::arg("handle"),

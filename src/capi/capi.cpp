@@ -8,6 +8,7 @@
 #include <exception>
 #include <limits>
 #include <new>
+#include <optional>
 #include <span>
 #include <string>
 #include <type_traits>
@@ -225,6 +226,39 @@ hbp_status hbp_query_ray(const hbp_broad_phase* bp, const float origin[3], const
   return guarded([&] {
     const hbp::BroadPhase::Vec3f o{origin[0], origin[1], origin[2]}, d{direction[0], direction[1], direction[2]};
     return report_calls(bp->bp.query_ray(o, d, max_t, c_visitor(callback, user)), hits_out);
+  });
+}
+
+hbp_status hbp_raycast_closest(const hbp_broad_phase* bp, const float origin[3], const float direction[3], float max_t,
+                               hbp_handle* handle_out, float* t_out, int* hit_out) {
+  if (bp == nullptr || origin == nullptr || direction == nullptr || handle_out == nullptr || t_out == nullptr ||
+      hit_out == nullptr) {
+    return fail(HBP_ERROR_INVALID_ARGUMENT,
+                "hbp_raycast_closest: bp, origin, direction, handle_out, t_out and hit_out must not be NULL");
+  }
+  *handle_out = HBP_INVALID_HANDLE;
+  *t_out = 0.0f;
+  *hit_out = 0;
+  return guarded([&] {
+    const hbp::BroadPhase::Vec3f o{origin[0], origin[1], origin[2]}, d{direction[0], direction[1], direction[2]};
+    if (const std::optional<hbp::RayHit> hit = bp->bp.raycast_closest(o, d, max_t)) {
+      *handle_out = hit->handle;
+      *t_out = hit->t;
+      *hit_out = 1;
+    }
+    return ok();
+  });
+}
+
+hbp_status hbp_box_cast(const hbp_broad_phase* bp, const hbp_box* box, const float displacement[3],
+                        hbp_hit_callback callback, void* user, size_t* hits_out) {
+  if (hits_out != nullptr) *hits_out = 0;
+  if (bp == nullptr || box == nullptr || displacement == nullptr || callback == nullptr) {
+    return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_box_cast: bp, box, displacement and callback must not be NULL");
+  }
+  return guarded([&] {
+    const hbp::BroadPhase::Vec3f d{displacement[0], displacement[1], displacement[2]};
+    return report_calls(bp->bp.query_box_cast(*as_aabbs(box), d, c_visitor(callback, user)), hits_out);
   });
 }
 

@@ -52,6 +52,7 @@
 #include "hbp/error.hpp"
 #include "geometry/box_screen.hpp"
 #include "pipeline/arena_threads.hpp"
+#include "pipeline/box_cast.hpp"
 #include "pipeline/box_tree.hpp"
 #include "pipeline/fat_moving_pairs.hpp"
 #include "pipeline/handle_table.hpp"
@@ -945,29 +946,69 @@ struct BroadPhase::Impl {
 
   // Ray hits are sorted by entry t in a per-thread scratch (no growth
   // reallocations per query), then their handles written into `out`.
-  void query_ray(const float origin[3], const float direction[3], float max_t, std::vector<Handle>& out) {
+  static void check_ray(const char* call, const float origin[3], const float direction[3], float max_t) {
     for (int k = 0; k < 3; ++k) {
       if (!std::isfinite(origin[k]))
-        throw InvalidInput("BroadPhase::query_ray: origin[" + std::to_string(k) + "] is not finite");
+        throw InvalidInput(std::string("BroadPhase::") + call + ": origin[" + std::to_string(k) + "] is not finite");
       if (!std::isfinite(direction[k]))
-        throw InvalidInput("BroadPhase::query_ray: direction[" + std::to_string(k) + "] is not finite");
+        throw InvalidInput(std::string("BroadPhase::") + call + ": direction[" + std::to_string(k) +
+                           "] is not finite");
     }
-    if (!(max_t >= 0)) throw InvalidInput("BroadPhase::query_ray: max_t must be >= 0 (infinity allowed)");
-    sync_queries();
-    const detail::RaySegment ray(origin, direction, max_t);
+    if (!(max_t >= 0))
+      throw InvalidInput(std::string("BroadPhase::") + call + ": max_t must be >= 0 (infinity allowed)");
+  }
+
+  // Hits with their entry t, sorted by (t, handle) in a per-thread scratch
+  // (no growth reallocations per query), then their handles written into
+  // `out`. walk(collect) runs the trees.
+  template <class Walk>
+  static void sorted_by_entry(std::vector<Handle>& out, Walk&& walk) {
     struct Hit {
       float t;
       Handle h;
     };
     thread_local std::vector<Hit> hits;
     hits.clear();
-    const auto collect = [&](const BoxTree::Item& it, float t) { hits.push_back({t, it.id}); };
-    static_tree.for_each_ray_hit(ray, collect);
-    moving_tree.for_each_ray_hit(ray, collect);
+    walk([&](const BoxTree::Item& it, float t) { hits.push_back({t, it.id}); });
     std::sort(hits.begin(), hits.end(), [](const Hit& a, const Hit& b) { return a.t < b.t || (a.t == b.t && a.h < b.h); });
     out.resize(hits.size());
     for (std::size_t i = 0; i < hits.size(); ++i) out[i] = hits[i].h;
     retained::trim(hits);
+  }
+
+  void query_ray(const float origin[3], const float direction[3], float max_t, std::vector<Handle>& out) {
+    check_ray("query_ray", origin, direction, max_t);
+    sync_queries();
+    const detail::RaySegment ray(origin, direction, max_t);
+    sorted_by_entry(out, [&](const auto& collect) {
+      static_tree.for_each_ray_hit(ray, collect);
+      moving_tree.for_each_ray_hit(ray, collect);
+    });
+  }
+
+  std::optional<RayHit> raycast_closest(const float origin[3], const float direction[3], float max_t) {
+    check_ray("raycast_closest", origin, direction, max_t);
+    sync_queries();
+    const detail::RaySegment ray(origin, direction, max_t);
+    float best_t = std::numeric_limits<float>::infinity();
+    std::uint32_t best = BoxTree::kNone;  // never a handle (kInvalidHandle)
+    static_tree.closest_ray_hit(ray, best_t, best);
+    moving_tree.closest_ray_hit(ray, best_t, best);
+    if (best == BoxTree::kNone) return std::nullopt;
+    return RayHit{best, best_t};
+  }
+
+  void query_box_cast(const Aabb& box, const float displacement[3], std::vector<Handle>& out) {
+    if (const char* d = box_defect(box)) throw InvalidInput(std::string("BroadPhase::query_box_cast: box: ") + d);
+    for (int k = 0; k < 3; ++k)
+      if (!std::isfinite(displacement[k]))
+        throw InvalidInput("BroadPhase::query_box_cast: displacement[" + std::to_string(k) + "] is not finite");
+    sync_queries();
+    const detail::BoxCast cast(box, displacement);
+    sorted_by_entry(out, [&](const auto& collect) {
+      static_tree.for_each_cast_hit(cast, collect);
+      moving_tree.for_each_cast_hit(cast, collect);
+    });
   }
 
   Handle checked(const char* call, Handle h) const {
@@ -1096,6 +1137,24 @@ std::size_t BroadPhase::query_ray(const Vec3f& origin, const Vec3f& direction, f
 std::size_t BroadPhase::query_ray(const Vec3f& origin, const Vec3f& direction, float max_t,
                                   const HitVisitor& visit) const {
   return visit_hits(visit, [&](std::vector<Handle>& hits) { impl_->query_ray(origin.data(), direction.data(), max_t, hits); });
+}
+
+std::optional<RayHit> BroadPhase::raycast_closest(const Vec3f& origin, const Vec3f& direction, float max_t) const {
+  return impl_->raycast_closest(origin.data(), direction.data(), max_t);
+}
+std::vector<Handle> BroadPhase::query_box_cast(const Aabb& box, const Vec3f& displacement) const {
+  thread_local std::vector<Handle> scratch;
+  impl_->query_box_cast(box, displacement.data(), scratch);
+  std::vector<Handle> out(scratch.begin(), scratch.end());
+  retained::trim(scratch);
+  return out;
+}
+std::size_t BroadPhase::query_box_cast(const Aabb& box, const Vec3f& displacement, std::vector<Handle>& out) const {
+  impl_->query_box_cast(box, displacement.data(), out);
+  return out.size();
+}
+std::size_t BroadPhase::query_box_cast(const Aabb& box, const Vec3f& displacement, const HitVisitor& visit) const {
+  return visit_hits(visit, [&](std::vector<Handle>& hits) { impl_->query_box_cast(box, displacement.data(), hits); });
 }
 
 std::size_t BroadPhase::size() const { return impl_->table.live(); }
