@@ -49,6 +49,7 @@
 #include <vector>
 
 #include "hbp/aabb.hpp"
+#include "hbp/collision_filter.hpp"
 #include "hbp/hybrid_broadphase.hpp"
 #include "hbp/limits.hpp"
 #include "hbp/pair.hpp"
@@ -66,6 +67,8 @@ inline constexpr Handle kInvalidHandle = 0xFFFFFFFFu;
 struct AddOptions {
   bool is_static = false;   // static objects are never tested against each other
   std::uint8_t layer = 0;   // 0 .. kLayerCount - 1
+  Filter filter{};          // category / mask / group (hbp/collision_filter.hpp)
+  std::uint64_t user_data = 0;  // the caller's value for each object added
 };
 
 struct BroadPhaseUpdate {
@@ -174,6 +177,45 @@ class BroadPhase {
   std::vector<Handle> query_box_cast(const Aabb& box, const Vec3f& displacement) const;
   std::size_t query_box_cast(const Aabb& box, const Vec3f& displacement, std::vector<Handle>& out) const;
   std::size_t query_box_cast(const Aabb& box, const Vec3f& displacement, const HitVisitor& visit) const;
+
+  // ---- Object filters, user data, filtered queries ----
+  //
+  // A pair is stored only when the layer table, the objects' Filters
+  // (should_collide: Box2D's b2Filter rule) and the pair filter all accept
+  // it (the pair filter is called only for pairs the other two accept).
+  // While every live object has the default Filter the filter test costs
+  // nothing (the unfiltered paths of a frame stay in use). The pair filter
+  // does not apply to queries: they take a QueryFilter.
+  void set_filter(std::span<const Handle> handles, const Filter& filter);
+  Filter filter(Handle h) const;
+  // One value per handle (same lengths); takes effect at once.
+  void set_user_data(std::span<const Handle> handles, std::span<const std::uint64_t> values);
+  std::uint64_t user_data(Handle h) const;  // O(1); InvalidInput for an unknown or stale handle
+  // The user data of each pair's two objects (out.size() == pairs.size()),
+  // or of each handle (a query's hits), by slot lookups: no side table
+  // needed. A handle no longer live (a `removed` pair's object removed
+  // since) gives 0.
+  void pair_user_data(std::span<const Pair> pairs, std::span<std::array<std::uint64_t, 2>> out) const;
+  void user_data(std::span<const Handle> handles, std::span<std::uint64_t> out) const;
+  // Every query with a QueryFilter last: only objects whose layer bit is in
+  // filter.layers_mask and whose category shares a bit with
+  // filter.category_mask are reported (raycast_closest: the nearest such).
+  std::vector<Handle> query_box(const Aabb& box, const QueryFilter& filter) const;
+  std::size_t query_box(const Aabb& box, std::vector<Handle>& out, const QueryFilter& filter) const;
+  std::size_t query_box(const Aabb& box, const HitVisitor& visit, const QueryFilter& filter) const;
+  std::vector<Handle> query_ray(const Vec3f& origin, const Vec3f& direction, float max_t,
+                                const QueryFilter& filter) const;
+  std::size_t query_ray(const Vec3f& origin, const Vec3f& direction, float max_t, std::vector<Handle>& out,
+                        const QueryFilter& filter) const;
+  std::size_t query_ray(const Vec3f& origin, const Vec3f& direction, float max_t, const HitVisitor& visit,
+                        const QueryFilter& filter) const;
+  std::optional<RayHit> raycast_closest(const Vec3f& origin, const Vec3f& direction, float max_t,
+                                        const QueryFilter& filter) const;
+  std::vector<Handle> query_box_cast(const Aabb& box, const Vec3f& displacement, const QueryFilter& filter) const;
+  std::size_t query_box_cast(const Aabb& box, const Vec3f& displacement, std::vector<Handle>& out,
+                             const QueryFilter& filter) const;
+  std::size_t query_box_cast(const Aabb& box, const Vec3f& displacement, const HitVisitor& visit,
+                             const QueryFilter& filter) const;
 
   std::size_t size() const;  // live objects
   bool contains(Handle h) const;

@@ -143,9 +143,14 @@ class BoxTree {
   // the slab test is monotone in the bounds, so a block's entry t is <= the
   // entry t of every object below it: dropping it loses no better hit
   // (equal t is still opened, for the smaller id).
+  // accept(id) (optional) says whether a hit counts (a query filter).
   void closest_ray_hit(const RaySegment& ray, float& best_t, std::uint32_t& best_id) const {
+    closest_ray_hit(ray, best_t, best_id, [](std::uint32_t) { return true; });
+  }
+  template <class Accept>
+  void closest_ray_hit(const RaySegment& ray, float& best_t, std::uint32_t& best_id, const Accept& accept) const {
     if (empty()) return;
-    closest_walk(root_, 0.0f, ray, RayLanes(ray), best_t, best_id);
+    closest_walk(root_, 0.0f, ray, RayLanes(ray), best_t, best_id, accept);
   }
 
   // Calls hit(item, entry_t) for every box the cast box touches (BoxCast's
@@ -411,8 +416,10 @@ class BoxTree {
   // blocks sit on a stack with their entry t, nearest on top; a stack full
   // (a degenerate tree far deeper than SAH builds) walks the child apart.
   static constexpr std::uint32_t kClosestStack = 256;
+  template <class Accept>
   __attribute__((noinline)) void closest_walk(std::uint32_t link, float t, const RaySegment& ray,
-                                              const RayLanes& lanes, float& best_t, std::uint32_t& best_id) const {
+                                              const RayLanes& lanes, float& best_t, std::uint32_t& best_id,
+                                              const Accept& accept) const {
     struct Pending {
       std::uint32_t link;
       float t;
@@ -428,7 +435,7 @@ class BoxTree {
         float entry[kWidth];
         for (std::uint32_t m = leaf_ray_mask(l, ray, lanes, entry); m; m &= m - 1) {
           const std::uint32_t c = lane(m);
-          if (entry[c] < best_t || (entry[c] == best_t && l.id[c] < best_id)) {
+          if ((entry[c] < best_t || (entry[c] == best_t && l.id[c] < best_id)) && accept(l.id[c])) {
             best_t = entry[c];
             best_id = l.id[c];
           }
@@ -450,7 +457,7 @@ class BoxTree {
       }
       for (std::uint32_t i = 0; i < count; ++i) {
         if (top == kClosestStack)
-          closest_walk(kids[i].link, kids[i].t, ray, lanes, best_t, best_id);
+          closest_walk(kids[i].link, kids[i].t, ray, lanes, best_t, best_id, accept);
         else
           stack[top++] = kids[i];
       }

@@ -222,6 +222,14 @@ struct BroadPhase::Impl {
   std::array<std::uint32_t, kLayerCount> collide_mask{};
   PairFilter filter;
 
+  // By slot: each object's Filter and user data (set at add, kept until the
+  // slot is released). filtered_objects counts the live objects whose
+  // filter is not the default (which accepts every default object): while
+  // it is 0 no pair needs the filter test and the unfiltered paths hold.
+  std::vector<Filter> slot_filter;
+  std::vector<std::uint64_t> slot_user_data;
+  std::uint32_t filtered_objects = 0;
+
   // Results.
   BroadPhaseUpdate result;
   BroadPhaseUpdateStats stats;
@@ -339,6 +347,16 @@ struct BroadPhase::Impl {
       if (s >= slot_box.size()) slot_box.resize(s + 1);
       slot_box[s] = boxes[i];
       handles[i] = table.handle_of(s);
+      if (s >= slot_filter.size()) {
+        slot_filter.resize(s + 1);
+        slot_user_data.resize(s + 1);
+      }
+      slot_filter[s] = o.filter;
+      slot_user_data[s] = o.user_data;
+    }
+    if (!is_default(o.filter)) {
+      filtered_objects += static_cast<std::uint32_t>(boxes.size());
+      static_pairs_valid = false;
     }
     size_change_marks();
     for (const Handle h : handles) changed_serial[HandleTable::slot_of(h)] = frame_serial;  // a slot reused this frame counts again
@@ -481,6 +499,7 @@ struct BroadPhase::Impl {
       } else {
         ++moving;
       }
+      filtered_objects -= !is_default(slot_filter[s]);
       table.release(s);
     }
     if (statics) statics_changed(statics_first);
@@ -495,6 +514,34 @@ struct BroadPhase::Impl {
     check_handles("set_layer", handles);
     for (const Handle h : handles) table.set_layer(HandleTable::slot_of(h), layer);
     static_pairs_valid = false;
+  }
+
+  void set_filter(std::span<const Handle> handles, const Filter& f) {
+    check_handles("set_filter", handles);
+    for (const Handle h : handles) {
+      const std::uint32_t s = HandleTable::slot_of(h);
+      filtered_objects += static_cast<std::uint32_t>(!is_default(f)) - !is_default(slot_filter[s]);
+      slot_filter[s] = f;
+    }
+    static_pairs_valid = false;
+  }
+
+  void set_user_data(std::span<const Handle> handles, std::span<const std::uint64_t> values) {
+    if (handles.size() != values.size())
+      throw InvalidInput("BroadPhase::set_user_data: " + std::to_string(handles.size()) + " handles but " +
+                         std::to_string(values.size()) + " values");
+    check_handles("set_user_data", handles);
+    for (std::size_t i = 0; i < handles.size(); ++i) slot_user_data[HandleTable::slot_of(handles[i])] = values[i];
+  }
+
+  // User data of a handle from a result list: 0 when it is no longer live
+  // (a removed pair's object removed since).
+  std::uint64_t user_data_or_zero(Handle h) const { return table.live(h) ? slot_user_data[HandleTable::slot_of(h)] : 0; }
+
+  // Whether the object of handle h passes the query filter.
+  bool passes(const QueryFilter& q, Handle h) const {
+    const std::uint32_t s = HandleTable::slot_of(h);
+    return ((q.layers_mask >> table.layer(s)) & 1u) && (slot_filter[s].category & q.category_mask) != 0;
   }
 
   // With no objects left, nothing the next frames need is kept (the slot
@@ -611,6 +658,20 @@ struct BroadPhase::Impl {
     return true;
   }
 
+  // No layer table, object filter or pair filter in force: every
+  // overlapping pair is reported, and the frame takes its unfiltered paths
+  // (the all-moving frame, the incremental moving/static pairs).
+  bool unfiltered() const { return filtered_objects == 0 && !filter && all_layers_collide(); }
+
+  // The layer table, then the objects' filters (b2Filter rule), then the
+  // pair filter: a pair is stored only when all accept it.
+  bool accepts(const Pair& p) const {
+    const std::uint32_t sa = HandleTable::slot_of(p.a), sb = HandleTable::slot_of(p.b);
+    if (!((collide_mask[table.layer(sa)] >> table.layer(sb)) & 1u)) return false;
+    if (filtered_objects != 0 && !should_collide(slot_filter[sa], slot_filter[sb])) return false;
+    return !filter || filter(p.a, p.b);
+  }
+
   void find_moving_pairs() {
     moving_pairs.clear();
     if (moving_handle.size() < 2) return;
@@ -618,7 +679,7 @@ struct BroadPhase::Impl {
                                        ? fat_moving_pairs
                                        : hybrid.update(moving_boxes.view());
     const Handle* h = moving_handle.data();
-    if (all_layers_collide() && !filter) {
+    if (unfiltered()) {
       moving_pairs.resize(raw.size());
       tbb::parallel_for(tbb::blocked_range<std::size_t>(0, raw.size(), kChunk), [&](const auto& r) {
         for (std::size_t i = r.begin(); i != r.end(); ++i) moving_pairs[i] = Pair{h[raw[i].a], h[raw[i].b]};
@@ -628,7 +689,7 @@ struct BroadPhase::Impl {
     parallel_collect(raw.size(), moving_pairs, [&](std::size_t begin, std::size_t end, std::vector<Pair>& out) {
       for (std::size_t i = begin; i < end; ++i) {
         const Pair p{h[raw[i].a], h[raw[i].b]};
-        if (layers_collide(p.a, p.b) && (!filter || filter(p.a, p.b))) out.push_back(p);
+        if (accepts(p)) out.push_back(p);
       }
     });
   }
@@ -750,9 +811,9 @@ struct BroadPhase::Impl {
       static_pairs.clear();
       return;
     }
-    const bool all = all_layers_collide();
+    const bool all = unfiltered();
     const std::uint32_t epoch = static_epoch;
-    if (incremental && valid_before && all && !filter) {
+    if (incremental && valid_before && all) {
       parallel_collect(moving_handle.size(), flips, [&](std::size_t begin, std::size_t end, std::vector<Pair>& out) {
         // Pass 1 keeps the objects whose box left its quiet box (a few in
         // ten); pass 2 re-tests their lists, prefetched a few objects ahead
@@ -830,7 +891,7 @@ struct BroadPhase::Impl {
                          const ListEntry& e = cache.entry[d];
                          if (e.epoch != epoch || !inside(box, e.fat)) requery(d, box, epoch);
                          std::vector<Candidate>& list = cache.entry[d].list;
-                         if (all && !filter) {
+                         if (all) {
                            // Branch-free: about half the candidates overlap.
                            std::size_t size = out.size();
                            out.resize(size + list.size());
@@ -845,15 +906,13 @@ struct BroadPhase::Impl {
                          for (const Candidate& k : list) {
                            if (!overlaps(box, k.box)) continue;
                            const Pair p = make_pair(hm, k.handle);
-                           if (!all && !layers_collide(p.a, p.b)) continue;
-                           if (filter && !filter(p.a, p.b)) continue;
-                           out.push_back(p);
+                           if (accepts(p)) out.push_back(p);
                          }
                        }
                      });
     parallel_sort_pairs(static_pairs, sort_scratch, arena);  // the whole moving/static list
     retained::trim(sort_scratch);
-    static_pairs_valid = all && !filter;
+    static_pairs_valid = all;
   }
 
   // No static objects, no filtering: the frame's pairs are the hybrid
@@ -891,7 +950,7 @@ struct BroadPhase::Impl {
       const bool incremental = !structure_changed;
       sync_statics();
       sync_moving();
-      if (static_handle.empty() && all_layers_collide() && !filter) {
+      if (static_handle.empty() && unfiltered()) {
         all_moving_frame();
         return;
       }
@@ -934,11 +993,13 @@ struct BroadPhase::Impl {
 
   // Box hits are written straight into `out` (cleared first): a caller that
   // keeps its vector pays no allocation once it is large enough.
-  void query_box(const Aabb& q, std::vector<Handle>& out) {
+  void query_box(const Aabb& q, std::vector<Handle>& out, const QueryFilter* qf = nullptr) {
     if (const char* d = box_defect(q)) throw InvalidInput(std::string("BroadPhase::query_box: ") + d);
     sync_queries();
     out.clear();
-    const auto collect = [&](std::uint32_t, const BoxTree::Item& it) { out.push_back(it.id); };
+    const auto collect = [&](std::uint32_t, const BoxTree::Item& it) {
+      if (!qf || passes(*qf, it.id)) out.push_back(it.id);
+    };
     static_tree.for_each_overlap(q, collect);
     moving_tree.for_each_overlap(q, collect);
     std::sort(out.begin(), out.end());
@@ -962,50 +1023,61 @@ struct BroadPhase::Impl {
   // (no growth reallocations per query), then their handles written into
   // `out`. walk(collect) runs the trees.
   template <class Walk>
-  static void sorted_by_entry(std::vector<Handle>& out, Walk&& walk) {
+  void sorted_by_entry(std::vector<Handle>& out, const QueryFilter* qf, Walk&& walk) const {
     struct Hit {
       float t;
       Handle h;
     };
     thread_local std::vector<Hit> hits;
     hits.clear();
-    walk([&](const BoxTree::Item& it, float t) { hits.push_back({t, it.id}); });
+    walk([&](const BoxTree::Item& it, float t) {
+      if (!qf || passes(*qf, it.id)) hits.push_back({t, it.id});
+    });
     std::sort(hits.begin(), hits.end(), [](const Hit& a, const Hit& b) { return a.t < b.t || (a.t == b.t && a.h < b.h); });
     out.resize(hits.size());
     for (std::size_t i = 0; i < hits.size(); ++i) out[i] = hits[i].h;
     retained::trim(hits);
   }
 
-  void query_ray(const float origin[3], const float direction[3], float max_t, std::vector<Handle>& out) {
+  void query_ray(const float origin[3], const float direction[3], float max_t, std::vector<Handle>& out,
+                 const QueryFilter* qf = nullptr) {
     check_ray("query_ray", origin, direction, max_t);
     sync_queries();
     const detail::RaySegment ray(origin, direction, max_t);
-    sorted_by_entry(out, [&](const auto& collect) {
+    sorted_by_entry(out, qf, [&](const auto& collect) {
       static_tree.for_each_ray_hit(ray, collect);
       moving_tree.for_each_ray_hit(ray, collect);
     });
   }
 
-  std::optional<RayHit> raycast_closest(const float origin[3], const float direction[3], float max_t) {
+  std::optional<RayHit> raycast_closest(const float origin[3], const float direction[3], float max_t,
+                                        const QueryFilter* qf = nullptr) {
     check_ray("raycast_closest", origin, direction, max_t);
     sync_queries();
     const detail::RaySegment ray(origin, direction, max_t);
     float best_t = std::numeric_limits<float>::infinity();
     std::uint32_t best = BoxTree::kNone;  // never a handle (kInvalidHandle)
-    static_tree.closest_ray_hit(ray, best_t, best);
-    moving_tree.closest_ray_hit(ray, best_t, best);
+    if (qf) {
+      const auto accept = [&](std::uint32_t h) { return passes(*qf, h); };
+      static_tree.closest_ray_hit(ray, best_t, best, accept);
+      moving_tree.closest_ray_hit(ray, best_t, best, accept);
+    } else {
+      static_tree.closest_ray_hit(ray, best_t, best);
+      moving_tree.closest_ray_hit(ray, best_t, best);
+    }
     if (best == BoxTree::kNone) return std::nullopt;
     return RayHit{best, best_t};
   }
 
-  void query_box_cast(const Aabb& box, const float displacement[3], std::vector<Handle>& out) {
+  void query_box_cast(const Aabb& box, const float displacement[3], std::vector<Handle>& out,
+                      const QueryFilter* qf = nullptr) {
     if (const char* d = box_defect(box)) throw InvalidInput(std::string("BroadPhase::query_box_cast: box: ") + d);
     for (int k = 0; k < 3; ++k)
       if (!std::isfinite(displacement[k]))
         throw InvalidInput("BroadPhase::query_box_cast: displacement[" + std::to_string(k) + "] is not finite");
     sync_queries();
     const detail::BoxCast cast(box, displacement);
-    sorted_by_entry(out, [&](const auto& collect) {
+    sorted_by_entry(out, qf, [&](const auto& collect) {
       static_tree.for_each_cast_hit(cast, collect);
       moving_tree.for_each_cast_hit(cast, collect);
     });
@@ -1155,6 +1227,78 @@ std::size_t BroadPhase::query_box_cast(const Aabb& box, const Vec3f& displacemen
 }
 std::size_t BroadPhase::query_box_cast(const Aabb& box, const Vec3f& displacement, const HitVisitor& visit) const {
   return visit_hits(visit, [&](std::vector<Handle>& hits) { impl_->query_box_cast(box, displacement.data(), hits); });
+}
+
+void BroadPhase::set_filter(std::span<const Handle> handles, const Filter& filter) { impl_->set_filter(handles, filter); }
+Filter BroadPhase::filter(Handle h) const {
+  return impl_->slot_filter[HandleTable::slot_of(impl_->checked("filter", h))];
+}
+void BroadPhase::set_user_data(std::span<const Handle> handles, std::span<const std::uint64_t> values) {
+  impl_->set_user_data(handles, values);
+}
+std::uint64_t BroadPhase::user_data(Handle h) const {
+  return impl_->slot_user_data[HandleTable::slot_of(impl_->checked("user_data", h))];
+}
+void BroadPhase::pair_user_data(std::span<const Pair> pairs, std::span<std::array<std::uint64_t, 2>> out) const {
+  if (pairs.size() != out.size())
+    throw InvalidInput("BroadPhase::pair_user_data: " + std::to_string(pairs.size()) + " pairs but room for " +
+                       std::to_string(out.size()));
+  for (std::size_t i = 0; i < pairs.size(); ++i)
+    out[i] = {impl_->user_data_or_zero(pairs[i].a), impl_->user_data_or_zero(pairs[i].b)};
+}
+void BroadPhase::user_data(std::span<const Handle> handles, std::span<std::uint64_t> out) const {
+  if (handles.size() != out.size())
+    throw InvalidInput("BroadPhase::user_data: " + std::to_string(handles.size()) + " handles but room for " +
+                       std::to_string(out.size()));
+  for (std::size_t i = 0; i < handles.size(); ++i) out[i] = impl_->user_data_or_zero(handles[i]);
+}
+
+std::vector<Handle> BroadPhase::query_box(const Aabb& box, const QueryFilter& filter) const {
+  std::vector<Handle> out;
+  impl_->query_box(box, out, &filter);
+  return out;
+}
+std::size_t BroadPhase::query_box(const Aabb& box, std::vector<Handle>& out, const QueryFilter& filter) const {
+  impl_->query_box(box, out, &filter);
+  return out.size();
+}
+std::size_t BroadPhase::query_box(const Aabb& box, const HitVisitor& visit, const QueryFilter& filter) const {
+  return visit_hits(visit, [&](std::vector<Handle>& hits) { impl_->query_box(box, hits, &filter); });
+}
+std::vector<Handle> BroadPhase::query_ray(const Vec3f& origin, const Vec3f& direction, float max_t,
+                                          const QueryFilter& filter) const {
+  std::vector<Handle> out;
+  impl_->query_ray(origin.data(), direction.data(), max_t, out, &filter);
+  return out;
+}
+std::size_t BroadPhase::query_ray(const Vec3f& origin, const Vec3f& direction, float max_t, std::vector<Handle>& out,
+                                  const QueryFilter& filter) const {
+  impl_->query_ray(origin.data(), direction.data(), max_t, out, &filter);
+  return out.size();
+}
+std::size_t BroadPhase::query_ray(const Vec3f& origin, const Vec3f& direction, float max_t, const HitVisitor& visit,
+                                  const QueryFilter& filter) const {
+  return visit_hits(visit,
+                    [&](std::vector<Handle>& hits) { impl_->query_ray(origin.data(), direction.data(), max_t, hits, &filter); });
+}
+std::optional<RayHit> BroadPhase::raycast_closest(const Vec3f& origin, const Vec3f& direction, float max_t,
+                                                  const QueryFilter& filter) const {
+  return impl_->raycast_closest(origin.data(), direction.data(), max_t, &filter);
+}
+std::vector<Handle> BroadPhase::query_box_cast(const Aabb& box, const Vec3f& displacement,
+                                               const QueryFilter& filter) const {
+  std::vector<Handle> out;
+  impl_->query_box_cast(box, displacement.data(), out, &filter);
+  return out;
+}
+std::size_t BroadPhase::query_box_cast(const Aabb& box, const Vec3f& displacement, std::vector<Handle>& out,
+                                       const QueryFilter& filter) const {
+  impl_->query_box_cast(box, displacement.data(), out, &filter);
+  return out.size();
+}
+std::size_t BroadPhase::query_box_cast(const Aabb& box, const Vec3f& displacement, const HitVisitor& visit,
+                                       const QueryFilter& filter) const {
+  return visit_hits(visit, [&](std::vector<Handle>& hits) { impl_->query_box_cast(box, displacement.data(), hits, &filter); });
 }
 
 std::size_t BroadPhase::size() const { return impl_->table.live(); }
