@@ -499,11 +499,29 @@ struct BulletQueryWorld {
   }
 };
 
-BulletQueryWorld& bullet_query_world(const QueryWorld& w) {
-  static BulletQueryWorld* world = nullptr;
-  if (!world || world->objects.size() != w.boxes.size()) {
+// The paper frame as static objects of a BroadPhase and of a
+// btCollisionWorld, built once and kept between runs.
+struct CastWorld {
+  BoxArray boxes;
+  hbp::BroadPhase bp{{.threads = 1}};
+  BulletQueryWorld bullet;
+  float side = 0;
+
+  explicit CastWorld(std::uint32_t n) : boxes(paper_frame(n, 0)), bullet(boxes) {
+    hbp::ScenarioParams p;
+    p.n = n;
+    side = static_cast<float>(p.world_side());
+    std::vector<Aabb> aabbs;
+    to_aabbs(boxes, aabbs);
+    bp.add(aabbs, {.is_static = true});
+  }
+};
+
+CastWorld& cast_world(std::uint32_t n) {
+  static CastWorld* world = nullptr;
+  if (!world || world->boxes.size() != n) {
     delete world;
-    world = new BulletQueryWorld(w.boxes);
+    world = new CastWorld(n);
   }
   return *world;
 }
@@ -540,8 +558,8 @@ void bullet_rate_counters(benchmark::State& state, const std::string& what, Seco
 
 void ClosestRays(benchmark::State& state) {
   const auto n = static_cast<std::uint32_t>(state.range(0));
-  QueryWorld& w = query_world(n);
-  BulletQueryWorld& bw = bullet_query_world(w);
+  CastWorld& w = cast_world(n);
+  BulletQueryWorld& bw = w.bullet;
   const std::vector<Ray> rays = random_rays(w.side, 4);
   constexpr float kLength = 500;
   std::uint64_t found = 0, bullet_found = 0;
@@ -568,7 +586,7 @@ void ClosestRays(benchmark::State& state) {
     state.SetIterationTime(ours.wall);
   }
   // Checked against a scan (same slab test); Bullet's object compared.
-  std::uint64_t same_as_bullet = 0;
+  std::uint64_t same_as_bullet = 0, starts_inside = 0;
   for (int i = 0; i < kChecked; ++i) {
     const Ray& r = rays[static_cast<std::size_t>(i)];
     const hbp::detail::RaySegment seg(r.o, r.d, kLength);
@@ -586,7 +604,9 @@ void ClosestRays(benchmark::State& state) {
     btCollisionWorld::ClosestRayResultCallback c(from, to);
     bw.world.rayTest(from, to, c);
     same_as_bullet += c.hasHit() ? (got && static_cast<Handle>(c.m_collisionObject->getUserIndex()) == got->handle) : !got;
+    starts_inside += got && got->t == 0;
   }
+  state.counters["starts_inside_in_check"] = static_cast<double>(starts_inside) / kChecked;
   bullet_rate_counters(state, "rays", ours, bullet);
   state.counters["ours_all_hits_rays_per_cpu_s"] = kQueries / all_hits.cpu;
   state.counters["rays_with_hit"] = static_cast<double>(found) / kQueries;
@@ -597,8 +617,8 @@ void ClosestRays(benchmark::State& state) {
 
 void BoxCasts(benchmark::State& state) {
   const auto n = static_cast<std::uint32_t>(state.range(0));
-  QueryWorld& w = query_world(n);
-  BulletQueryWorld& bw = bullet_query_world(w);
+  CastWorld& w = cast_world(n);
+  BulletQueryWorld& bw = w.bullet;
   // Boxes of the objects' sizes at random places, cast 20 m along the rays' directions.
   constexpr float kLength = 20;
   const std::vector<Ray> rays = random_rays(w.side, 5);
@@ -644,7 +664,7 @@ void BoxCasts(benchmark::State& state) {
     state.SetIterationTime(ours.wall);
   }
   // Checked against a scan (same rule); Bullet's closest object compared with our first hit.
-  std::uint64_t same_as_bullet = 0;
+  std::uint64_t same_as_bullet = 0, starts_inside = 0;
   for (int i = 0; i < kChecked; ++i) {
     const auto d = displacement(static_cast<std::size_t>(i));
     const hbp::detail::BoxCast cast(boxes[static_cast<std::size_t>(i)], d.data());
@@ -668,7 +688,9 @@ void BoxCasts(benchmark::State& state) {
                              btTransform(btQuaternion::getIdentity(), to), c);
     same_as_bullet += c.hasHit() ? (!want_h.empty() && static_cast<Handle>(c.m_hitCollisionObject->getUserIndex()) == want_h[0])
                                  : want_h.empty();
+    starts_inside += !want.empty() && want[0].first == 0;
   }
+  state.counters["starts_overlapping_in_check"] = static_cast<double>(starts_inside) / kChecked;
   bullet_rate_counters(state, "casts", ours, bullet);
   state.counters["hits_per_cast"] = static_cast<double>(hits) / kQueries;
   state.counters["bullet_casts_with_hit"] = static_cast<double>(bullet_found) / kQueries;

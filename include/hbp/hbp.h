@@ -166,6 +166,49 @@ hbp_status hbp_raycast_closest(const hbp_broad_phase* bp, const float origin[3],
 hbp_status hbp_box_cast(const hbp_broad_phase* bp, const hbp_box* box, const float displacement[3],
                         hbp_hit_callback callback, void* user, size_t* hits_out);
 
+/* An object's filter (Box2D's b2Filter rule): two objects pair when they
+ * share a nonzero group, always if it is positive and never if negative;
+ * otherwise when each one's category has a bit in the other's mask. Applied
+ * with the layer table before a pair is stored. Defaults (hbp_filter_init):
+ * category 1, every mask bit, group 0. */
+typedef struct hbp_filter {
+  uint64_t category;
+  uint64_t mask;
+  int32_t group;
+} hbp_filter;
+void hbp_filter_init(hbp_filter* filter);
+
+/* Gives count objects the filter (taking effect at the next update). */
+hbp_status hbp_set_filter(hbp_broad_phase* bp, const hbp_handle* handles, size_t count, const hbp_filter* filter);
+hbp_status hbp_get_filter(const hbp_broad_phase* bp, hbp_handle handle, hbp_filter* filter_out);
+
+/* A 64-bit value per object, 0 until set. hbp_pair_user_data writes the
+ * values of each pair's a and b to out[2 i], out[2 i + 1] (0 for an object no
+ * longer live: a removed pair's object removed since). */
+hbp_status hbp_set_user_data(hbp_broad_phase* bp, const hbp_handle* handles, const uint64_t* values, size_t count);
+hbp_status hbp_get_user_data(const hbp_broad_phase* bp, hbp_handle handle, uint64_t* value_out);
+hbp_status hbp_pair_user_data(const hbp_broad_phase* bp, const hbp_pair* pairs, size_t count, uint64_t* out);
+
+/* The objects a query reports: layer bit in layers_mask and category
+ * meeting category_mask (hbp_query_filter_init: every layer, every bit). The
+ * *_filtered queries are the queries above with a filter; NULL: none. */
+typedef struct hbp_query_filter {
+  uint32_t layers_mask;
+  uint64_t category_mask;
+} hbp_query_filter;
+void hbp_query_filter_init(hbp_query_filter* filter);
+hbp_status hbp_query_box_filtered(const hbp_broad_phase* bp, const hbp_box* box, const hbp_query_filter* filter,
+                                  hbp_hit_callback callback, void* user, size_t* hits_out);
+hbp_status hbp_query_ray_filtered(const hbp_broad_phase* bp, const float origin[3], const float direction[3],
+                                  float max_t, const hbp_query_filter* filter, hbp_hit_callback callback, void* user,
+                                  size_t* hits_out);
+hbp_status hbp_raycast_closest_filtered(const hbp_broad_phase* bp, const float origin[3], const float direction[3],
+                                        float max_t, const hbp_query_filter* filter, hbp_handle* handle_out,
+                                        float* t_out, int* hit_out);
+hbp_status hbp_box_cast_filtered(const hbp_broad_phase* bp, const hbp_box* box, const float displacement[3],
+                                 const hbp_query_filter* filter, hbp_hit_callback callback, void* user,
+                                 size_t* hits_out);
+
 /* Live objects (writes *count). */
 hbp_status hbp_size(const hbp_broad_phase* bp, size_t* count);
 
