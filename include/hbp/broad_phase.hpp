@@ -69,6 +69,7 @@ struct AddOptions {
   std::uint8_t layer = 0;   // 0 .. kLayerCount - 1
   Filter filter{};          // category / mask / group (hbp/collision_filter.hpp)
   std::uint64_t user_data = 0;  // the caller's value for each object added
+  float margin = 0;             // >= 0, finite: grown onto every box the object is given
 };
 
 struct BroadPhaseUpdate {
@@ -177,6 +178,24 @@ class BroadPhase {
   std::vector<Handle> query_box_cast(const Aabb& box, const Vec3f& displacement) const;
   std::size_t query_box_cast(const Aabb& box, const Vec3f& displacement, std::vector<Handle>& out) const;
   std::size_t query_box_cast(const Aabb& box, const Vec3f& displacement, const HitVisitor& visit) const;
+
+  // ---- Fast movers ----
+  //
+  // An object's margin (AddOptions::margin, set_margin) is grown onto every
+  // box it is given, on every side: the stored box (box(h), pairs, queries)
+  // is the given box grown by the margin, so pairs are reported for the
+  // grown boxes (a speculative contact distance). set_margin applies to the
+  // boxes given from then on (add, move, move_swept), not to the box the
+  // object has now. InvalidInput for a negative or non-finite margin, or a
+  // grown box that is not finite.
+  void set_margin(std::span<const Handle> handles, float margin);
+  float margin(Handle h) const;
+  // Swept boxes: each object's box becomes the union of its previous box and
+  // the new one (both grown by its margin): the candidates a continuous
+  // collision test needs. The previous box is the one given to the object's
+  // last move_swept (so consecutive sweeps do not accumulate), or its box
+  // when the last move was a plain one. Same validation as move().
+  void move_swept(std::span<const Handle> handles, std::span<const Aabb> boxes);
 
   // ---- Object filters, user data, filtered queries ----
   //

@@ -230,6 +230,17 @@ struct BroadPhase::Impl {
   std::vector<std::uint64_t> slot_user_data;
   std::uint32_t filtered_objects = 0;
 
+  // Fast movers, by slot. slot_margin: grown onto every box the object is
+  // given. A swept object (slot_swept) keeps in slot_end the box of its last
+  // move_swept (grown), the "previous box" its next move_swept unions with,
+  // so sweeps do not accumulate frame after frame; a plain move ends it.
+  // While no object has a margin or is swept, move() keeps its whole-batch
+  // path (margined_objects, swept_objects count the live ones).
+  std::vector<float> slot_margin;
+  std::vector<Aabb> slot_end;
+  std::vector<std::uint8_t> slot_swept;
+  std::uint32_t margined_objects = 0, swept_objects = 0;
+
   // Results.
   BroadPhaseUpdate result;
   BroadPhaseUpdateStats stats;
@@ -339,21 +350,30 @@ struct BroadPhase::Impl {
                          std::to_string(table.live()) + " would pass the limit of " + std::to_string(kMaxObjects) +
                          " objects");
     check_boxes("add", boxes);
+    check_margin("add", o.margin);
+    if (o.margin > 0)
+      for (std::size_t i = 0; i < boxes.size(); ++i) check_grown("add", i, boxes[i], o.margin);
     if (!o.is_static && !boxes.empty()) mark_whole_frame_moves();
     std::vector<Handle> handles(boxes.size());
     const auto kind = o.is_static ? HandleTable::kStatic : HandleTable::kMoving;
     for (std::size_t i = 0; i < boxes.size(); ++i) {
       const std::uint32_t s = table.allocate(kind, o.layer);
       if (s >= slot_box.size()) slot_box.resize(s + 1);
-      slot_box[s] = boxes[i];
+      slot_box[s] = grown(boxes[i], o.margin);
       handles[i] = table.handle_of(s);
       if (s >= slot_filter.size()) {
         slot_filter.resize(s + 1);
         slot_user_data.resize(s + 1);
+        slot_margin.resize(s + 1);
+        slot_end.resize(s + 1);
+        slot_swept.resize(s + 1);
       }
+      slot_margin[s] = o.margin;
+      slot_swept[s] = 0;
       slot_filter[s] = o.filter;
       slot_user_data[s] = o.user_data;
     }
+    if (o.margin > 0) margined_objects += static_cast<std::uint32_t>(boxes.size());
     if (!is_default(o.filter)) {
       filtered_objects += static_cast<std::uint32_t>(boxes.size());
       static_pairs_valid = false;
@@ -405,9 +425,10 @@ struct BroadPhase::Impl {
   // (first change this frame) and rows that changed a box at all.
   struct MoveCounts {
     std::uint32_t moving_first = 0, moving_changed = 0, static_first = 0, static_changed = 0;
+    std::uint32_t swept_started = 0, swept_ended = 0;
     MoveCounts operator+(const MoveCounts& o) const {
-      return {moving_first + o.moving_first, moving_changed + o.moving_changed, static_first + o.static_first,
-              static_changed + o.static_changed};
+      return {moving_first + o.moving_first,   moving_changed + o.moving_changed, static_first + o.static_first,
+              static_changed + o.static_changed, swept_started + o.swept_started,   swept_ended + o.swept_ended};
     }
   };
 
@@ -419,7 +440,8 @@ struct BroadPhase::Impl {
   // once and nothing is written in place, so a failed row (false: the
   // general path below then names it) leaves everything as it was.
   bool move_every_moving(const Handle* h, const Aabb* b, std::size_t n) {
-    if (moving_membership_dirty || n == 0 || n != moving_handle.size() || moved != 0 || whole_frame_moved)
+    if (moving_membership_dirty || n == 0 || n != moving_handle.size() || moved != 0 || whole_frame_moved ||
+        margined_objects != 0 || swept_objects != 0)
       return false;
     // With handles equal to dense indices the expected handle is i itself
     // (no second handle array to read).
@@ -439,22 +461,27 @@ struct BroadPhase::Impl {
     return true;
   }
 
-  void move(std::span<const Handle> handles, std::span<const Aabb> boxes) {
+  // move() and move_swept(): `swept` sets each box to the union of the
+  // object's previous box and the new one (both grown by its margin).
+  void move(std::span<const Handle> handles, std::span<const Aabb> boxes, bool swept = false) {
+    const char* call = swept ? "move_swept" : "move";
     if (handles.size() != boxes.size())
-      throw InvalidInput("BroadPhase::move: " + std::to_string(handles.size()) + " handles but " +
-                         std::to_string(boxes.size()) + " boxes");
+      throw InvalidInput(std::string("BroadPhase::") + call + ": " + std::to_string(handles.size()) +
+                         " handles but " + std::to_string(boxes.size()) + " boxes");
     const std::size_t n = handles.size();
     const Handle* h = handles.data();
     const Aabb* b = boxes.data();
-    if (move_every_moving(h, b, n)) return;
+    if (!swept && move_every_moving(h, b, n)) return;
     // Ranges whose handles failed the screen in the low 32 bits, whose
     // boxes did in the high 32.
     const std::uint64_t failed = for_batch<std::uint64_t>(n, [&](std::size_t begin, std::size_t end) {
       return std::uint64_t(!handles_increasing_and_live(h, begin, end)) |
              std::uint64_t(geometry::screen_fails(b, begin, end)) << 32;
     });
-    if (failed & 0xFFFFFFFFu) check_handles("move", handles);
-    if (failed >> 32) check_boxes("move", boxes);
+    if (failed & 0xFFFFFFFFu) check_handles(call, handles);
+    if (failed >> 32) check_boxes(call, boxes);
+    if (margined_objects != 0)
+      for (std::size_t i = 0; i < n; ++i) check_grown(call, i, b[i], slot_margin[HandleTable::slot_of(h[i])]);
     size_change_marks();
     // Distinct handles: the ranges write distinct slots and dense indices.
     // A box moved to its own value changes nothing.
@@ -464,17 +491,29 @@ struct BroadPhase::Impl {
         const std::uint32_t s = HandleTable::slot_of(h[i]);
         const bool is_static = table.kind(s) == HandleTable::kStatic;
         const std::uint32_t d = is_static ? kNoIndex : table.index(s);
-        if (same_box(d != kNoIndex ? moving_boxes.get(d) : slot_box[s], b[i])) continue;
+        const Aabb current = d != kNoIndex ? moving_boxes.get(d) : slot_box[s];
+        Aabb nb = grown(b[i], slot_margin[s]);
+        if (swept) {
+          const Aabb previous = slot_swept[s] ? slot_end[s] : current;
+          slot_end[s] = nb;
+          part.swept_started += !slot_swept[s];
+          slot_swept[s] = 1;
+          nb = united(previous, nb);
+        } else if (slot_swept[s]) {
+          slot_swept[s] = 0;
+          ++part.swept_ended;
+        }
+        if (same_box(current, nb)) continue;
         const bool first = first_change(s, d);
         if (is_static) {
-          slot_box[s] = b[i];
+          slot_box[s] = nb;
           part.static_first += first;
           ++part.static_changed;
         } else {
           if (d != kNoIndex)
-            moving_boxes.set(d, b[i]);
+            moving_boxes.set(d, nb);
           else
-            slot_box[s] = b[i];
+            slot_box[s] = nb;
           part.moving_first += first;
           ++part.moving_changed;
         }
@@ -484,6 +523,46 @@ struct BroadPhase::Impl {
     if (c.static_changed) statics_changed(c.static_first);
     if (c.moving_changed) touched_moving();
     moved += c.moving_first;
+    swept_objects += c.swept_started - c.swept_ended;
+  }
+
+  static void check_margin(const char* call, float margin) {
+    if (!(margin >= 0) || !std::isfinite(margin))
+      throw InvalidInput(std::string("BroadPhase::") + call + ": margin " + std::to_string(margin) +
+                         " must be finite and >= 0");
+  }
+  // The box grown by the margin on every side must stay finite.
+  static void check_grown(const char* call, std::size_t row, const Aabb& b, float margin) {
+    if (margin > 0 && box_defect(grown(b, margin)))
+      throw InvalidInput(row_text(call, row) + "box grown by the margin " + std::to_string(margin) +
+                         " is not finite");
+  }
+  static Aabb grown(const Aabb& b, float margin) {
+    if (margin == 0) return b;
+    Aabb g;
+    for (int k = 0; k < 3; ++k) {
+      g.min[k] = b.min[k] - margin;
+      g.max[k] = b.max[k] + margin;
+    }
+    return g;
+  }
+  static Aabb united(const Aabb& a, const Aabb& b) {
+    Aabb u;
+    for (int k = 0; k < 3; ++k) {
+      u.min[k] = std::min(a.min[k], b.min[k]);
+      u.max[k] = std::max(a.max[k], b.max[k]);
+    }
+    return u;
+  }
+
+  void set_margin(std::span<const Handle> handles, float margin) {
+    check_margin("set_margin", margin);
+    check_handles("set_margin", handles);
+    for (const Handle h : handles) {
+      const std::uint32_t s = HandleTable::slot_of(h);
+      margined_objects += static_cast<std::uint32_t>(margin > 0) - (slot_margin[s] > 0);
+      slot_margin[s] = margin;
+    }
   }
 
   void remove(std::span<const Handle> handles) {
@@ -500,6 +579,9 @@ struct BroadPhase::Impl {
         ++moving;
       }
       filtered_objects -= !is_default(slot_filter[s]);
+      margined_objects -= slot_margin[s] > 0;
+      swept_objects -= slot_swept[s];
+      slot_swept[s] = 0;
       table.release(s);
     }
     if (statics) statics_changed(statics_first);
@@ -1227,6 +1309,12 @@ std::size_t BroadPhase::query_box_cast(const Aabb& box, const Vec3f& displacemen
 }
 std::size_t BroadPhase::query_box_cast(const Aabb& box, const Vec3f& displacement, const HitVisitor& visit) const {
   return visit_hits(visit, [&](std::vector<Handle>& hits) { impl_->query_box_cast(box, displacement.data(), hits); });
+}
+
+void BroadPhase::set_margin(std::span<const Handle> handles, float margin) { impl_->set_margin(handles, margin); }
+float BroadPhase::margin(Handle h) const { return impl_->slot_margin[HandleTable::slot_of(impl_->checked("margin", h))]; }
+void BroadPhase::move_swept(std::span<const Handle> handles, std::span<const Aabb> boxes) {
+  impl_->move(handles, boxes, /*swept=*/true);
 }
 
 void BroadPhase::set_filter(std::span<const Handle> handles, const Filter& filter) { impl_->set_filter(handles, filter); }
