@@ -166,6 +166,17 @@ hbp_status hbp_raycast_closest(const hbp_broad_phase* bp, const float origin[3],
 hbp_status hbp_box_cast(const hbp_broad_phase* bp, const hbp_box* box, const float displacement[3],
                         hbp_hit_callback callback, void* user, size_t* hits_out);
 
+/* Fast movers. An object's margin (>= 0, finite; 0 at first) is grown onto
+ * every box it is given from then on (hbp_add, hbp_move, hbp_move_swept):
+ * its stored box, and so its pairs and query hits, are the given box grown
+ * by the margin on every side (a speculative contact distance).
+ * hbp_move_swept sets each object's box to the union of its previous box
+ * and the new one (the candidates of a continuous collision test); the
+ * previous box is the one given to its last hbp_move_swept, or its box
+ * after a plain move. */
+hbp_status hbp_set_margin(hbp_broad_phase* bp, const hbp_handle* handles, size_t count, float margin);
+hbp_status hbp_move_swept(hbp_broad_phase* bp, const hbp_handle* handles, const hbp_box* boxes, size_t count);
+
 /* An object's filter (Box2D's b2Filter rule): two objects pair when they
  * share a nonzero group, always if it is positive and never if negative;
  * otherwise when each one's category has a bit in the other's mask. Applied

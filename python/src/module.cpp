@@ -181,12 +181,13 @@ class PyBroadPhase {
 
   py::array_t<std::uint32_t> add(py::handle boxes_obj, bool is_static, const py::object& layer,
                                  const py::object& category, const py::object& mask, const py::object& group,
-                                 const py::object& user_data) {
+                                 const py::object& user_data, double margin) {
     const BoxesView view = boxes_view(boxes_obj, "boxes");
     const AddOptions options{.is_static = is_static,
                              .layer = layer_arg(layer),
                              .filter = filter_args(category, mask, group),
-                             .user_data = u64_arg(user_data, "user_data")};
+                             .user_data = u64_arg(user_data, "user_data"),
+                             .margin = margin_arg(margin)};
     std::vector<Handle> handles;
     {
       Exclusive lock(mutex_);
@@ -371,6 +372,35 @@ class PyBroadPhase {
       hits = bp_.query_box_cast(view.boxes[0], {d[0], d[1], d[2]}, qf);
     }
     return handles_array(std::move(hits));
+  }
+
+  static float margin_arg(double margin) {
+    if (!(margin >= 0) || !(margin <= std::numeric_limits<float>::max()))
+      throw ArgumentError("margin: must be finite and >= 0, got " + py::repr(py::float_(margin)).cast<std::string>());
+    return static_cast<float>(margin);
+  }
+  void set_margin(py::handle handles_obj, double margin) {
+    const HandlesView h = handles_view(handles_obj);
+    const float m = margin_arg(margin);
+    Exclusive lock(mutex_);
+    check_live(h.handles);
+    bp_.set_margin(h.handles, m);
+  }
+  double margin(const py::object& h) {
+    const Handle handle = handle_arg(h);
+    Exclusive lock(mutex_);
+    return bp_.margin(handle);
+  }
+  void move_swept(py::handle handles_obj, py::handle boxes_obj) {
+    const HandlesView h = handles_view(handles_obj);
+    const BoxesView b = boxes_view(boxes_obj, "boxes");
+    if (h.handles.size() != b.boxes.size()) {
+      throw ArgumentError("move_swept: " + std::to_string(h.handles.size()) + " handles but " +
+                          std::to_string(b.boxes.size()) + " boxes (must be equal)");
+    }
+    Exclusive lock(mutex_);
+    check_live(h.handles);
+    bp_.move_swept(h.handles, b.boxes);
   }
 
   void set_filter(py::handle handles_obj, const py::object& category, const py::object& mask,
@@ -579,10 +609,19 @@ PYBIND11_MODULE(hybrid_broadphase, m) {
            "CapacityExceeded beyond it. ValueError for an unknown engine or a bad option.")
       .def("add", &PyBroadPhase::add, py::arg("boxes"), py::kw_only(), py::arg("static") = false,
            py::arg("layer") = 0, py::arg("category") = 1, py::arg("mask") = py::int_(~std::uint64_t{0}),
-           py::arg("group") = 0, py::arg("user_data") = 0,
+           py::arg("group") = 0, py::arg("user_data") = 0, py::arg("margin") = 0.0,
            "Adds (n, 6) float32 boxes, moving or static (static objects are never paired with each other), on "
            "layer, with the filter (category, mask, group: Box2D's b2Filter rule, see set_filter) and user_data "
-           "(a 64-bit int each); returns their (n,) uint32 handles in order. ValueError naming the first bad row.")
+           "(a 64-bit int each) and margin (>= 0: grown onto every box given, see set_margin); returns their "
+           "(n,) uint32 handles in order. ValueError naming the first bad row.")
+      .def("set_margin", &PyBroadPhase::set_margin, py::arg("handles"), py::arg("margin"),
+           "Grows every box given to these objects from now on (add, move, move_swept) by margin on every "
+           "side: pairs and queries see the grown boxes (a speculative contact distance). margin >= 0, finite.")
+      .def("margin", &PyBroadPhase::margin, py::arg("handle"), "The object's margin.")
+      .def("move_swept", &PyBroadPhase::move_swept, py::arg("handles"), py::arg("boxes"),
+           "Like move, but each object's box becomes the union of its previous box and the new one (both grown "
+           "by its margin): the candidates of a continuous collision test. The previous box is the one given "
+           "to its last move_swept (sweeps do not accumulate), or its box after a plain move.")
       .def("reserve", &PyBroadPhase::reserve, py::arg("objects"),
            "Provisions memory for up to `objects` moving objects before they are added, so the first update() "
            "does not pay for fresh memory (optional; results are the same).")

@@ -304,6 +304,27 @@ hbp_status hbp_query_ray_filtered(const hbp_broad_phase* bp, const float origin[
   });
 }
 
+hbp_status hbp_set_margin(hbp_broad_phase* bp, const hbp_handle* handles, size_t count, float margin) {
+  if (bp == nullptr || (count > 0 && handles == nullptr)) {
+    return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_set_margin: bp must not be NULL, nor handles when count > 0");
+  }
+  return guarded([&] {
+    bp->bp.set_margin(std::span<const hbp::Handle>(handles, count), margin);
+    return ok();
+  });
+}
+
+hbp_status hbp_move_swept(hbp_broad_phase* bp, const hbp_handle* handles, const hbp_box* boxes, size_t count) {
+  if (bp == nullptr) return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_move_swept: bp must not be NULL");
+  if (count > 0 && (boxes == nullptr || handles == nullptr)) {
+    return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_move_swept: handles and boxes must not be NULL when count > 0");
+  }
+  return guarded([&] {
+    bp->bp.move_swept(std::span<const hbp::Handle>(handles, count), std::span<const hbp::Aabb>(as_aabbs(boxes), count));
+    return ok();
+  });
+}
+
 void hbp_filter_init(hbp_filter* filter) {
   if (filter == nullptr) return;
   const hbp::Filter d;
