@@ -17,10 +17,12 @@
 //   HybridBroadPhase and the oracle.
 // - A pair (a, b) is reported when the boxes overlap, at least one of the two
 //   is moving (static-static pairs are never reported), the layers collide
-//   (set_collides) and the pair filter, when set, accepts it. Filtering
-//   happens before a pair is stored.
-// - Edits (add, move, remove, set_collides, set_pair_filter) take effect at the
-//   next update(). Each edit call validates its whole batch first and throws
+//   (set_collides), the objects' filters accept each other (set_filter,
+//   Box2D's rule) and the pair filter, when set, accepts it. Filtering
+//   happens before a pair is stored. An object's box is the box it was
+//   given grown by its margin (set_margin), or a swept union (move_swept).
+// - Edits (add, move, move_swept, remove, set_layer, set_filter, set_margin,
+//   set_collides, set_pair_filter) take effect at the next update(). Each edit call validates its whole batch first and throws
 //   InvalidInput naming the offending row or handle; a call that throws
 //   changes nothing.
 // - update() returns the frame's pairs and the pairs created and removed since
@@ -96,9 +98,10 @@ struct RayHit {
 
 class BroadPhase {
  public:
-  // Pair predicate, called for pairs that pass the box and layer tests, from
-  // any worker thread (must be thread-safe); true keeps the pair. An
-  // exception it throws leaves update() unapplied and propagates.
+  // Pair predicate, called for pairs that pass the box, layer and object
+  // filter tests, from any worker thread (must be thread-safe); true keeps
+  // the pair. An exception it throws leaves update() unapplied and
+  // propagates.
   using PairFilter = std::function<bool(Handle a, Handle b)>;
 
   // options.engine / cell_limit / threads / max_pairs as for HybridBroadPhase
