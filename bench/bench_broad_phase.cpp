@@ -571,7 +571,9 @@ void ClosestRays(benchmark::State& state) {
   const std::vector<Ray> rays = random_rays(w.side, 4);
   constexpr float kLength = 500;
   std::uint64_t found = 0, bullet_found = 0;
-  std::vector<Seconds> ours_runs, bullet_runs, all_hits_runs;
+  std::vector<Seconds> ours_runs, bullet_runs, all_hits_runs, closest_inf_runs, all_hits_inf_runs;
+  std::uint64_t inf_hits = 0;
+  constexpr float kInf = std::numeric_limits<float>::infinity();
   w.bp.raycast_closest({0, 0, 0}, {1, 0, 0}, 1);  // builds the tree: not timed
   for (auto _ : state) {
     const Seconds ours = time_run([&] {
@@ -592,6 +594,16 @@ void ClosestRays(benchmark::State& state) {
     const Seconds all_hits = time_run([&] {
       for (const Ray& r : rays) benchmark::DoNotOptimize(w.bp.query_ray(r.o, r.d, kLength));
     });
+    // Whole rays (max_t infinite: through the world): where the early out
+    // skips most of what query_ray collects and sorts.
+    closest_inf_runs.push_back(time_run([&] {
+      for (const Ray& r : rays)
+        benchmark::DoNotOptimize(w.bp.raycast_closest({r.o[0], r.o[1], r.o[2]}, {r.d[0], r.d[1], r.d[2]}, kInf));
+    }));
+    all_hits_inf_runs.push_back(time_run([&] {
+      inf_hits = 0;
+      for (const Ray& r : rays) inf_hits += w.bp.query_ray(r.o, r.d, kInf).size();
+    }));
     ours_runs.push_back(ours);
     bullet_runs.push_back(bullet);
     all_hits_runs.push_back(all_hits);
@@ -621,6 +633,9 @@ void ClosestRays(benchmark::State& state) {
   state.counters["starts_inside_in_check"] = static_cast<double>(starts_inside) / kChecked;
   bullet_rate_counters(state, "rays", ours_runs, bullet_runs);
   state.counters["ours_all_hits_rays_per_cpu_s"] = kQueries / median_run(all_hits_runs).cpu;
+  state.counters["ours_closest_whole_rays_per_cpu_s"] = kQueries / median_run(closest_inf_runs).cpu;
+  state.counters["ours_all_hits_whole_rays_per_cpu_s"] = kQueries / median_run(all_hits_inf_runs).cpu;
+  state.counters["hits_per_whole_ray"] = static_cast<double>(inf_hits) / kQueries;
   state.counters["rays_with_hit"] = static_cast<double>(found) / kQueries;
   state.counters["bullet_rays_with_hit"] = static_cast<double>(bullet_found) / kQueries;
   state.counters["same_object_as_bullet_in_check"] = static_cast<double>(same_as_bullet) / kChecked;
