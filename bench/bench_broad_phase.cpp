@@ -28,6 +28,13 @@
 //     as static objects; boxes of the objects' sizes, rays of 500 m; beside
 //     btDbvtBroadphase::aabbTest / rayTest on the same boxes (answers checked
 //     against a brute-force scan on a sample, and contained in DBVT's).
+//   ClosestRays/<n>, BoxCasts/<n>: the same static frame in a
+//     btCollisionWorld (one btBoxShape object per box): raycast_closest
+//     beside rayTest with a ClosestRayResultCallback on the same 500 m rays,
+//     and query_box_cast (every hit, sorted) beside convexSweepTest of a
+//     btBoxShape with a ClosestConvexResultCallback on the same boxes and
+//     20 m displacements (answers checked against a scan on a sample; how
+//     often Bullet's closest object is ours is reported).
 //
 // Times are wall clock (the manual time is ours; counters give both sides'
 // medians and worst frames and the ratio).
@@ -37,6 +44,10 @@
 #include <chrono>
 #include <ctime>
 #include <cmath>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <utility>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -46,6 +57,7 @@
 #include "baselines/bullet_pairs.hpp"
 #include "hbp/broad_phase.hpp"
 #include "hbp/scenario.hpp"
+#include "pipeline/box_cast.hpp"
 #include "pipeline/ray_segment.hpp"
 #include "support/clock.hpp"
 #include "support/percentile.hpp"
@@ -549,6 +561,266 @@ void RayQueries(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * kQueries);
 }
 
+// The query frame as a btCollisionWorld of static box objects (object i's
+// user index is i), built once beside the QueryWorld.
+struct BulletQueryWorld {
+  btDefaultCollisionConfiguration config;
+  btCollisionDispatcher dispatcher{&config};
+  btDbvtBroadphase broadphase;
+  btCollisionWorld world{&dispatcher, &broadphase, &config};
+  std::vector<std::unique_ptr<btBoxShape>> shapes;
+  std::vector<std::unique_ptr<btCollisionObject>> objects;
+
+  explicit BulletQueryWorld(const BoxArray& boxes) {
+    const std::size_t n = boxes.size();
+    shapes.reserve(n);
+    objects.reserve(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      const Aabb b = boxes.get(i);
+      const btVector3 lo(b.min[0], b.min[1], b.min[2]), hi(b.max[0], b.max[1], b.max[2]);
+      shapes.push_back(std::make_unique<btBoxShape>(0.5f * (hi - lo)));
+      auto o = std::make_unique<btCollisionObject>();
+      o->setCollisionShape(shapes.back().get());
+      o->setWorldTransform(btTransform(btQuaternion::getIdentity(), 0.5f * (lo + hi)));
+      o->setCollisionFlags(btCollisionObject::CF_STATIC_OBJECT);
+      o->setUserIndex(static_cast<int>(i));
+      world.addCollisionObject(o.get(), btBroadphaseProxy::StaticFilter,
+                               btBroadphaseProxy::AllFilter ^ btBroadphaseProxy::StaticFilter);
+      objects.push_back(std::move(o));
+    }
+    world.updateAabbs();
+  }
+};
+
+// The paper frame as static objects of a BroadPhase and of a
+// btCollisionWorld, built once and kept between runs.
+struct CastWorld {
+  BoxArray boxes;
+  hbp::BroadPhase bp{{.threads = 1}};
+  BulletQueryWorld bullet;
+  float side = 0;
+
+  explicit CastWorld(std::uint32_t n) : boxes(paper_frame(n, 0)), bullet(boxes) {
+    hbp::ScenarioParams p;
+    p.n = n;
+    side = static_cast<float>(p.world_side());
+    std::vector<Aabb> aabbs;
+    to_aabbs(boxes, aabbs);
+    bp.add(aabbs, {.is_static = true});
+  }
+};
+
+CastWorld& cast_world(std::uint32_t n) {
+  static CastWorld* world = nullptr;
+  if (!world || world->boxes.size() != n) {
+    delete world;
+    world = new CastWorld(n);
+  }
+  return *world;
+}
+
+struct Ray {
+  float o[3], d[3];
+};
+// Random rays inside the world: unit direction (RayQueries' rays).
+std::vector<Ray> random_rays(float side, std::uint64_t seed) {
+  hbp::Random rng(seed);
+  std::vector<Ray> rays(kQueries);
+  for (Ray& r : rays) {
+    float len = 0;
+    do {
+      for (int k = 0; k < 3; ++k) r.d[k] = static_cast<float>(rng.uniform(-1, 1));
+      len = std::sqrt(r.d[0] * r.d[0] + r.d[1] * r.d[1] + r.d[2] * r.d[2]);
+    } while (len < 0.1f || len > 1);
+    for (int k = 0; k < 3; ++k) {
+      r.d[k] /= len;
+      r.o[k] = static_cast<float>(rng.uniform(0, side));
+    }
+  }
+  return rays;
+}
+
+// The median run of several (by CPU time, the wall time of that run with it).
+Seconds median_run(std::vector<Seconds> runs) {
+  std::sort(runs.begin(), runs.end(), [](const Seconds& a, const Seconds& b) { return a.cpu < b.cpu; });
+  return runs[runs.size() / 2];
+}
+
+// Bullet's rates beside ours, medians of the iterations: <what>_per_s for each side.
+void bullet_rate_counters(benchmark::State& state, const std::string& what, const std::vector<Seconds>& ours_runs,
+                          const std::vector<Seconds>& bullet_runs) {
+  const Seconds ours = median_run(ours_runs), bullet = median_run(bullet_runs);
+  state.counters["ours_" + what + "_per_s"] = kQueries / ours.wall;
+  state.counters["bullet_" + what + "_per_s"] = kQueries / bullet.wall;
+  state.counters["ours_" + what + "_per_cpu_s"] = kQueries / ours.cpu;
+  state.counters["bullet_" + what + "_per_cpu_s"] = kQueries / bullet.cpu;
+  state.counters["ratio_per_cpu_s"] = bullet.cpu / ours.cpu;
+}
+
+void ClosestRays(benchmark::State& state) {
+  const auto n = static_cast<std::uint32_t>(state.range(0));
+  CastWorld& w = cast_world(n);
+  BulletQueryWorld& bw = w.bullet;
+  const std::vector<Ray> rays = random_rays(w.side, 4);
+  constexpr float kLength = 500;
+  std::uint64_t found = 0, bullet_found = 0;
+  std::vector<Seconds> ours_runs, bullet_runs, all_hits_runs, closest_inf_runs, all_hits_inf_runs;
+  std::uint64_t inf_hits = 0;
+  constexpr float kInf = std::numeric_limits<float>::infinity();
+  w.bp.raycast_closest({0, 0, 0}, {1, 0, 0}, 1);  // builds the tree: not timed
+  for (auto _ : state) {
+    const Seconds ours = time_run([&] {
+      found = 0;
+      for (const Ray& r : rays) found += w.bp.raycast_closest({r.o[0], r.o[1], r.o[2]}, {r.d[0], r.d[1], r.d[2]}, kLength).has_value();
+    });
+    const Seconds bullet = time_run([&] {
+      bullet_found = 0;
+      for (const Ray& r : rays) {
+        const btVector3 from(r.o[0], r.o[1], r.o[2]);
+        const btVector3 to = from + kLength * btVector3(r.d[0], r.d[1], r.d[2]);
+        btCollisionWorld::ClosestRayResultCallback c(from, to);
+        bw.world.rayTest(from, to, c);
+        bullet_found += c.hasHit();
+      }
+    });
+    // Every hit sorted, first taken: what a closest hit cost before.
+    const Seconds all_hits = time_run([&] {
+      for (const Ray& r : rays) benchmark::DoNotOptimize(w.bp.query_ray(r.o, r.d, kLength));
+    });
+    // Whole rays (max_t infinite: through the world): where the early out
+    // skips most of what query_ray collects and sorts.
+    closest_inf_runs.push_back(time_run([&] {
+      for (const Ray& r : rays)
+        benchmark::DoNotOptimize(w.bp.raycast_closest({r.o[0], r.o[1], r.o[2]}, {r.d[0], r.d[1], r.d[2]}, kInf));
+    }));
+    all_hits_inf_runs.push_back(time_run([&] {
+      inf_hits = 0;
+      for (const Ray& r : rays) inf_hits += w.bp.query_ray(r.o, r.d, kInf).size();
+    }));
+    ours_runs.push_back(ours);
+    bullet_runs.push_back(bullet);
+    all_hits_runs.push_back(all_hits);
+    state.SetIterationTime(ours.wall);
+  }
+  // Checked against a scan (same slab test); Bullet's object compared.
+  std::uint64_t same_as_bullet = 0, starts_inside = 0;
+  for (int i = 0; i < kChecked; ++i) {
+    const Ray& r = rays[static_cast<std::size_t>(i)];
+    const hbp::detail::RaySegment seg(r.o, r.d, kLength);
+    std::pair<float, Handle> best{std::numeric_limits<float>::infinity(), hbp::kInvalidHandle};
+    for (std::uint32_t k = 0; k < n; ++k) {
+      const Aabb b = w.boxes.get(k);
+      float t;
+      if (seg.hits(b.min, b.max, t)) best = std::min(best, std::pair<float, Handle>{t, k});
+    }
+    const std::optional<hbp::RayHit> got = w.bp.raycast_closest({r.o[0], r.o[1], r.o[2]}, {r.d[0], r.d[1], r.d[2]}, kLength);
+    if (got.has_value() != (best.second != hbp::kInvalidHandle) || (got && (got->handle != best.second || got->t != best.first)))
+      throw std::runtime_error("closest ray " + std::to_string(i) + " differs from brute force");
+    const btVector3 from(r.o[0], r.o[1], r.o[2]);
+    const btVector3 to = from + kLength * btVector3(r.d[0], r.d[1], r.d[2]);
+    btCollisionWorld::ClosestRayResultCallback c(from, to);
+    bw.world.rayTest(from, to, c);
+    same_as_bullet += c.hasHit() ? (got && static_cast<Handle>(c.m_collisionObject->getUserIndex()) == got->handle) : !got;
+    starts_inside += got && got->t == 0;
+  }
+  state.counters["starts_inside_in_check"] = static_cast<double>(starts_inside) / kChecked;
+  bullet_rate_counters(state, "rays", ours_runs, bullet_runs);
+  state.counters["ours_all_hits_rays_per_cpu_s"] = kQueries / median_run(all_hits_runs).cpu;
+  state.counters["ours_closest_whole_rays_per_cpu_s"] = kQueries / median_run(closest_inf_runs).cpu;
+  state.counters["ours_all_hits_whole_rays_per_cpu_s"] = kQueries / median_run(all_hits_inf_runs).cpu;
+  state.counters["hits_per_whole_ray"] = static_cast<double>(inf_hits) / kQueries;
+  state.counters["rays_with_hit"] = static_cast<double>(found) / kQueries;
+  state.counters["bullet_rays_with_hit"] = static_cast<double>(bullet_found) / kQueries;
+  state.counters["same_object_as_bullet_in_check"] = static_cast<double>(same_as_bullet) / kChecked;
+  state.SetItemsProcessed(state.iterations() * kQueries);
+}
+
+void BoxCasts(benchmark::State& state) {
+  const auto n = static_cast<std::uint32_t>(state.range(0));
+  CastWorld& w = cast_world(n);
+  BulletQueryWorld& bw = w.bullet;
+  // Boxes of the objects' sizes at random places, cast 20 m along the rays' directions.
+  constexpr float kLength = 20;
+  const std::vector<Ray> rays = random_rays(w.side, 5);
+  hbp::Random rng(6);
+  std::vector<Aabb> boxes(kQueries);
+  for (std::size_t i = 0; i < boxes.size(); ++i) {
+    const Aabb o = w.boxes.get(rng.below(n));
+    for (int k = 0; k < 3; ++k) {
+      const float half = 0.5f * (o.max[k] - o.min[k]);
+      boxes[i].min[k] = rays[i].o[k] - half;
+      boxes[i].max[k] = rays[i].o[k] + half;
+    }
+  }
+  const auto displacement = [&](std::size_t i) {
+    return hbp::BroadPhase::Vec3f{kLength * rays[i].d[0], kLength * rays[i].d[1], kLength * rays[i].d[2]};
+  };
+  std::vector<std::unique_ptr<btBoxShape>> shapes;
+  for (const Aabb& b : boxes)
+    shapes.push_back(std::make_unique<btBoxShape>(0.5f * btVector3(b.max[0] - b.min[0], b.max[1] - b.min[1], b.max[2] - b.min[2])));
+  const auto centre = [&](std::size_t i) {
+    const Aabb& b = boxes[i];
+    return btVector3(0.5f * (b.min[0] + b.max[0]), 0.5f * (b.min[1] + b.max[1]), 0.5f * (b.min[2] + b.max[2]));
+  };
+  std::uint64_t hits = 0, bullet_found = 0;
+  std::vector<Seconds> ours_runs, bullet_runs;
+  std::vector<Handle> out;
+  w.bp.raycast_closest({0, 0, 0}, {1, 0, 0}, 1);  // builds the tree: not timed
+  for (auto _ : state) {
+    const Seconds ours = time_run([&] {
+      hits = 0;
+      for (std::size_t i = 0; i < boxes.size(); ++i) hits += w.bp.query_box_cast(boxes[i], displacement(i), out);
+    });
+    const Seconds bullet = time_run([&] {
+      bullet_found = 0;
+      for (std::size_t i = 0; i < boxes.size(); ++i) {
+        const btVector3 from = centre(i);
+        const btVector3 to = from + kLength * btVector3(rays[i].d[0], rays[i].d[1], rays[i].d[2]);
+        btCollisionWorld::ClosestConvexResultCallback c(from, to);
+        bw.world.convexSweepTest(shapes[i].get(), btTransform(btQuaternion::getIdentity(), from),
+                                 btTransform(btQuaternion::getIdentity(), to), c);
+        bullet_found += c.hasHit();
+      }
+    });
+    ours_runs.push_back(ours);
+    bullet_runs.push_back(bullet);
+    state.SetIterationTime(ours.wall);
+  }
+  // Checked against a scan (same rule); Bullet's closest object compared with our first hit.
+  std::uint64_t same_as_bullet = 0, starts_inside = 0;
+  for (int i = 0; i < kChecked; ++i) {
+    const auto d = displacement(static_cast<std::size_t>(i));
+    const hbp::detail::BoxCast cast(boxes[static_cast<std::size_t>(i)], d.data());
+    std::vector<std::pair<float, Handle>> want;
+    for (std::uint32_t k = 0; k < n; ++k) {
+      const Aabb b = w.boxes.get(k);
+      float t;
+      if (cast.hits(b.min, b.max, t)) want.emplace_back(t, k);
+    }
+    std::sort(want.begin(), want.end());
+    std::vector<Handle> want_h;
+    for (const auto& x : want) want_h.push_back(x.second);
+    if (w.bp.query_box_cast(boxes[static_cast<std::size_t>(i)], d) != want_h)
+      throw std::runtime_error("box cast " + std::to_string(i) + " differs from brute force");
+    const btVector3 from = centre(static_cast<std::size_t>(i));
+    const btVector3 to = from + kLength * btVector3(rays[static_cast<std::size_t>(i)].d[0],
+                                                    rays[static_cast<std::size_t>(i)].d[1],
+                                                    rays[static_cast<std::size_t>(i)].d[2]);
+    btCollisionWorld::ClosestConvexResultCallback c(from, to);
+    bw.world.convexSweepTest(shapes[static_cast<std::size_t>(i)].get(), btTransform(btQuaternion::getIdentity(), from),
+                             btTransform(btQuaternion::getIdentity(), to), c);
+    same_as_bullet += c.hasHit() ? (!want_h.empty() && static_cast<Handle>(c.m_hitCollisionObject->getUserIndex()) == want_h[0])
+                                 : want_h.empty();
+    starts_inside += !want.empty() && want[0].first == 0;
+  }
+  state.counters["starts_overlapping_in_check"] = static_cast<double>(starts_inside) / kChecked;
+  bullet_rate_counters(state, "casts", ours_runs, bullet_runs);
+  state.counters["hits_per_cast"] = static_cast<double>(hits) / kQueries;
+  state.counters["bullet_casts_with_hit"] = static_cast<double>(bullet_found) / kQueries;
+  state.counters["same_first_object_as_bullet_in_check"] = static_cast<double>(same_as_bullet) / kChecked;
+  state.SetItemsProcessed(state.iterations() * kQueries);
+}
+
 BENCHMARK(MostlyStatic)->Args({1000000, 10000, 2, 1})->Args({1000000, 10000, 1, 1})->Args({1000000, 10000, 2, 0})->Args({1000000, 10000, 1, 0})->UseManualTime()
     ->Unit(benchmark::kMillisecond)->Iterations(30);
 // 20 frames: the ratio of medians moves by a few percent between runs of 10.
@@ -559,5 +831,7 @@ BENCHMARK(DoublePrecision)->Args({1000000, 2, 1})->Args({1000000, 2, 0})->Args({
     ->Unit(benchmark::kMillisecond)->Iterations(15);
 BENCHMARK(BoxQueries)->Arg(1000000)->UseManualTime()->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK(RayQueries)->Arg(1000000)->UseManualTime()->Unit(benchmark::kMillisecond)->Iterations(3);
+BENCHMARK(ClosestRays)->Arg(1000000)->UseManualTime()->Unit(benchmark::kMillisecond)->Iterations(5);
+BENCHMARK(BoxCasts)->Arg(1000000)->UseManualTime()->Unit(benchmark::kMillisecond)->Iterations(5);
 
 }  // namespace

@@ -17,10 +17,12 @@
 //   HybridBroadPhase and the oracle.
 // - A pair (a, b) is reported when the boxes overlap, at least one of the two
 //   is moving (static-static pairs are never reported), the layers collide
-//   (set_collides) and the pair filter, when set, accepts it. Filtering
-//   happens before a pair is stored.
-// - Edits (add, move, remove, set_collides, set_pair_filter) take effect at the
-//   next update(). Each edit call validates its whole batch first and throws
+//   (set_collides), the objects' filters accept each other (set_filter,
+//   Box2D's rule) and the pair filter, when set, accepts it. Filtering
+//   happens before a pair is stored. An object's box is the box it was
+//   given grown by its margin (set_margin), or a swept union (move_swept).
+// - Edits (add, move, move_swept, remove, set_layer, set_filter, set_margin,
+//   set_collides, set_pair_filter) take effect at the next update(). Each edit call validates its whole batch first and throws
 //   InvalidInput naming the offending row or handle; a call that throws
 //   changes nothing.
 // - update() returns the frame's pairs and the pairs created and removed since
@@ -45,11 +47,13 @@
 #include <concepts>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <span>
 #include <vector>
 
 #include "hbp/aabb.hpp"
 #include "hbp/aabb_d.hpp"
+#include "hbp/collision_filter.hpp"
 #include "hbp/hybrid_broadphase.hpp"
 #include "hbp/limits.hpp"
 #include "hbp/pair.hpp"
@@ -67,6 +71,9 @@ inline constexpr Handle kInvalidHandle = 0xFFFFFFFFu;
 struct AddOptions {
   bool is_static = false;   // static objects are never tested against each other
   std::uint8_t layer = 0;   // 0 .. kLayerCount - 1
+  Filter filter{};          // category / mask / group (hbp/collision_filter.hpp)
+  std::uint64_t user_data = 0;  // the caller's value for each object added
+  float margin = 0;             // >= 0, finite: grown onto every box the object is given
 };
 
 struct BroadPhaseUpdate {
@@ -84,11 +91,19 @@ struct BroadPhaseUpdateStats {
   double wall_ms = 0;                     // measured wall time of update()
 };
 
+// The nearest object a ray touches (BroadPhase::raycast_closest): its
+// handle and entry t (0 when the origin is inside its box).
+struct RayHit {
+  Handle handle;
+  float t;
+};
+
 class BroadPhase {
  public:
-  // Pair predicate, called for pairs that pass the box and layer tests, from
-  // any worker thread (must be thread-safe); true keeps the pair. An
-  // exception it throws leaves update() unapplied and propagates.
+  // Pair predicate, called for pairs that pass the box, layer and object
+  // filter tests, from any worker thread (must be thread-safe); true keeps
+  // the pair. An exception it throws leaves update() unapplied and
+  // propagates.
   using PairFilter = std::function<bool(Handle a, Handle b)>;
 
   // options.engine / cell_limit / threads / task_system / max_pairs as for HybridBroadPhase
@@ -150,6 +165,83 @@ class BroadPhase {
   std::vector<Handle> query_ray(const Vec3f& origin, const Vec3f& direction, float max_t) const;
   std::size_t query_ray(const Vec3f& origin, const Vec3f& direction, float max_t, std::vector<Handle>& out) const;
   std::size_t query_ray(const Vec3f& origin, const Vec3f& direction, float max_t, const HitVisitor& visit) const;
+
+  // The first hit of query_ray(origin, direction, max_t) (smallest entry t,
+  // ties by smallest handle), or nothing; same validation. It walks both
+  // trees nearest-first and skips every subtree whose entry t is beyond the
+  // best hit so far, so it reads a few blocks where query_ray reads all the
+  // hits and sorts them.
+  std::optional<RayHit> raycast_closest(const Vec3f& origin, const Vec3f& direction, float max_t) const;
+  // Box cast: every object whose box the moving box box + t * displacement,
+  // 0 <= t <= 1, touches (closed boxes), sorted by the first such t, ties
+  // by handle. Exact under the slab test of the target grown by the box
+  // (Minkowski sum: [min - box.max, max - box.min] per axis, one float
+  // subtraction each) against the segment from 0 along displacement: on an
+  // axis the displacement leaves at 0 it is exactly the closed overlap, and
+  // with displacement 0 the hits are query_box(box)'s. InvalidInput for a
+  // malformed box or a non-finite displacement.
+  std::vector<Handle> query_box_cast(const Aabb& box, const Vec3f& displacement) const;
+  std::size_t query_box_cast(const Aabb& box, const Vec3f& displacement, std::vector<Handle>& out) const;
+  std::size_t query_box_cast(const Aabb& box, const Vec3f& displacement, const HitVisitor& visit) const;
+
+  // ---- Fast movers ----
+  //
+  // An object's margin (AddOptions::margin, set_margin) is grown onto every
+  // box it is given, on every side: the stored box (box(h), pairs, queries)
+  // is the given box grown by the margin, so pairs are reported for the
+  // grown boxes (a speculative contact distance). set_margin applies to the
+  // boxes given from then on (add, move, move_swept), not to the box the
+  // object has now. InvalidInput for a negative or non-finite margin, or a
+  // grown box that is not finite. A double_precision broad phase has no
+  // margins and no swept moves (InvalidInput): its pairs are those of the
+  // AabbD boxes as given, so grow those.
+  void set_margin(std::span<const Handle> handles, float margin);
+  float margin(Handle h) const;
+  // Swept boxes: each object's box becomes the union of its previous box and
+  // the new one (both grown by its margin): the candidates a continuous
+  // collision test needs. The previous box is the one given to the object's
+  // last move_swept (so consecutive sweeps do not accumulate), or its box
+  // when the last move was a plain one. Same validation as move().
+  void move_swept(std::span<const Handle> handles, std::span<const Aabb> boxes);
+
+  // ---- Object filters, user data, filtered queries ----
+  //
+  // A pair is stored only when the layer table, the objects' Filters
+  // (should_collide: Box2D's b2Filter rule) and the pair filter all accept
+  // it (the pair filter is called only for pairs the other two accept).
+  // While every live object has the default Filter the filter test costs
+  // nothing (the unfiltered paths of a frame stay in use). The pair filter
+  // does not apply to queries: they take a QueryFilter.
+  void set_filter(std::span<const Handle> handles, const Filter& filter);
+  Filter filter(Handle h) const;
+  // One value per handle (same lengths); takes effect at once.
+  void set_user_data(std::span<const Handle> handles, std::span<const std::uint64_t> values);
+  std::uint64_t user_data(Handle h) const;  // O(1); InvalidInput for an unknown or stale handle
+  // The user data of each pair's two objects (out.size() == pairs.size()),
+  // or of each handle (a query's hits), by slot lookups: no side table
+  // needed. A handle no longer live (a `removed` pair's object removed
+  // since) gives 0.
+  void pair_user_data(std::span<const Pair> pairs, std::span<std::array<std::uint64_t, 2>> out) const;
+  void user_data(std::span<const Handle> handles, std::span<std::uint64_t> out) const;
+  // Every query with a QueryFilter last: only objects whose layer bit is in
+  // filter.layers_mask and whose category shares a bit with
+  // filter.category_mask are reported (raycast_closest: the nearest such).
+  std::vector<Handle> query_box(const Aabb& box, const QueryFilter& filter) const;
+  std::size_t query_box(const Aabb& box, std::vector<Handle>& out, const QueryFilter& filter) const;
+  std::size_t query_box(const Aabb& box, const HitVisitor& visit, const QueryFilter& filter) const;
+  std::vector<Handle> query_ray(const Vec3f& origin, const Vec3f& direction, float max_t,
+                                const QueryFilter& filter) const;
+  std::size_t query_ray(const Vec3f& origin, const Vec3f& direction, float max_t, std::vector<Handle>& out,
+                        const QueryFilter& filter) const;
+  std::size_t query_ray(const Vec3f& origin, const Vec3f& direction, float max_t, const HitVisitor& visit,
+                        const QueryFilter& filter) const;
+  std::optional<RayHit> raycast_closest(const Vec3f& origin, const Vec3f& direction, float max_t,
+                                        const QueryFilter& filter) const;
+  std::vector<Handle> query_box_cast(const Aabb& box, const Vec3f& displacement, const QueryFilter& filter) const;
+  std::size_t query_box_cast(const Aabb& box, const Vec3f& displacement, std::vector<Handle>& out,
+                             const QueryFilter& filter) const;
+  std::size_t query_box_cast(const Aabb& box, const Vec3f& displacement, const HitVisitor& visit,
+                             const QueryFilter& filter) const;
 
   std::size_t size() const;  // live objects
   bool contains(Handle h) const;
@@ -232,9 +324,20 @@ class BroadPhase {
     }
     return calls;
   }
+  template <std::same_as<AabbD> Box>
+  std::vector<Handle> query_box(const Box& box, const QueryFilter& filter) const {
+    std::vector<Handle> out;
+    query_box_d(box, out, &filter);
+    return out;
+  }
+  template <std::same_as<AabbD> Box>
+  std::size_t query_box(const Box& box, std::vector<Handle>& out, const QueryFilter& filter) const {
+    query_box_d(box, out, &filter);
+    return out.size();
+  }
 
  private:
-  void query_box_d(const AabbD& box, std::vector<Handle>& out) const;
+  void query_box_d(const AabbD& box, std::vector<Handle>& out, const QueryFilter* filter = nullptr) const;
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

@@ -170,6 +170,75 @@ hbp_status hbp_query_box(const hbp_broad_phase* bp, const hbp_box* box, hbp_hit_
 hbp_status hbp_query_ray(const hbp_broad_phase* bp, const float origin[3], const float direction[3], float max_t,
                          hbp_hit_callback callback, void* user, size_t* hits_out);
 
+/* The first hit of hbp_query_ray (smallest entry t, ties by smallest
+ * handle), found without visiting the others: *hit_out is 1 and
+ * *handle_out, *t_out are its handle and entry t, or *hit_out is 0 (and
+ * *handle_out is HBP_INVALID_HANDLE, *t_out 0) when the segment touches
+ * nothing. Same arguments and errors as hbp_query_ray. */
+hbp_status hbp_raycast_closest(const hbp_broad_phase* bp, const float origin[3], const float direction[3], float max_t,
+                               hbp_handle* handle_out, float* t_out, int* hit_out);
+
+/* Box cast: every object whose box the moving box box + t * displacement,
+ * 0 <= t <= 1, touches, in order of the first such t, ties by handle (the
+ * slab test of each target grown by the box, docs/broad-phase.md). With a
+ * zero displacement the hits are hbp_query_box's. */
+hbp_status hbp_box_cast(const hbp_broad_phase* bp, const hbp_box* box, const float displacement[3],
+                        hbp_hit_callback callback, void* user, size_t* hits_out);
+
+/* Fast movers. An object's margin (>= 0, finite; 0 at first) is grown onto
+ * every box it is given from then on (hbp_add, hbp_move, hbp_move_swept):
+ * its stored box, and so its pairs and query hits, are the given box grown
+ * by the margin on every side (a speculative contact distance).
+ * hbp_move_swept sets each object's box to the union of its previous box
+ * and the new one (the candidates of a continuous collision test); the
+ * previous box is the one given to its last hbp_move_swept, or its box
+ * after a plain move. */
+hbp_status hbp_set_margin(hbp_broad_phase* bp, const hbp_handle* handles, size_t count, float margin);
+hbp_status hbp_move_swept(hbp_broad_phase* bp, const hbp_handle* handles, const hbp_box* boxes, size_t count);
+
+/* An object's filter (Box2D's b2Filter rule): two objects pair when they
+ * share a nonzero group, always if it is positive and never if negative;
+ * otherwise when each one's category has a bit in the other's mask. Applied
+ * with the layer table before a pair is stored. Defaults (hbp_filter_init):
+ * category 1, every mask bit, group 0. */
+typedef struct hbp_filter {
+  uint64_t category;
+  uint64_t mask;
+  int32_t group;
+} hbp_filter;
+void hbp_filter_init(hbp_filter* filter);
+
+/* Gives count objects the filter (taking effect at the next update). */
+hbp_status hbp_set_filter(hbp_broad_phase* bp, const hbp_handle* handles, size_t count, const hbp_filter* filter);
+hbp_status hbp_get_filter(const hbp_broad_phase* bp, hbp_handle handle, hbp_filter* filter_out);
+
+/* A 64-bit value per object, 0 until set. hbp_pair_user_data writes the
+ * values of each pair's a and b to out[2 i], out[2 i + 1] (0 for an object no
+ * longer live: a removed pair's object removed since). */
+hbp_status hbp_set_user_data(hbp_broad_phase* bp, const hbp_handle* handles, const uint64_t* values, size_t count);
+hbp_status hbp_get_user_data(const hbp_broad_phase* bp, hbp_handle handle, uint64_t* value_out);
+hbp_status hbp_pair_user_data(const hbp_broad_phase* bp, const hbp_pair* pairs, size_t count, uint64_t* out);
+
+/* The objects a query reports: layer bit in layers_mask and category
+ * meeting category_mask (hbp_query_filter_init: every layer, every bit). The
+ * *_filtered queries are the queries above with a filter; NULL: none. */
+typedef struct hbp_query_filter {
+  uint32_t layers_mask;
+  uint64_t category_mask;
+} hbp_query_filter;
+void hbp_query_filter_init(hbp_query_filter* filter);
+hbp_status hbp_query_box_filtered(const hbp_broad_phase* bp, const hbp_box* box, const hbp_query_filter* filter,
+                                  hbp_hit_callback callback, void* user, size_t* hits_out);
+hbp_status hbp_query_ray_filtered(const hbp_broad_phase* bp, const float origin[3], const float direction[3],
+                                  float max_t, const hbp_query_filter* filter, hbp_hit_callback callback, void* user,
+                                  size_t* hits_out);
+hbp_status hbp_raycast_closest_filtered(const hbp_broad_phase* bp, const float origin[3], const float direction[3],
+                                        float max_t, const hbp_query_filter* filter, hbp_handle* handle_out,
+                                        float* t_out, int* hit_out);
+hbp_status hbp_box_cast_filtered(const hbp_broad_phase* bp, const hbp_box* box, const float displacement[3],
+                                 const hbp_query_filter* filter, hbp_hit_callback callback, void* user,
+                                 size_t* hits_out);
+
 /* Live objects (writes *count). */
 hbp_status hbp_size(const hbp_broad_phase* bp, size_t* count);
 

@@ -15,6 +15,7 @@
 #include <limits>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -142,16 +143,54 @@ struct PythonPairFilter {
   }
 };
 
+// A Python int as an unsigned 64-bit value / a signed 32-bit one (ValueError
+// outside the range or for a non-integer).
+std::uint64_t u64_arg(const py::object& obj, const char* what) {
+  PyObject* index = PyNumber_Index(obj.ptr());
+  if (index) {
+    const unsigned long long v = PyLong_AsUnsignedLongLong(index);
+    Py_DECREF(index);
+    if (!PyErr_Occurred()) return v;
+  }
+  PyErr_Clear();
+  throw ArgumentError(std::string(what) + ": must be an integer 0..2**64 - 1, got " + py::repr(obj).cast<std::string>());
+}
+std::int32_t i32_arg(const py::object& obj, const char* what) {
+  PyObject* index = PyNumber_Index(obj.ptr());
+  if (index) {
+    int overflow = 0;
+    const long long v = PyLong_AsLongLongAndOverflow(index, &overflow);
+    Py_DECREF(index);
+    if (!PyErr_Occurred() && !overflow && v >= INT32_MIN && v <= INT32_MAX) return static_cast<std::int32_t>(v);
+  }
+  PyErr_Clear();
+  throw ArgumentError(std::string(what) + ": must be an integer -2**31..2**31 - 1, got " + py::repr(obj).cast<std::string>());
+}
+Filter filter_args(const py::object& category, const py::object& mask, const py::object& group) {
+  return {u64_arg(category, "category"), u64_arg(mask, "mask"), i32_arg(group, "group")};
+}
+QueryFilter query_filter_args(const py::object& layers_mask, const py::object& category_mask) {
+  const std::uint64_t layers = u64_arg(layers_mask, "layers_mask");
+  if (layers > 0xFFFFFFFFull) throw ArgumentError("layers_mask: must be 0..2**32 - 1 (one bit per layer)");
+  return {static_cast<std::uint32_t>(layers), u64_arg(category_mask, "category_mask")};
+}
+
 class PyBroadPhase {
  public:
   PyBroadPhase(const std::string& engine, const py::object& threads, long long cell_limit, long long max_pairs,
                bool double_precision)
       : bp_(make_options(engine, threads, cell_limit, max_pairs, double_precision)) {}
 
-  py::array_t<std::uint32_t> add(py::handle boxes_obj, bool is_static, const py::object& layer) {
-    if (double_precision()) return add_d(boxes_obj, is_static, layer);
+  py::array_t<std::uint32_t> add(py::handle boxes_obj, bool is_static, const py::object& layer,
+                                 const py::object& category, const py::object& mask, const py::object& group,
+                                 const py::object& user_data, double margin) {
+    const AddOptions options{.is_static = is_static,
+                             .layer = layer_arg(layer),
+                             .filter = filter_args(category, mask, group),
+                             .user_data = u64_arg(user_data, "user_data"),
+                             .margin = margin_arg(margin)};
+    if (double_precision()) return add_d(boxes_obj, options);
     const BoxesView view = boxes_view(boxes_obj, "boxes");
-    const AddOptions options{.is_static = is_static, .layer = layer_arg(layer)};
     std::vector<Handle> handles;
     {
       Exclusive lock(mutex_);
@@ -255,13 +294,15 @@ class PyBroadPhase {
     return {pairs_array(pairs), pairs_array(created), pairs_array(removed)};
   }
 
-  py::array_t<std::uint32_t> query_box(py::handle box_obj) {
-    if (double_precision()) return query_box_d(box_obj);
+  py::array_t<std::uint32_t> query_box(py::handle box_obj, const py::object& layers_mask,
+                                       const py::object& category_mask) {
+    const QueryFilter qf = query_filter_args(layers_mask, category_mask);
+    if (double_precision()) return query_box_d(box_obj, qf);
     const BoxesView view = boxes_view(box_obj, "box", /*single=*/true);
     std::vector<Handle> hits;
     {
       Exclusive lock(mutex_);
-      hits = bp_.query_box(view.boxes[0]);
+      hits = bp_.query_box(view.boxes[0], qf);
     }
     return handles_array(std::move(hits));
   }
@@ -285,7 +326,9 @@ class PyBroadPhase {
     return py::make_tuple(std::move(offsets), handles_array(std::move(all)));
   }
 
-  py::array_t<std::uint32_t> query_ray(py::handle origin_obj, py::handle direction_obj, double max_t) {
+  py::array_t<std::uint32_t> query_ray(py::handle origin_obj, py::handle direction_obj, double max_t,
+                                       const py::object& layers_mask, const py::object& category_mask) {
+    const QueryFilter qf = query_filter_args(layers_mask, category_mask);
     float origin[3], direction[3];
     vec3(origin_obj, "origin", origin);
     vec3(direction_obj, "direction", direction);
@@ -297,9 +340,124 @@ class PyBroadPhase {
       Exclusive lock(mutex_);
       const float t = max_t > std::numeric_limits<float>::max() ? std::numeric_limits<float>::infinity()
                                                                 : static_cast<float>(max_t);
-      hits = bp_.query_ray(origin, direction, t);
+      hits = bp_.query_ray({origin[0], origin[1], origin[2]}, {direction[0], direction[1], direction[2]}, t, qf);
     }
     return handles_array(std::move(hits));
+  }
+
+  // query_ray's first hit as (handle, t), or None.
+  py::object raycast_closest(py::handle origin_obj, py::handle direction_obj, double max_t,
+                             const py::object& layers_mask, const py::object& category_mask) {
+    const QueryFilter qf = query_filter_args(layers_mask, category_mask);
+    float origin[3], direction[3];
+    vec3(origin_obj, "origin", origin);
+    vec3(direction_obj, "direction", direction);
+    if (!(max_t >= 0)) {  // NaN too; infinity: the whole ray
+      throw ArgumentError("max_t: must be >= 0 (infinity allowed), got " + py::repr(py::float_(max_t)).cast<std::string>());
+    }
+    std::optional<RayHit> hit;
+    {
+      Exclusive lock(mutex_);
+      const float t = max_t > std::numeric_limits<float>::max() ? std::numeric_limits<float>::infinity()
+                                                                : static_cast<float>(max_t);
+      hit = bp_.raycast_closest({origin[0], origin[1], origin[2]}, {direction[0], direction[1], direction[2]}, t, qf);
+    }
+    if (!hit) return py::none();
+    return py::make_tuple(hit->handle, static_cast<double>(hit->t));
+  }
+
+  py::array_t<std::uint32_t> box_cast(py::handle box_obj, py::handle displacement_obj, const py::object& layers_mask,
+                                      const py::object& category_mask) {
+    const BoxesView view = boxes_view(box_obj, "box", /*single=*/true);
+    const QueryFilter qf = query_filter_args(layers_mask, category_mask);
+    float d[3];
+    vec3(displacement_obj, "displacement", d);
+    std::vector<Handle> hits;
+    {
+      Exclusive lock(mutex_);
+      hits = bp_.query_box_cast(view.boxes[0], {d[0], d[1], d[2]}, qf);
+    }
+    return handles_array(std::move(hits));
+  }
+
+  static float margin_arg(double margin) {
+    if (!(margin >= 0) || !(margin <= std::numeric_limits<float>::max()))
+      throw ArgumentError("margin: must be finite and >= 0, got " + py::repr(py::float_(margin)).cast<std::string>());
+    return static_cast<float>(margin);
+  }
+  void set_margin(py::handle handles_obj, double margin) {
+    const HandlesView h = handles_view(handles_obj);
+    const float m = margin_arg(margin);
+    Exclusive lock(mutex_);
+    check_live(h.handles);
+    bp_.set_margin(h.handles, m);
+  }
+  double margin(const py::object& h) {
+    const Handle handle = handle_arg(h);
+    Exclusive lock(mutex_);
+    return bp_.margin(handle);
+  }
+  void move_swept(py::handle handles_obj, py::handle boxes_obj) {
+    const HandlesView h = handles_view(handles_obj);
+    const BoxesView b = boxes_view(boxes_obj, "boxes");
+    if (h.handles.size() != b.boxes.size()) {
+      throw ArgumentError("move_swept: " + std::to_string(h.handles.size()) + " handles but " +
+                          std::to_string(b.boxes.size()) + " boxes (must be equal)");
+    }
+    Exclusive lock(mutex_);
+    check_live(h.handles);
+    bp_.move_swept(h.handles, b.boxes);
+  }
+
+  void set_filter(py::handle handles_obj, const py::object& category, const py::object& mask,
+                  const py::object& group) {
+    const HandlesView h = handles_view(handles_obj);
+    const Filter f = filter_args(category, mask, group);
+    Exclusive lock(mutex_);
+    check_live(h.handles);
+    bp_.set_filter(h.handles, f);
+  }
+  py::tuple filter(const py::object& h) {
+    const Handle handle = handle_arg(h);
+    Filter f;
+    {
+      Exclusive lock(mutex_);
+      f = bp_.filter(handle);
+    }
+    return py::make_tuple(f.category, f.mask, f.group);
+  }
+  void set_user_data(py::handle handles_obj, py::handle values_obj) {
+    const HandlesView h = handles_view(handles_obj);
+    std::vector<std::uint64_t> values;
+    for (py::handle v : py::iter(values_obj)) values.push_back(u64_arg(py::reinterpret_borrow<py::object>(v), "values"));
+    if (values.size() != h.handles.size()) {
+      throw ArgumentError("set_user_data: " + std::to_string(h.handles.size()) + " handles but " +
+                          std::to_string(values.size()) + " values (must be equal)");
+    }
+    Exclusive lock(mutex_);
+    check_live(h.handles);
+    bp_.set_user_data(h.handles, values);
+  }
+  std::uint64_t user_data(const py::object& h) {
+    const Handle handle = handle_arg(h);
+    Exclusive lock(mutex_);
+    return bp_.user_data(handle);
+  }
+  // (k, 2) uint64 user data of (k, 2) handle pairs (0 for objects gone).
+  py::array_t<std::uint64_t> pair_user_data(py::handle pairs_obj) {
+    py::array_t<std::uint32_t, py::array::c_style | py::array::forcecast> a = py::array::ensure(pairs_obj);
+    if (!a || (!(a.ndim() == 2 && a.shape(1) == 2) && !(a.ndim() == 1 && a.shape(0) == 0)))
+      throw ArgumentError("pairs: must be a (k, 2) array of handles");
+    const std::size_t k = a.ndim() == 2 ? static_cast<std::size_t>(a.shape(0)) : 0;
+    std::vector<Pair> pairs(k);
+    for (std::size_t i = 0; i < k; ++i) pairs[i] = Pair{a.data()[2 * i], a.data()[2 * i + 1]};
+    py::array_t<std::uint64_t> out({static_cast<py::ssize_t>(k), py::ssize_t{2}});
+    {
+      Exclusive lock(mutex_);
+      bp_.pair_user_data(pairs, std::span<std::array<std::uint64_t, 2>>(
+                                    reinterpret_cast<std::array<std::uint64_t, 2>*>(out.mutable_data()), k));
+    }
+    return out;
   }
 
   std::size_t size() {
@@ -374,9 +532,8 @@ class PyBroadPhase {
   }
 
   // The double-precision forms of add, move, query_box(es) and box.
-  py::array_t<std::uint32_t> add_d(py::handle boxes_obj, bool is_static, const py::object& layer) {
+  py::array_t<std::uint32_t> add_d(py::handle boxes_obj, const AddOptions& options) {
     const BoxesDView view = boxes_d_view(boxes_obj, "boxes");
-    const AddOptions options{.is_static = is_static, .layer = layer_arg(layer)};
     std::vector<Handle> handles;
     {
       Exclusive lock(mutex_);
@@ -400,12 +557,12 @@ class PyBroadPhase {
     check_live(h.handles);
     bp_.move(h.handles, b.boxes);
   }
-  py::array_t<std::uint32_t> query_box_d(py::handle box_obj) {
+  py::array_t<std::uint32_t> query_box_d(py::handle box_obj, const QueryFilter& filter) {
     const BoxesDView view = boxes_d_view(box_obj, "box", /*single=*/true);
     std::vector<Handle> hits;
     {
       Exclusive lock(mutex_);
-      hits = bp_.query_box(view.boxes[0]);
+      hits = bp_.query_box(view.boxes[0], filter);
     }
     return handles_array(std::move(hits));
   }
@@ -545,9 +702,21 @@ PYBIND11_MODULE(hybrid_broadphase, m) {
       .def_property_readonly("double_precision", [](const PyBroadPhase& b) { return b.double_precision(); },
                              "Whether boxes are float64 (BroadPhase(double_precision=True)).")
       .def("add", &PyBroadPhase::add, py::arg("boxes"), py::kw_only(), py::arg("static") = false,
-           py::arg("layer") = 0, "Adds (n, 6) float32 boxes, moving or static (static objects are never paired with each other), on "
-           "layer; returns their (n,) uint32 handles in order. ValueError naming the first bad row. On a double_precision "
+           py::arg("layer") = 0, py::arg("category") = 1, py::arg("mask") = py::int_(~std::uint64_t{0}),
+           py::arg("group") = 0, py::arg("user_data") = 0, py::arg("margin") = 0.0,
+           "Adds (n, 6) float32 boxes, moving or static (static objects are never paired with each other), on "
+           "layer, with the filter (category, mask, group: Box2D's b2Filter rule, see set_filter) and user_data "
+           "(a 64-bit int each) and margin (>= 0: grown onto every box given, see set_margin); returns their "
+           "(n,) uint32 handles in order. ValueError naming the first bad row. On a double_precision "
            "BroadPhase the boxes are (n, 6) float64 (float32 is widened exactly).")
+      .def("set_margin", &PyBroadPhase::set_margin, py::arg("handles"), py::arg("margin"),
+           "Grows every box given to these objects from now on (add, move, move_swept) by margin on every "
+           "side: pairs and queries see the grown boxes (a speculative contact distance). margin >= 0, finite.")
+      .def("margin", &PyBroadPhase::margin, py::arg("handle"), "The object's margin.")
+      .def("move_swept", &PyBroadPhase::move_swept, py::arg("handles"), py::arg("boxes"),
+           "Like move, but each object's box becomes the union of its previous box and the new one (both grown "
+           "by its margin): the candidates of a continuous collision test. The previous box is the one given "
+           "to its last move_swept (sweeps do not accumulate), or its box after a plain move.")
       .def("reserve", &PyBroadPhase::reserve, py::arg("objects"),
            "Provisions memory for up to `objects` moving objects before they are added, so the first update() "
            "does not pay for fresh memory (optional; results are the same).")
@@ -572,16 +741,44 @@ PYBIND11_MODULE(hybrid_broadphase, m) {
            "array of handles, a < b, sorted. A pair needs overlapping boxes, at least one moving object, "
            "colliding layers and the pair filter's consent. Raises CapacityExceeded past max_pairs, or what "
            "the pair filter raised; a raising update() applies nothing.")
-      .def("query_box", &PyBroadPhase::query_box, py::arg("box"),
+      .def("set_filter", &PyBroadPhase::set_filter, py::arg("handles"), py::kw_only(), py::arg("category") = 1,
+           py::arg("mask") = py::int_(~std::uint64_t{0}), py::arg("group") = 0,
+           "Gives the objects the filter (category, mask: 64-bit ints; group: signed 32-bit). Two objects pair "
+           "when they share a nonzero group: always if positive, never if negative; otherwise when each one's "
+           "category meets the other's mask. Applied with the layer table before a pair is stored.")
+      .def("filter", &PyBroadPhase::filter, py::arg("handle"), "The object's filter as (category, mask, group).")
+      .def("set_user_data", &PyBroadPhase::set_user_data, py::arg("handles"), py::arg("values"),
+           "One 64-bit int per handle, kept with the object.")
+      .def("user_data", &PyBroadPhase::user_data, py::arg("handle"), "The object's user data (an int).")
+      .def("pair_user_data", &PyBroadPhase::pair_user_data, py::arg("pairs"),
+           "The user data of a (k, 2) array of handle pairs (e.g. update().created) as (k, 2) uint64; 0 for "
+           "an object no longer live (a removed pair's object removed since).")
+      .def("query_box", &PyBroadPhase::query_box, py::arg("box"), py::kw_only(),
+           py::arg("layers_mask") = py::int_(0xFFFFFFFFu), py::arg("category_mask") = py::int_(~std::uint64_t{0}),
            "Handles whose box overlaps the closed box, sorted: a (6,) float32 array, or a list or tuple of 6 "
-           "numbers (each rounded to the nearest float32). Sees every edit, updated or not.")
+           "numbers (each rounded to the nearest float32). Sees every edit, updated or not. layers_mask, "
+           "category_mask (every query): only objects whose layer bit is in layers_mask and whose category "
+           "meets category_mask.")
       .def("query_boxes", &PyBroadPhase::query_boxes, py::arg("boxes"),
            "query_box for each row of (m, 6) float32 boxes: (offsets (m + 1,) int64, handles); row i's hits "
            "are handles[offsets[i]:offsets[i + 1]], sorted.")
       .def("query_ray", &PyBroadPhase::query_ray, py::arg("origin"), py::arg("direction"), py::arg("max_t"),
+           py::kw_only(), py::arg("layers_mask") = py::int_(0xFFFFFFFFu),
+           py::arg("category_mask") = py::int_(~std::uint64_t{0}),
            "Handles whose box the segment origin + t * direction, 0 <= t <= max_t, touches, by entry t (0 "
            "when origin is inside), ties by handle. origin, direction: (3,) float32 arrays or lists or tuples "
            "of 3 numbers; max_t >= 0, inf for the whole ray.")
+      .def("raycast_closest", &PyBroadPhase::raycast_closest, py::arg("origin"), py::arg("direction"),
+           py::arg("max_t"), py::kw_only(), py::arg("layers_mask") = py::int_(0xFFFFFFFFu),
+           py::arg("category_mask") = py::int_(~std::uint64_t{0}),
+           "query_ray's first hit as (handle, t): the smallest entry t (0 when origin is inside), ties by "
+           "handle; None when the segment touches nothing. Walks nearest-first and skips what lies beyond the "
+           "best hit so far. Same arguments as query_ray.")
+      .def("box_cast", &PyBroadPhase::box_cast, py::arg("box"), py::arg("displacement"), py::kw_only(),
+           py::arg("layers_mask") = py::int_(0xFFFFFFFFu), py::arg("category_mask") = py::int_(~std::uint64_t{0}),
+           "Handles whose box the moving box box + t * displacement, 0 <= t <= 1, touches, by the first such t, "
+           "ties by handle (uint32 array). box as for query_box, displacement a (3,) float32 array or 3 "
+           "numbers; a zero displacement gives query_box(box).")
       .def("__len__", &PyBroadPhase::size, "The number of live objects.")
       .def("__contains__", &PyBroadPhase::contains, py::arg("handle"), "`handle in bp`: whether handle is a live object.")
       .def("contains", &PyBroadPhase::contains, py::arg("handle"),

@@ -132,6 +132,10 @@ hbp_status report_calls(std::size_t calls, std::size_t* hits_out) {
   return ok();
 }
 
+hbp::QueryFilter as_query_filter(const hbp_query_filter* f) {
+  return f ? hbp::QueryFilter{f->layers_mask, f->category_mask} : hbp::QueryFilter{};
+}
+
 }  // namespace
 
 extern "C" {
@@ -267,6 +271,175 @@ hbp_status hbp_query_ray(const hbp_broad_phase* bp, const float origin[3], const
   return guarded([&] {
     const hbp::BroadPhase::Vec3f o{origin[0], origin[1], origin[2]}, d{direction[0], direction[1], direction[2]};
     return report_calls(bp->bp.query_ray(o, d, max_t, c_visitor(callback, user)), hits_out);
+  });
+}
+
+hbp_status hbp_raycast_closest_filtered(const hbp_broad_phase* bp, const float origin[3], const float direction[3],
+                                        float max_t, const hbp_query_filter* filter, hbp_handle* handle_out,
+                                        float* t_out, int* hit_out) {
+  if (bp == nullptr || origin == nullptr || direction == nullptr || handle_out == nullptr || t_out == nullptr ||
+      hit_out == nullptr) {
+    return fail(HBP_ERROR_INVALID_ARGUMENT,
+                "hbp_raycast_closest: bp, origin, direction, handle_out, t_out and hit_out must not be NULL");
+  }
+  *handle_out = HBP_INVALID_HANDLE;
+  *t_out = 0.0f;
+  *hit_out = 0;
+  return guarded([&] {
+    const hbp::BroadPhase::Vec3f o{origin[0], origin[1], origin[2]}, d{direction[0], direction[1], direction[2]};
+    if (const std::optional<hbp::RayHit> hit = bp->bp.raycast_closest(o, d, max_t, as_query_filter(filter))) {
+      *handle_out = hit->handle;
+      *t_out = hit->t;
+      *hit_out = 1;
+    }
+    return ok();
+  });
+}
+
+hbp_status hbp_raycast_closest(const hbp_broad_phase* bp, const float origin[3], const float direction[3], float max_t,
+                               hbp_handle* handle_out, float* t_out, int* hit_out) {
+  return hbp_raycast_closest_filtered(bp, origin, direction, max_t, nullptr, handle_out, t_out, hit_out);
+}
+
+hbp_status hbp_box_cast_filtered(const hbp_broad_phase* bp, const hbp_box* box, const float displacement[3],
+                                 const hbp_query_filter* filter, hbp_hit_callback callback, void* user,
+                                 size_t* hits_out) {
+  if (hits_out != nullptr) *hits_out = 0;
+  if (bp == nullptr || box == nullptr || displacement == nullptr || callback == nullptr) {
+    return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_box_cast: bp, box, displacement and callback must not be NULL");
+  }
+  return guarded([&] {
+    const hbp::BroadPhase::Vec3f d{displacement[0], displacement[1], displacement[2]};
+    return report_calls(
+        bp->bp.query_box_cast(*as_aabbs(box), d, c_visitor(callback, user), as_query_filter(filter)), hits_out);
+  });
+}
+
+hbp_status hbp_box_cast(const hbp_broad_phase* bp, const hbp_box* box, const float displacement[3],
+                        hbp_hit_callback callback, void* user, size_t* hits_out) {
+  return hbp_box_cast_filtered(bp, box, displacement, nullptr, callback, user, hits_out);
+}
+
+hbp_status hbp_query_box_filtered(const hbp_broad_phase* bp, const hbp_box* box, const hbp_query_filter* filter,
+                                  hbp_hit_callback callback, void* user, size_t* hits_out) {
+  if (hits_out != nullptr) *hits_out = 0;
+  if (bp == nullptr || box == nullptr || callback == nullptr) {
+    return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_query_box: bp, box and callback must not be NULL");
+  }
+  return guarded([&] {
+    return report_calls(bp->bp.query_box(*as_aabbs(box), c_visitor(callback, user), as_query_filter(filter)),
+                        hits_out);
+  });
+}
+
+hbp_status hbp_query_ray_filtered(const hbp_broad_phase* bp, const float origin[3], const float direction[3],
+                                  float max_t, const hbp_query_filter* filter, hbp_hit_callback callback, void* user,
+                                  size_t* hits_out) {
+  if (hits_out != nullptr) *hits_out = 0;
+  if (bp == nullptr || origin == nullptr || direction == nullptr || callback == nullptr) {
+    return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_query_ray: bp, origin, direction and callback must not be NULL");
+  }
+  return guarded([&] {
+    const hbp::BroadPhase::Vec3f o{origin[0], origin[1], origin[2]}, d{direction[0], direction[1], direction[2]};
+    return report_calls(bp->bp.query_ray(o, d, max_t, c_visitor(callback, user), as_query_filter(filter)), hits_out);
+  });
+}
+
+hbp_status hbp_set_margin(hbp_broad_phase* bp, const hbp_handle* handles, size_t count, float margin) {
+  if (bp == nullptr || (count > 0 && handles == nullptr)) {
+    return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_set_margin: bp must not be NULL, nor handles when count > 0");
+  }
+  return guarded([&] {
+    bp->bp.set_margin(std::span<const hbp::Handle>(handles, count), margin);
+    return ok();
+  });
+}
+
+hbp_status hbp_move_swept(hbp_broad_phase* bp, const hbp_handle* handles, const hbp_box* boxes, size_t count) {
+  if (bp == nullptr) return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_move_swept: bp must not be NULL");
+  if (count > 0 && (boxes == nullptr || handles == nullptr)) {
+    return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_move_swept: handles and boxes must not be NULL when count > 0");
+  }
+  return guarded([&] {
+    bp->bp.move_swept(std::span<const hbp::Handle>(handles, count), std::span<const hbp::Aabb>(as_aabbs(boxes), count));
+    return ok();
+  });
+}
+
+void hbp_filter_init(hbp_filter* filter) {
+  if (filter == nullptr) return;
+  const hbp::Filter d;
+  filter->category = d.category;
+  filter->mask = d.mask;
+  filter->group = d.group;
+}
+
+void hbp_query_filter_init(hbp_query_filter* filter) {
+  if (filter == nullptr) return;
+  const hbp::QueryFilter d;
+  filter->layers_mask = d.layers_mask;
+  filter->category_mask = d.category_mask;
+}
+
+hbp_status hbp_set_filter(hbp_broad_phase* bp, const hbp_handle* handles, size_t count, const hbp_filter* filter) {
+  if (bp == nullptr || filter == nullptr || (count > 0 && handles == nullptr)) {
+    return fail(HBP_ERROR_INVALID_ARGUMENT,
+                "hbp_set_filter: bp and filter must not be NULL, nor handles when count > 0");
+  }
+  return guarded([&] {
+    bp->bp.set_filter(std::span<const hbp::Handle>(handles, count), {filter->category, filter->mask, filter->group});
+    return ok();
+  });
+}
+
+hbp_status hbp_get_filter(const hbp_broad_phase* bp, hbp_handle handle, hbp_filter* filter_out) {
+  if (bp == nullptr || filter_out == nullptr) {
+    return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_get_filter: bp and filter_out must not be NULL");
+  }
+  return guarded([&] {
+    const hbp::Filter f = bp->bp.filter(handle);
+    filter_out->category = f.category;
+    filter_out->mask = f.mask;
+    filter_out->group = f.group;
+    return ok();
+  });
+}
+
+hbp_status hbp_set_user_data(hbp_broad_phase* bp, const hbp_handle* handles, const uint64_t* values, size_t count) {
+  if (bp == nullptr || (count > 0 && (handles == nullptr || values == nullptr))) {
+    return fail(HBP_ERROR_INVALID_ARGUMENT,
+                "hbp_set_user_data: bp must not be NULL, nor handles and values when count > 0");
+  }
+  return guarded([&] {
+    bp->bp.set_user_data(std::span<const hbp::Handle>(handles, count), std::span<const std::uint64_t>(values, count));
+    return ok();
+  });
+}
+
+hbp_status hbp_get_user_data(const hbp_broad_phase* bp, hbp_handle handle, uint64_t* value_out) {
+  if (bp == nullptr || value_out == nullptr) {
+    return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_get_user_data: bp and value_out must not be NULL");
+  }
+  return guarded([&] {
+    *value_out = bp->bp.user_data(handle);
+    return ok();
+  });
+}
+
+hbp_status hbp_pair_user_data(const hbp_broad_phase* bp, const hbp_pair* pairs, size_t count, uint64_t* out) {
+  if (bp == nullptr || (count > 0 && (pairs == nullptr || out == nullptr))) {
+    return fail(HBP_ERROR_INVALID_ARGUMENT,
+                "hbp_pair_user_data: bp must not be NULL, nor pairs and out when count > 0");
+  }
+  return guarded([&] {
+    for (size_t i = 0; i < count; ++i) {
+      const hbp::Handle h[2] = {pairs[i].a, pairs[i].b};
+      std::uint64_t v[2];
+      bp->bp.user_data(std::span<const hbp::Handle>(h, 2), std::span<std::uint64_t>(v, 2));
+      out[2 * i] = v[0];
+      out[2 * i + 1] = v[1];
+    }
+    return ok();
   });
 }
 

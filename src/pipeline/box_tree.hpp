@@ -43,6 +43,7 @@
 #include "hbp/box_array.hpp"
 #include "hbp/limits.hpp"
 #include "partition/raw_buffer.hpp"
+#include "pipeline/box_cast.hpp"
 #include "pipeline/ray_segment.hpp"
 
 namespace hbp::detail {
@@ -131,6 +132,40 @@ class BoxTree {
   void for_each_ray_hit_portable(const RaySegment& ray, Hit&& hit) const {
     if (empty()) return;
     ray_walk_portable(ray, RayLanes(ray), hit);
+  }
+
+  // The nearest box the segment touches, folded into (best_t, best_id):
+  // a hit (t, id) replaces them when t < best_t, or t == best_t and
+  // id < best_id (start from +inf and kNone; ids are never kNone). The walk
+  // goes nearest-first: a node's children are pushed farthest first by the
+  // entry t of their decoded boxes, and a pending block whose entry t is
+  // beyond best_t is dropped unread. A decoded box contains its objects and
+  // the slab test is monotone in the bounds, so a block's entry t is <= the
+  // entry t of every object below it: dropping it loses no better hit
+  // (equal t is still opened, for the smaller id).
+  // accept(id) (optional) says whether a hit counts (a query filter).
+  void closest_ray_hit(const RaySegment& ray, float& best_t, std::uint32_t& best_id) const {
+    closest_ray_hit(ray, best_t, best_id, [](std::uint32_t) { return true; });
+  }
+  template <class Accept>
+  void closest_ray_hit(const RaySegment& ray, float& best_t, std::uint32_t& best_id, const Accept& accept) const {
+    if (empty()) return;
+    closest_walk(root_, 0.0f, ray, RayLanes(ray), best_t, best_id, accept);
+  }
+
+  // Calls hit(item, entry_t) for every box the cast box touches (BoxCast's
+  // rule, entry_t its first t), in no particular order.
+  template <class Hit>
+  void for_each_cast_hit(const BoxCast& cast, Hit&& hit) const {
+    if (empty()) return;
+    const RayLanes lanes(cast.ray);
+    const auto node_mask = [&](const Node& n) { return node_cast_mask(n, cast, lanes); };
+    const auto visit_leaf = [&](std::uint32_t link) {
+      const Leaf& l = leaves_[link & ~kLeaf];
+      float entry[kWidth];
+      for (std::uint32_t m = leaf_cast_mask(l, cast, lanes, entry); m; m &= m - 1) hit(item(l, lane(m)), entry[lane(m)]);
+    };
+    traverse(root_, node_mask, visit_leaf);
   }
 
   // The decoded (conservative) box of node n's lane c; also what build and
@@ -347,6 +382,137 @@ class BoxTree {
       float mn[3], mx[3], t;
       decode(n, c, mn, mx);
       mask |= static_cast<std::uint32_t>(ray.hits(mn, mx, t)) << c;
+    }
+    return mask & (used_mask(n.link) | used_mask(n.link + 4) << 4);
+#endif
+  }
+
+  // Bit c: the segment touches node lane c's decoded box; entry[c] its
+  // entry t (meaningful for passing lanes).
+  static std::uint32_t node_ray_entry_mask(const Node& n, const RaySegment& ray, [[maybe_unused]] const RayLanes& lanes,
+                                           float* entry) {
+#if defined(__SSE2__)
+    std::uint32_t mask = 0;
+    for (std::uint32_t h = 0; h < kNodeWidth; h += 4) {
+      __m128 nr[3], fr[3];
+      decode_ray_lanes(n, h, lanes, nr, fr);
+      __m128 t0;
+      mask |= static_cast<std::uint32_t>(_mm_movemask_ps(sse_ray_lanes(nr, fr, ray, lanes, t0))) << h;
+      _mm_storeu_ps(entry + h, t0);
+    }
+    return mask & (used_mask(n.link) | used_mask(n.link + 4) << 4);
+#else
+    std::uint32_t mask = 0;
+    for (std::uint32_t c = 0; c < kNodeWidth; ++c) {
+      float mn[3], mx[3];
+      decode(n, c, mn, mx);
+      mask |= static_cast<std::uint32_t>(ray.hits(mn, mx, entry[c])) << c;
+    }
+    return mask & (used_mask(n.link) | used_mask(n.link + 4) << 4);
+#endif
+  }
+
+  // closest_ray_hit's walk of the subtree at `link` (entry t `t`). Pending
+  // blocks sit on a stack with their entry t, nearest on top; a stack full
+  // (a degenerate tree far deeper than SAH builds) walks the child apart.
+  static constexpr std::uint32_t kClosestStack = 256;
+  template <class Accept>
+  __attribute__((noinline)) void closest_walk(std::uint32_t link, float t, const RaySegment& ray,
+                                              const RayLanes& lanes, float& best_t, std::uint32_t& best_id,
+                                              const Accept& accept) const {
+    struct Pending {
+      std::uint32_t link;
+      float t;
+    };
+    Pending stack[kClosestStack];
+    std::uint32_t top = 0;
+    stack[top++] = {link, t};
+    while (top != 0) {
+      const Pending p = stack[--top];
+      if (p.t > best_t) continue;
+      if (p.link & kLeaf) {
+        const Leaf& l = leaves_[p.link & ~kLeaf];
+        float entry[kWidth];
+        for (std::uint32_t m = leaf_ray_mask(l, ray, lanes, entry); m; m &= m - 1) {
+          const std::uint32_t c = lane(m);
+          if ((entry[c] < best_t || (entry[c] == best_t && l.id[c] < best_id)) && accept(l.id[c])) {
+            best_t = entry[c];
+            best_id = l.id[c];
+          }
+        }
+        continue;
+      }
+      const Node& n = nodes_[p.link];
+      float entry[kNodeWidth];
+      Pending kids[kNodeWidth];
+      std::uint32_t count = 0;
+      for (std::uint32_t m = node_ray_entry_mask(n, ray, lanes, entry); m; m &= m - 1) {
+        const std::uint32_t c = lane(m);
+        if (entry[c] > best_t) continue;
+        // Insertion by descending t: the nearest child ends on top.
+        std::uint32_t i = count++;
+        for (; i > 0 && kids[i - 1].t < entry[c]; --i) kids[i] = kids[i - 1];
+        kids[i] = {n.link[c], entry[c]};
+        prefetch(n.link[c]);
+      }
+      for (std::uint32_t i = 0; i < count; ++i) {
+        if (top == kClosestStack)
+          closest_walk(kids[i].link, kids[i].t, ray, lanes, best_t, best_id, accept);
+        else
+          stack[top++] = kids[i];
+      }
+    }
+  }
+
+  // The cast's slab test on grown bounds: lanes' [mn - box.max, mx - box.min]
+  // against the segment from 0 (RayLanes of cast.ray), the same floats as
+  // BoxCast::hits (x - 0 is x).
+#if defined(__SSE2__)
+  static __m128 sse_cast_lanes(const __m128* mn, const __m128* mx, const BoxCast& cast, const RayLanes& lanes,
+                               __m128& t0) {
+    __m128 nr[3], fr[3];
+    for (int k = 0; k < 3; ++k) {
+      const __m128 gmn = _mm_sub_ps(mn[k], _mm_set1_ps(cast.box.max[k]));
+      const __m128 gmx = _mm_sub_ps(mx[k], _mm_set1_ps(cast.box.min[k]));
+      nr[k] = lanes.near_is_max[k] ? gmx : gmn;
+      fr[k] = lanes.near_is_max[k] ? gmn : gmx;
+    }
+    return sse_ray_lanes(nr, fr, cast.ray, lanes, t0);
+  }
+#endif
+  static std::uint32_t leaf_cast_mask(const Leaf& l, const BoxCast& cast, [[maybe_unused]] const RayLanes& lanes,
+                                      float* entry) {
+#if defined(__SSE2__)
+    const __m128 mn[3] = {_mm_load_ps(l.min[0]), _mm_load_ps(l.min[1]), _mm_load_ps(l.min[2])};
+    const __m128 mx[3] = {_mm_load_ps(l.max[0]), _mm_load_ps(l.max[1]), _mm_load_ps(l.max[2])};
+    __m128 t0;
+    const __m128 m = sse_cast_lanes(mn, mx, cast, lanes, t0);
+    _mm_storeu_ps(entry, t0);
+    return static_cast<std::uint32_t>(_mm_movemask_ps(m)) & used_mask(l.index);
+#else
+    std::uint32_t mask = 0;
+    for (std::uint32_t c = 0; c < kWidth; ++c) {
+      const Item it = item(l, c);
+      mask |= static_cast<std::uint32_t>(cast.hits(it.min, it.max, entry[c])) << c;
+    }
+    return mask & used_mask(l.index);
+#endif
+  }
+  static std::uint32_t node_cast_mask(const Node& n, const BoxCast& cast, [[maybe_unused]] const RayLanes& lanes) {
+#if defined(__SSE2__)
+    std::uint32_t mask = 0;
+    for (std::uint32_t h = 0; h < kNodeWidth; h += 4) {
+      __m128 mn[3], mx[3], t0;
+      decode_lanes(n, h, mn, mx);
+      mask |= static_cast<std::uint32_t>(_mm_movemask_ps(sse_cast_lanes(mn, mx, cast, lanes, t0))) << h;
+    }
+    return mask & (used_mask(n.link) | used_mask(n.link + 4) << 4);
+#else
+    std::uint32_t mask = 0;
+    for (std::uint32_t c = 0; c < kNodeWidth; ++c) {
+      float mn[3], mx[3], t;
+      decode(n, c, mn, mx);
+      mask |= static_cast<std::uint32_t>(cast.hits(mn, mx, t)) << c;
     }
     return mask & (used_mask(n.link) | used_mask(n.link + 4) << 4);
 #endif

@@ -55,6 +55,7 @@
 
 #include "hbp/error.hpp"
 #include "geometry/box_screen.hpp"
+#include "pipeline/box_cast.hpp"
 #include "pipeline/frame_threads.hpp"
 #include "pipeline/box_tree.hpp"
 #include "pipeline/fat_moving_pairs.hpp"
@@ -232,6 +233,25 @@ struct BroadPhase::Impl {
   std::array<std::uint32_t, kLayerCount> collide_mask{};
   PairFilter filter;
 
+  // By slot: each object's Filter and user data (set at add, kept until the
+  // slot is released). filtered_objects counts the live objects whose
+  // filter is not the default (which accepts every default object): while
+  // it is 0 no pair needs the filter test and the unfiltered paths hold.
+  std::vector<Filter> slot_filter;
+  std::vector<std::uint64_t> slot_user_data;
+  std::uint32_t filtered_objects = 0;
+
+  // Fast movers, by slot. slot_margin: grown onto every box the object is
+  // given. A swept object (slot_swept) keeps in slot_end the box of its last
+  // move_swept (grown), the "previous box" its next move_swept unions with,
+  // so sweeps do not accumulate frame after frame; a plain move ends it.
+  // While no object has a margin or is swept, move() keeps its whole-batch
+  // path (margined_objects, swept_objects count the live ones).
+  std::vector<float> slot_margin;
+  std::vector<Aabb> slot_end;
+  std::vector<std::uint8_t> slot_swept;
+  std::uint32_t margined_objects = 0, swept_objects = 0;
+
   // Results.
   BroadPhaseUpdate result;
   BroadPhaseUpdateStats stats;
@@ -341,14 +361,33 @@ struct BroadPhase::Impl {
                          std::to_string(table.live()) + " would pass the limit of " + std::to_string(kMaxObjects) +
                          " objects");
     check_boxes("add", boxes);
+    check_margin("add", o.margin);
+    if (o.margin > 0)
+      for (std::size_t i = 0; i < boxes.size(); ++i) check_grown("add", i, boxes[i], o.margin);
     if (!o.is_static && !boxes.empty()) mark_whole_frame_moves();
     std::vector<Handle> handles(boxes.size());
     const auto kind = o.is_static ? HandleTable::kStatic : HandleTable::kMoving;
     for (std::size_t i = 0; i < boxes.size(); ++i) {
       const std::uint32_t s = table.allocate(kind, o.layer);
       if (s >= slot_box.size()) slot_box.resize(s + 1);
-      slot_box[s] = boxes[i];
+      slot_box[s] = grown(boxes[i], o.margin);
       handles[i] = table.handle_of(s);
+      if (s >= slot_filter.size()) {
+        slot_filter.resize(s + 1);
+        slot_user_data.resize(s + 1);
+        slot_margin.resize(s + 1);
+        slot_end.resize(s + 1);
+        slot_swept.resize(s + 1);
+      }
+      slot_margin[s] = o.margin;
+      slot_swept[s] = 0;
+      slot_filter[s] = o.filter;
+      slot_user_data[s] = o.user_data;
+    }
+    if (o.margin > 0) margined_objects += static_cast<std::uint32_t>(boxes.size());
+    if (!is_default(o.filter)) {
+      filtered_objects += static_cast<std::uint32_t>(boxes.size());
+      static_pairs_valid = false;
     }
     size_change_marks();
     for (const Handle h : handles) changed_serial[HandleTable::slot_of(h)] = frame_serial;  // a slot reused this frame counts again
@@ -396,9 +435,10 @@ struct BroadPhase::Impl {
   // (first change this frame) and rows that changed a box at all.
   struct MoveCounts {
     std::uint32_t moving_first = 0, moving_changed = 0, static_first = 0, static_changed = 0;
+    std::uint32_t swept_started = 0, swept_ended = 0;
     MoveCounts operator+(const MoveCounts& o) const {
-      return {moving_first + o.moving_first, moving_changed + o.moving_changed, static_first + o.static_first,
-              static_changed + o.static_changed};
+      return {moving_first + o.moving_first,   moving_changed + o.moving_changed, static_first + o.static_first,
+              static_changed + o.static_changed, swept_started + o.swept_started,   swept_ended + o.swept_ended};
     }
   };
 
@@ -410,7 +450,8 @@ struct BroadPhase::Impl {
   // once and nothing is written in place, so a failed row (false: the
   // general path below then names it) leaves everything as it was.
   bool move_every_moving(const Handle* h, const Aabb* b, std::size_t n) {
-    if (moving_membership_dirty || n == 0 || n != moving_handle.size() || moved != 0 || whole_frame_moved)
+    if (moving_membership_dirty || n == 0 || n != moving_handle.size() || moved != 0 || whole_frame_moved ||
+        margined_objects != 0 || swept_objects != 0)
       return false;
     // With handles equal to dense indices the expected handle is i itself
     // (no second handle array to read).
@@ -430,22 +471,27 @@ struct BroadPhase::Impl {
     return true;
   }
 
-  void move(std::span<const Handle> handles, std::span<const Aabb> boxes) {
+  // move() and move_swept(): `swept` sets each box to the union of the
+  // object's previous box and the new one (both grown by its margin).
+  void move(std::span<const Handle> handles, std::span<const Aabb> boxes, bool swept = false) {
+    const char* call = swept ? "move_swept" : "move";
     if (handles.size() != boxes.size())
-      throw InvalidInput("BroadPhase::move: " + std::to_string(handles.size()) + " handles but " +
-                         std::to_string(boxes.size()) + " boxes");
+      throw InvalidInput(std::string("BroadPhase::") + call + ": " + std::to_string(handles.size()) +
+                         " handles but " + std::to_string(boxes.size()) + " boxes");
     const std::size_t n = handles.size();
     const Handle* h = handles.data();
     const Aabb* b = boxes.data();
-    if (move_every_moving(h, b, n)) return;
+    if (!swept && move_every_moving(h, b, n)) return;
     // Ranges whose handles failed the screen in the low 32 bits, whose
     // boxes did in the high 32.
     const std::uint64_t failed = for_batch<std::uint64_t>(n, [&](std::size_t begin, std::size_t end) {
       return std::uint64_t(!handles_increasing_and_live(h, begin, end)) |
              std::uint64_t(geometry::screen_fails(b, begin, end)) << 32;
     });
-    if (failed & 0xFFFFFFFFu) check_handles("move", handles);
-    if (failed >> 32) check_boxes("move", boxes);
+    if (failed & 0xFFFFFFFFu) check_handles(call, handles);
+    if (failed >> 32) check_boxes(call, boxes);
+    if (margined_objects != 0)
+      for (std::size_t i = 0; i < n; ++i) check_grown(call, i, b[i], slot_margin[HandleTable::slot_of(h[i])]);
     size_change_marks();
     // Distinct handles: the ranges write distinct slots and dense indices.
     // A box moved to its own value changes nothing.
@@ -455,17 +501,29 @@ struct BroadPhase::Impl {
         const std::uint32_t s = HandleTable::slot_of(h[i]);
         const bool is_static = table.kind(s) == HandleTable::kStatic;
         const std::uint32_t d = is_static ? kNoIndex : table.index(s);
-        if (same_box(d != kNoIndex ? moving_boxes.get(d) : slot_box[s], b[i])) continue;
+        const Aabb current = d != kNoIndex ? moving_boxes.get(d) : slot_box[s];
+        Aabb nb = grown(b[i], slot_margin[s]);
+        if (swept) {
+          const Aabb previous = slot_swept[s] ? slot_end[s] : current;
+          slot_end[s] = nb;
+          part.swept_started += !slot_swept[s];
+          slot_swept[s] = 1;
+          nb = united(previous, nb);
+        } else if (slot_swept[s]) {
+          slot_swept[s] = 0;
+          ++part.swept_ended;
+        }
+        if (same_box(current, nb)) continue;
         const bool first = first_change(s, d);
         if (is_static) {
-          slot_box[s] = b[i];
+          slot_box[s] = nb;
           part.static_first += first;
           ++part.static_changed;
         } else {
           if (d != kNoIndex)
-            moving_boxes.set(d, b[i]);
+            moving_boxes.set(d, nb);
           else
-            slot_box[s] = b[i];
+            slot_box[s] = nb;
           part.moving_first += first;
           ++part.moving_changed;
         }
@@ -475,6 +533,57 @@ struct BroadPhase::Impl {
     if (c.static_changed) statics_changed(c.static_first);
     if (c.moving_changed) touched_moving();
     moved += c.moving_first;
+    swept_objects += c.swept_started - c.swept_ended;
+  }
+
+  static void check_margin(const char* call, float margin) {
+    if (!(margin >= 0) || !std::isfinite(margin))
+      throw InvalidInput(std::string("BroadPhase::") + call + ": margin " + std::to_string(margin) +
+                         " must be finite and >= 0");
+  }
+  // The box grown by the margin on every side must stay finite.
+  static void check_grown(const char* call, std::size_t row, const Aabb& b, float margin) {
+    if (margin > 0 && box_defect(grown(b, margin)))
+      throw InvalidInput(row_text(call, row) + "box grown by the margin " + std::to_string(margin) +
+                         " is not finite");
+  }
+  static Aabb grown(const Aabb& b, float margin) {
+    if (margin == 0) return b;
+    Aabb g;
+    for (int k = 0; k < 3; ++k) {
+      g.min[k] = b.min[k] - margin;
+      g.max[k] = b.max[k] + margin;
+    }
+    return g;
+  }
+  static Aabb united(const Aabb& a, const Aabb& b) {
+    Aabb u;
+    for (int k = 0; k < 3; ++k) {
+      u.min[k] = std::min(a.min[k], b.min[k]);
+      u.max[k] = std::max(a.max[k], b.max[k]);
+    }
+    return u;
+  }
+
+  // Margins and swept boxes grow the float boxes; a double-precision broad
+  // phase confirms its pairs on the double boxes as given, so it has
+  // neither (grow the AabbD instead).
+  void require_float_margins(const char* call) const {
+    if (options.double_precision)
+      throw InvalidInput(std::string("BroadPhase::") + call +
+                         ": margins and swept moves need float boxes (on a double_precision BroadPhase, grow the "
+                         "AabbD boxes themselves)");
+  }
+
+  void set_margin(std::span<const Handle> handles, float margin) {
+    require_float_margins("set_margin");
+    check_margin("set_margin", margin);
+    check_handles("set_margin", handles);
+    for (const Handle h : handles) {
+      const std::uint32_t s = HandleTable::slot_of(h);
+      margined_objects += static_cast<std::uint32_t>(margin > 0) - (slot_margin[s] > 0);
+      slot_margin[s] = margin;
+    }
   }
 
   void remove(std::span<const Handle> handles) {
@@ -490,6 +599,10 @@ struct BroadPhase::Impl {
       } else {
         ++moving;
       }
+      filtered_objects -= !is_default(slot_filter[s]);
+      margined_objects -= slot_margin[s] > 0;
+      swept_objects -= slot_swept[s];
+      slot_swept[s] = 0;
       table.release(s);
     }
     if (statics) statics_changed(statics_first);
@@ -504,6 +617,34 @@ struct BroadPhase::Impl {
     check_handles("set_layer", handles);
     for (const Handle h : handles) table.set_layer(HandleTable::slot_of(h), layer);
     static_pairs_valid = false;
+  }
+
+  void set_filter(std::span<const Handle> handles, const Filter& f) {
+    check_handles("set_filter", handles);
+    for (const Handle h : handles) {
+      const std::uint32_t s = HandleTable::slot_of(h);
+      filtered_objects += static_cast<std::uint32_t>(!is_default(f)) - !is_default(slot_filter[s]);
+      slot_filter[s] = f;
+    }
+    static_pairs_valid = false;
+  }
+
+  void set_user_data(std::span<const Handle> handles, std::span<const std::uint64_t> values) {
+    if (handles.size() != values.size())
+      throw InvalidInput("BroadPhase::set_user_data: " + std::to_string(handles.size()) + " handles but " +
+                         std::to_string(values.size()) + " values");
+    check_handles("set_user_data", handles);
+    for (std::size_t i = 0; i < handles.size(); ++i) slot_user_data[HandleTable::slot_of(handles[i])] = values[i];
+  }
+
+  // User data of a handle from a result list: 0 when it is no longer live
+  // (a removed pair's object removed since).
+  std::uint64_t user_data_or_zero(Handle h) const { return table.live(h) ? slot_user_data[HandleTable::slot_of(h)] : 0; }
+
+  // Whether the object of handle h passes the query filter.
+  bool passes(const QueryFilter& q, Handle h) const {
+    const std::uint32_t s = HandleTable::slot_of(h);
+    return ((q.layers_mask >> table.layer(s)) & 1u) && (slot_filter[s].category & q.category_mask) != 0;
   }
 
   // With no objects left, nothing the next frames need is kept (the slot
@@ -623,6 +764,20 @@ struct BroadPhase::Impl {
     return true;
   }
 
+  // No layer table, object filter or pair filter in force: every
+  // overlapping pair is reported, and the frame takes its unfiltered paths
+  // (the all-moving frame, the incremental moving/static pairs).
+  bool unfiltered() const { return filtered_objects == 0 && !filter && all_layers_collide(); }
+
+  // The layer table, then the objects' filters (b2Filter rule), then the
+  // pair filter: a pair is stored only when all accept it.
+  bool accepts(const Pair& p) const {
+    const std::uint32_t sa = HandleTable::slot_of(p.a), sb = HandleTable::slot_of(p.b);
+    if (!((collide_mask[table.layer(sa)] >> table.layer(sb)) & 1u)) return false;
+    if (filtered_objects != 0 && !should_collide(slot_filter[sa], slot_filter[sb])) return false;
+    return !filter || filter(p.a, p.b);
+  }
+
   void find_moving_pairs() {
     moving_pairs.clear();
     if (moving_handle.size() < 2) return;
@@ -630,7 +785,7 @@ struct BroadPhase::Impl {
                                        ? fat_moving_pairs
                                        : hybrid.update(moving_boxes.view());
     const Handle* h = moving_handle.data();
-    if (all_layers_collide() && !filter) {
+    if (unfiltered()) {
       moving_pairs.resize(raw.size());
       detail::parallel_for(raw.size(), kChunk, [&](std::size_t begin, std::size_t end) {
         for (std::size_t i = begin; i != end; ++i) moving_pairs[i] = Pair{h[raw[i].a], h[raw[i].b]};
@@ -640,7 +795,7 @@ struct BroadPhase::Impl {
     parallel_collect(raw.size(), moving_pairs, [&](std::size_t begin, std::size_t end, std::vector<Pair>& out) {
       for (std::size_t i = begin; i < end; ++i) {
         const Pair p{h[raw[i].a], h[raw[i].b]};
-        if (layers_collide(p.a, p.b) && (!filter || filter(p.a, p.b))) out.push_back(p);
+        if (accepts(p)) out.push_back(p);
       }
     });
   }
@@ -762,9 +917,9 @@ struct BroadPhase::Impl {
       static_pairs.clear();
       return;
     }
-    const bool all = all_layers_collide();
+    const bool all = unfiltered();
     const std::uint32_t epoch = static_epoch;
-    if (incremental && valid_before && all && !filter) {
+    if (incremental && valid_before && all) {
       parallel_collect(moving_handle.size(), flips, [&](std::size_t begin, std::size_t end, std::vector<Pair>& out) {
         // Pass 1 keeps the objects whose box left its quiet box (a few in
         // ten); pass 2 re-tests their lists, prefetched a few objects ahead
@@ -842,7 +997,7 @@ struct BroadPhase::Impl {
                          const ListEntry& e = cache.entry[d];
                          if (e.epoch != epoch || !inside(box, e.fat)) requery(d, box, epoch);
                          std::vector<Candidate>& list = cache.entry[d].list;
-                         if (all && !filter) {
+                         if (all) {
                            // Branch-free: about half the candidates overlap.
                            std::size_t size = out.size();
                            out.resize(size + list.size());
@@ -857,15 +1012,13 @@ struct BroadPhase::Impl {
                          for (const Candidate& k : list) {
                            if (!overlaps(box, k.box)) continue;
                            const Pair p = make_pair(hm, k.handle);
-                           if (!all && !layers_collide(p.a, p.b)) continue;
-                           if (filter && !filter(p.a, p.b)) continue;
-                           out.push_back(p);
+                           if (accepts(p)) out.push_back(p);
                          }
                        }
                      });
     parallel_sort_pairs(static_pairs, sort_scratch, arena);  // the whole moving/static list
     retained::trim(sort_scratch);
-    static_pairs_valid = all && !filter;
+    static_pairs_valid = all;
   }
 
   // No static objects, no filtering: the frame's pairs are the hybrid
@@ -903,7 +1056,7 @@ struct BroadPhase::Impl {
       const bool incremental = !structure_changed;
       sync_statics();
       sync_moving();
-      if (static_handle.empty() && all_layers_collide() && !filter) {
+      if (static_handle.empty() && unfiltered()) {
         if (!options.double_precision) {
           all_moving_frame();
           return;
@@ -1024,6 +1177,7 @@ struct BroadPhase::Impl {
 
   std::vector<Handle> add_d(std::span<const AabbD> boxes, const AddOptions& o) {
     require_precision("add", true);
+    if (o.margin != 0) require_float_margins("add");
     check_boxes_d("add", boxes);
     make_outward(boxes);
     const std::size_t slots = std::size_t(table.slots()) + boxes.size();  // at most, after the add
@@ -1197,13 +1351,13 @@ struct BroadPhase::Impl {
     confirm(next, moving_identity ? nullptr : moving_handle.data());
   }
 
-  void query_box_d(const AabbD& q, std::vector<Handle>& out) {
+  void query_box_d(const AabbD& q, std::vector<Handle>& out, const QueryFilter* qf = nullptr) {
     if (const char* d = box_defect(q)) throw InvalidInput(std::string("BroadPhase::query_box: ") + d);
     const Aabb f = detail::outward_box(q);
     sync_queries();
     out.clear();
     const auto collect = [&](std::uint32_t, const BoxTree::Item& it) {
-      if (overlaps(slot_box_d[HandleTable::slot_of(it.id)], q)) out.push_back(it.id);
+      if (overlaps(slot_box_d[HandleTable::slot_of(it.id)], q) && (!qf || passes(*qf, it.id))) out.push_back(it.id);
     };
     static_tree.for_each_overlap(f, collect);
     moving_tree.for_each_overlap(f, collect);
@@ -1214,15 +1368,17 @@ struct BroadPhase::Impl {
 
   // Box hits are written straight into `out` (cleared first): a caller that
   // keeps its vector pays no allocation once it is large enough.
-  void query_box(const Aabb& q, std::vector<Handle>& out) {
+  void query_box(const Aabb& q, std::vector<Handle>& out, const QueryFilter* qf = nullptr) {
     if (const char* d = box_defect(q)) throw InvalidInput(std::string("BroadPhase::query_box: ") + d);
     if (options.double_precision) {  // the double box the float box denotes
-      query_box_d({{q.min[0], q.min[1], q.min[2]}, {q.max[0], q.max[1], q.max[2]}}, out);
+      query_box_d({{q.min[0], q.min[1], q.min[2]}, {q.max[0], q.max[1], q.max[2]}}, out, qf);
       return;
     }
     sync_queries();
     out.clear();
-    const auto collect = [&](std::uint32_t, const BoxTree::Item& it) { out.push_back(it.id); };
+    const auto collect = [&](std::uint32_t, const BoxTree::Item& it) {
+      if (!qf || passes(*qf, it.id)) out.push_back(it.id);
+    };
     static_tree.for_each_overlap(q, collect);
     moving_tree.for_each_overlap(q, collect);
     std::sort(out.begin(), out.end());
@@ -1230,29 +1386,80 @@ struct BroadPhase::Impl {
 
   // Ray hits are sorted by entry t in a per-thread scratch (no growth
   // reallocations per query), then their handles written into `out`.
-  void query_ray(const float origin[3], const float direction[3], float max_t, std::vector<Handle>& out) {
+  static void check_ray(const char* call, const float origin[3], const float direction[3], float max_t) {
     for (int k = 0; k < 3; ++k) {
       if (!std::isfinite(origin[k]))
-        throw InvalidInput("BroadPhase::query_ray: origin[" + std::to_string(k) + "] is not finite");
+        throw InvalidInput(std::string("BroadPhase::") + call + ": origin[" + std::to_string(k) + "] is not finite");
       if (!std::isfinite(direction[k]))
-        throw InvalidInput("BroadPhase::query_ray: direction[" + std::to_string(k) + "] is not finite");
+        throw InvalidInput(std::string("BroadPhase::") + call + ": direction[" + std::to_string(k) +
+                           "] is not finite");
     }
-    if (!(max_t >= 0)) throw InvalidInput("BroadPhase::query_ray: max_t must be >= 0 (infinity allowed)");
-    sync_queries();
-    const detail::RaySegment ray(origin, direction, max_t);
+    if (!(max_t >= 0))
+      throw InvalidInput(std::string("BroadPhase::") + call + ": max_t must be >= 0 (infinity allowed)");
+  }
+
+  // Hits with their entry t, sorted by (t, handle) in a per-thread scratch
+  // (no growth reallocations per query), then their handles written into
+  // `out`. walk(collect) runs the trees.
+  template <class Walk>
+  void sorted_by_entry(std::vector<Handle>& out, const QueryFilter* qf, Walk&& walk) const {
     struct Hit {
       float t;
       Handle h;
     };
     thread_local std::vector<Hit> hits;
     hits.clear();
-    const auto collect = [&](const BoxTree::Item& it, float t) { hits.push_back({t, it.id}); };
-    static_tree.for_each_ray_hit(ray, collect);
-    moving_tree.for_each_ray_hit(ray, collect);
+    walk([&](const BoxTree::Item& it, float t) {
+      if (!qf || passes(*qf, it.id)) hits.push_back({t, it.id});
+    });
     std::sort(hits.begin(), hits.end(), [](const Hit& a, const Hit& b) { return a.t < b.t || (a.t == b.t && a.h < b.h); });
     out.resize(hits.size());
     for (std::size_t i = 0; i < hits.size(); ++i) out[i] = hits[i].h;
     retained::trim(hits);
+  }
+
+  void query_ray(const float origin[3], const float direction[3], float max_t, std::vector<Handle>& out,
+                 const QueryFilter* qf = nullptr) {
+    check_ray("query_ray", origin, direction, max_t);
+    sync_queries();
+    const detail::RaySegment ray(origin, direction, max_t);
+    sorted_by_entry(out, qf, [&](const auto& collect) {
+      static_tree.for_each_ray_hit(ray, collect);
+      moving_tree.for_each_ray_hit(ray, collect);
+    });
+  }
+
+  std::optional<RayHit> raycast_closest(const float origin[3], const float direction[3], float max_t,
+                                        const QueryFilter* qf = nullptr) {
+    check_ray("raycast_closest", origin, direction, max_t);
+    sync_queries();
+    const detail::RaySegment ray(origin, direction, max_t);
+    float best_t = std::numeric_limits<float>::infinity();
+    std::uint32_t best = BoxTree::kNone;  // never a handle (kInvalidHandle)
+    if (qf) {
+      const auto accept = [&](std::uint32_t h) { return passes(*qf, h); };
+      static_tree.closest_ray_hit(ray, best_t, best, accept);
+      moving_tree.closest_ray_hit(ray, best_t, best, accept);
+    } else {
+      static_tree.closest_ray_hit(ray, best_t, best);
+      moving_tree.closest_ray_hit(ray, best_t, best);
+    }
+    if (best == BoxTree::kNone) return std::nullopt;
+    return RayHit{best, best_t};
+  }
+
+  void query_box_cast(const Aabb& box, const float displacement[3], std::vector<Handle>& out,
+                      const QueryFilter* qf = nullptr) {
+    if (const char* d = box_defect(box)) throw InvalidInput(std::string("BroadPhase::query_box_cast: box: ") + d);
+    for (int k = 0; k < 3; ++k)
+      if (!std::isfinite(displacement[k]))
+        throw InvalidInput("BroadPhase::query_box_cast: displacement[" + std::to_string(k) + "] is not finite");
+    sync_queries();
+    const detail::BoxCast cast(box, displacement);
+    sorted_by_entry(out, qf, [&](const auto& collect) {
+      static_tree.for_each_cast_hit(cast, collect);
+      moving_tree.for_each_cast_hit(cast, collect);
+    });
   }
 
   Handle checked(const char* call, Handle h) const {
@@ -1393,6 +1600,103 @@ std::size_t BroadPhase::query_ray(const Vec3f& origin, const Vec3f& direction, f
   return visit_hits(visit, [&](std::vector<Handle>& hits) { impl_->query_ray(origin.data(), direction.data(), max_t, hits); });
 }
 
+std::optional<RayHit> BroadPhase::raycast_closest(const Vec3f& origin, const Vec3f& direction, float max_t) const {
+  return impl_->raycast_closest(origin.data(), direction.data(), max_t);
+}
+std::vector<Handle> BroadPhase::query_box_cast(const Aabb& box, const Vec3f& displacement) const {
+  thread_local std::vector<Handle> scratch;
+  impl_->query_box_cast(box, displacement.data(), scratch);
+  std::vector<Handle> out(scratch.begin(), scratch.end());
+  retained::trim(scratch);
+  return out;
+}
+std::size_t BroadPhase::query_box_cast(const Aabb& box, const Vec3f& displacement, std::vector<Handle>& out) const {
+  impl_->query_box_cast(box, displacement.data(), out);
+  return out.size();
+}
+std::size_t BroadPhase::query_box_cast(const Aabb& box, const Vec3f& displacement, const HitVisitor& visit) const {
+  return visit_hits(visit, [&](std::vector<Handle>& hits) { impl_->query_box_cast(box, displacement.data(), hits); });
+}
+
+void BroadPhase::set_margin(std::span<const Handle> handles, float margin) { impl_->set_margin(handles, margin); }
+float BroadPhase::margin(Handle h) const { return impl_->slot_margin[HandleTable::slot_of(impl_->checked("margin", h))]; }
+void BroadPhase::move_swept(std::span<const Handle> handles, std::span<const Aabb> boxes) {
+  impl_->require_float_margins("move_swept");
+  impl_->move(handles, boxes, /*swept=*/true);
+}
+
+void BroadPhase::set_filter(std::span<const Handle> handles, const Filter& filter) { impl_->set_filter(handles, filter); }
+Filter BroadPhase::filter(Handle h) const {
+  return impl_->slot_filter[HandleTable::slot_of(impl_->checked("filter", h))];
+}
+void BroadPhase::set_user_data(std::span<const Handle> handles, std::span<const std::uint64_t> values) {
+  impl_->set_user_data(handles, values);
+}
+std::uint64_t BroadPhase::user_data(Handle h) const {
+  return impl_->slot_user_data[HandleTable::slot_of(impl_->checked("user_data", h))];
+}
+void BroadPhase::pair_user_data(std::span<const Pair> pairs, std::span<std::array<std::uint64_t, 2>> out) const {
+  if (pairs.size() != out.size())
+    throw InvalidInput("BroadPhase::pair_user_data: " + std::to_string(pairs.size()) + " pairs but room for " +
+                       std::to_string(out.size()));
+  for (std::size_t i = 0; i < pairs.size(); ++i)
+    out[i] = {impl_->user_data_or_zero(pairs[i].a), impl_->user_data_or_zero(pairs[i].b)};
+}
+void BroadPhase::user_data(std::span<const Handle> handles, std::span<std::uint64_t> out) const {
+  if (handles.size() != out.size())
+    throw InvalidInput("BroadPhase::user_data: " + std::to_string(handles.size()) + " handles but room for " +
+                       std::to_string(out.size()));
+  for (std::size_t i = 0; i < handles.size(); ++i) out[i] = impl_->user_data_or_zero(handles[i]);
+}
+
+std::vector<Handle> BroadPhase::query_box(const Aabb& box, const QueryFilter& filter) const {
+  std::vector<Handle> out;
+  impl_->query_box(box, out, &filter);
+  return out;
+}
+std::size_t BroadPhase::query_box(const Aabb& box, std::vector<Handle>& out, const QueryFilter& filter) const {
+  impl_->query_box(box, out, &filter);
+  return out.size();
+}
+std::size_t BroadPhase::query_box(const Aabb& box, const HitVisitor& visit, const QueryFilter& filter) const {
+  return visit_hits(visit, [&](std::vector<Handle>& hits) { impl_->query_box(box, hits, &filter); });
+}
+std::vector<Handle> BroadPhase::query_ray(const Vec3f& origin, const Vec3f& direction, float max_t,
+                                          const QueryFilter& filter) const {
+  std::vector<Handle> out;
+  impl_->query_ray(origin.data(), direction.data(), max_t, out, &filter);
+  return out;
+}
+std::size_t BroadPhase::query_ray(const Vec3f& origin, const Vec3f& direction, float max_t, std::vector<Handle>& out,
+                                  const QueryFilter& filter) const {
+  impl_->query_ray(origin.data(), direction.data(), max_t, out, &filter);
+  return out.size();
+}
+std::size_t BroadPhase::query_ray(const Vec3f& origin, const Vec3f& direction, float max_t, const HitVisitor& visit,
+                                  const QueryFilter& filter) const {
+  return visit_hits(visit,
+                    [&](std::vector<Handle>& hits) { impl_->query_ray(origin.data(), direction.data(), max_t, hits, &filter); });
+}
+std::optional<RayHit> BroadPhase::raycast_closest(const Vec3f& origin, const Vec3f& direction, float max_t,
+                                                  const QueryFilter& filter) const {
+  return impl_->raycast_closest(origin.data(), direction.data(), max_t, &filter);
+}
+std::vector<Handle> BroadPhase::query_box_cast(const Aabb& box, const Vec3f& displacement,
+                                               const QueryFilter& filter) const {
+  std::vector<Handle> out;
+  impl_->query_box_cast(box, displacement.data(), out, &filter);
+  return out;
+}
+std::size_t BroadPhase::query_box_cast(const Aabb& box, const Vec3f& displacement, std::vector<Handle>& out,
+                                       const QueryFilter& filter) const {
+  impl_->query_box_cast(box, displacement.data(), out, &filter);
+  return out.size();
+}
+std::size_t BroadPhase::query_box_cast(const Aabb& box, const Vec3f& displacement, const HitVisitor& visit,
+                                       const QueryFilter& filter) const {
+  return visit_hits(visit, [&](std::vector<Handle>& hits) { impl_->query_box_cast(box, displacement.data(), hits, &filter); });
+}
+
 std::size_t BroadPhase::size() const { return impl_->table.live(); }
 bool BroadPhase::contains(Handle h) const { return impl_->table.live(h); }
 Aabb BroadPhase::box(Handle h) const {
@@ -1422,9 +1726,9 @@ AabbD BroadPhase::box_d(Handle h) const {
   impl_->require_precision("box_d", true);
   return impl_->slot_box_d[HandleTable::slot_of(impl_->checked("box_d", h))];
 }
-void BroadPhase::query_box_d(const AabbD& box, std::vector<Handle>& out) const {
+void BroadPhase::query_box_d(const AabbD& box, std::vector<Handle>& out, const QueryFilter* filter) const {
   impl_->require_precision("query_box", true);
-  impl_->query_box_d(box, out);
+  impl_->query_box_d(box, out, filter);
 }
 
 }  // namespace hbp
