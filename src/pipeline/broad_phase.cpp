@@ -53,6 +53,7 @@
 #include "geometry/box_screen.hpp"
 #include "pipeline/arena_threads.hpp"
 #include "pipeline/box_tree.hpp"
+#include "pipeline/broad_phase_snapshot.hpp"
 #include "pipeline/fat_moving_pairs.hpp"
 #include "pipeline/handle_table.hpp"
 #include "pipeline/pair_events.hpp"
@@ -243,6 +244,16 @@ struct BroadPhase::Impl {
   std::uint32_t moved = 0, static_changes = 0;
   std::vector<std::uint32_t> changed_serial;
   std::uint32_t frame_serial = 1;
+  // Objects whose kind changed this frame (set_static): serial ==
+  // frame_serial marks them, and such an object is counted in
+  // static_changes; moved_counted says whether it is in `moved` too. An
+  // object with no such mark has had its kind all frame, and changed_serial
+  // says whether the counter of that kind counts it.
+  struct KindChange {
+    std::uint32_t serial = 0;
+    bool moved_counted = false;
+  };
+  std::vector<KindChange> kind_changed;
   // The whole-frame move (move_every_moving) was this frame's first change
   // of a moving box: moving_boxes.replaced() holds the boxes before it, in
   // the same dense order, and the moving objects whose box differs from
@@ -276,6 +287,7 @@ struct BroadPhase::Impl {
 
   void size_change_marks() {
     if (changed_serial.size() < table.slots()) changed_serial.resize(table.slots(), 0);
+    if (kind_changed.size() < table.slots()) kind_changed.resize(table.slots());
   }
   // Moving object d (dense index) was changed by the whole-frame move.
   bool changed_by_whole_frame(std::uint32_t d) const {
@@ -340,7 +352,10 @@ struct BroadPhase::Impl {
       handles[i] = table.handle_of(s);
     }
     size_change_marks();
-    for (const Handle h : handles) changed_serial[HandleTable::slot_of(h)] = frame_serial;  // a slot reused this frame counts again
+    for (const Handle h : handles) {
+      changed_serial[HandleTable::slot_of(h)] = frame_serial;  // a slot reused this frame counts again
+      kind_changed[HandleTable::slot_of(h)] = {};
+    }
     if (boxes.empty()) return handles;
     if (o.is_static) {
       statics_changed(static_cast<std::uint32_t>(boxes.size()));
@@ -494,6 +509,52 @@ struct BroadPhase::Impl {
     check_handles("set_layer", handles);
     for (const Handle h : handles) table.set_layer(HandleTable::slot_of(h), layer);
     static_pairs_valid = false;
+  }
+
+  // ---- sleeping and waking -------------------------------------------------
+
+  // A kind change is a membership change of both sets: the object leaves
+  // the dense arrays of its old kind and joins the other's at the next
+  // gather, keeping its slot (so its handle) and layer. Its box goes to
+  // slot_box first, where both gathers read it. Stats: a sleeping object
+  // counts as a static added, a waking one as a static removed and a moving
+  // object added, each counter at most once per object per frame.
+  void set_static(std::span<const Handle> handles, bool to_static) {
+    check_handles("set_static", handles);
+    const auto want = to_static ? HandleTable::kStatic : HandleTable::kMoving;
+    bool any = false;
+    for (const Handle h : handles) any |= table.kind(HandleTable::slot_of(h)) != want;
+    if (!any) return;
+    mark_whole_frame_moves();  // before the dense order changes
+    size_change_marks();
+    std::uint32_t static_first = 0, moved_first = 0;
+    for (const Handle h : handles) {
+      const std::uint32_t s = HandleTable::slot_of(h);
+      const auto kind = table.kind(s);
+      if (kind == want) continue;
+      if (kind == HandleTable::kMoving && table.index(s) != kNoIndex) slot_box[s] = moving_boxes.get(table.index(s));
+      KindChange& k = kind_changed[s];
+      bool static_counted, moved_counted;
+      if (k.serial == frame_serial) {
+        static_counted = true;
+        moved_counted = k.moved_counted;
+      } else {
+        const bool counted = changed_serial[s] == frame_serial;
+        static_counted = counted && kind == HandleTable::kStatic;
+        moved_counted = counted && kind == HandleTable::kMoving;
+      }
+      static_first += !static_counted;
+      if (!to_static) {
+        moved_first += !moved_counted;
+        moved_counted = true;
+      }
+      k = {frame_serial, moved_counted};
+      changed_serial[s] = frame_serial;  // the new kind's counter counts it
+      table.set_kind(s, want);
+    }
+    statics_changed(static_first);
+    moving_membership_changed();
+    moved += moved_first;
   }
 
   // With no objects left, nothing the next frames need is kept (the slot
@@ -923,6 +984,7 @@ struct BroadPhase::Impl {
     whole_frame_moved = false;
     if (++frame_serial == 0) {  // after 2^32 frames: no mark may look current
       std::fill(changed_serial.begin(), changed_serial.end(), 0u);
+      std::fill(kind_changed.begin(), kind_changed.end(), KindChange{});
       frame_serial = 1;
     }
     stats.wall_ms = ms_since(start);
@@ -970,6 +1032,81 @@ struct BroadPhase::Impl {
     retained::trim(hits);
   }
 
+  // ---- snapshots ------------------------------------------------------------
+
+  // Calls f(slot, whether its kind changed, whether it is then counted in
+  // `moved`) for each live slot the pending stats count already (see
+  // changed_serial and kind_changed), in slot order.
+  template <class F>
+  void for_each_counted(F&& f) const {
+    for (std::uint32_t s = 0; s < table.slots(); ++s) {
+      if (table.kind(s) == HandleTable::kFree) continue;
+      const std::uint32_t d = table.kind(s) == HandleTable::kMoving ? table.index(s) : kNoIndex;
+      const bool counted = (s < changed_serial.size() && changed_serial[s] == frame_serial) ||
+                           (d != kNoIndex && changed_by_whole_frame(d));
+      if (!counted) continue;
+      const bool kind_change = s < kind_changed.size() && kind_changed[s].serial == frame_serial;
+      f(s, kind_change, kind_change && kind_changed[s].moved_counted);
+    }
+  }
+
+  detail::BroadPhaseState state() const {
+    detail::BroadPhaseState st;
+    st.kind = table.kinds();
+    st.generation = table.generations();
+    st.layer = table.layer_table();
+    st.free_slots = table.free_slots();
+    st.boxes.resize(table.slots());
+    for (std::uint32_t s = 0; s < table.slots(); ++s)
+      if (table.kind(s) != HandleTable::kFree) st.boxes[s] = box_of(s);
+    st.collide_mask = collide_mask;
+    st.last = result;
+    st.stats = stats;
+    st.pending_moved = moved;
+    st.pending_static_changes = static_changes;
+    for_each_counted([&](std::uint32_t s, bool kind_change, bool moved_counted) {
+      st.counted.push_back(s);
+      if (!kind_change) return;
+      st.kind_changed.push_back(s);
+      st.kind_changed_moved.push_back(moved_counted);
+    });
+    return st;
+  }
+
+  detail::SnapshotShape snapshot_shape() const {
+    detail::SnapshotShape shape{.slots = table.slots(),
+                                .free_slots = table.free_slots().size(),
+                                .pairs = result.pairs.size(),
+                                .created = result.created.size(),
+                                .removed = result.removed.size()};
+    for_each_counted([&](std::uint32_t, bool kind_change, bool) {
+      ++shape.counted;
+      shape.kind_changed += kind_change;
+    });
+    return shape;
+  }
+
+  // Takes a state read_snapshot checked, into a fresh Impl: every derived
+  // structure is rebuilt from it at the next update or query, exactly as
+  // after the same edits.
+  void assign(detail::BroadPhaseState&& st) {
+    table.assign(std::move(st.kind), std::move(st.generation), std::move(st.layer), std::move(st.free_slots));
+    slot_box = std::move(st.boxes);
+    collide_mask = st.collide_mask;
+    result = std::move(st.last);
+    stats = st.stats;
+    moved = st.pending_moved;
+    static_changes = st.pending_static_changes;
+    changed_serial.assign(table.slots(), 0);
+    kind_changed.assign(table.slots(), KindChange{});
+    for (const std::uint32_t s : st.counted) changed_serial[s] = frame_serial;
+    for (std::size_t i = 0; i < st.kind_changed.size(); ++i)
+      kind_changed[st.kind_changed[i]] = {frame_serial, st.kind_changed_moved[i] != 0};
+    statics_dirty = true;
+    structure_changed = true;
+    moving_membership_changed();
+  }
+
   Handle checked(const char* call, Handle h) const {
     const std::string why = table.defect(h);
     if (!why.empty()) throw InvalidInput(std::string("BroadPhase::") + call + ": " + why);
@@ -999,6 +1136,40 @@ void BroadPhase::move(std::span<const Handle> handles, std::span<const Aabb> box
 void BroadPhase::remove(std::span<const Handle> handles) { impl_->remove(handles); }
 void BroadPhase::set_layer(std::span<const Handle> handles, std::uint8_t layer) {
   impl_->set_layer(handles, layer);
+}
+
+void BroadPhase::set_static(std::span<const Handle> handles, bool is_static) {
+  impl_->set_static(handles, is_static);
+}
+
+std::vector<std::byte> BroadPhase::snapshot() const {
+  const detail::BroadPhaseState state = impl_->state();
+  std::vector<std::byte> out(detail::snapshot_size(detail::shape_of(state)));
+  detail::write_snapshot(state, out);
+  return out;
+}
+std::size_t BroadPhase::snapshot_size() const { return detail::snapshot_size(impl_->snapshot_shape()); }
+std::size_t BroadPhase::snapshot(std::span<std::byte> out) const {
+  const std::size_t size = snapshot_size();
+  if (out.size() < size)
+    throw CapacityExceeded("BroadPhase::snapshot: a buffer of " + std::to_string(out.size()) +
+                           " bytes, the snapshot needs " + std::to_string(size));
+  detail::write_snapshot(impl_->state(), out);
+  return size;
+}
+// Strong guarantee: the snapshot is read and checked whole, and the new
+// state built in a fresh Impl, before it replaces the current one.
+void BroadPhase::restore(std::span<const std::byte> data) {
+  detail::BroadPhaseState state = detail::read_snapshot(data, "BroadPhase::restore");
+  auto fresh = std::make_unique<Impl>(impl_->options);
+  fresh->filter = impl_->filter;
+  fresh->assign(std::move(state));
+  impl_ = std::move(fresh);
+}
+BroadPhase BroadPhase::from_snapshot(std::span<const std::byte> data, const BroadPhaseOptions& options) {
+  BroadPhase bp(options);
+  bp.restore(data);
+  return bp;
 }
 
 void BroadPhase::set_collides(std::uint32_t layer_a, std::uint32_t layer_b, bool collides) {
