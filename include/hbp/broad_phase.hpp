@@ -150,7 +150,8 @@ class BroadPhase {
   // than snapshot_size().
   std::size_t snapshot_size() const;
   std::size_t snapshot(std::span<std::byte> out) const;
-  // Replaces the state with a snapshot's (the options and pair filter stay).
+  // Replaces the state with a snapshot's (the options and pair filter stay;
+  // references update() and last_update() returned are invalidated).
   // InvalidInput naming what is wrong with malformed, truncated, corrupted
   // or wrong-version data, and the object is unchanged.
   void restore(std::span<const std::byte> data);
