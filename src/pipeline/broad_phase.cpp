@@ -248,7 +248,8 @@ struct BroadPhase::Impl {
   // frame_serial marks them, and such an object is counted in
   // static_changes; moved_counted says whether it is in `moved` too. An
   // object with no such mark has had its kind all frame, and changed_serial
-  // says whether the counter of that kind counts it.
+  // says whether the counter of that kind counts it. Sized by set_static
+  // (a world that never changes kinds has none).
   struct KindChange {
     std::uint32_t serial = 0;
     bool moved_counted = false;
@@ -287,7 +288,6 @@ struct BroadPhase::Impl {
 
   void size_change_marks() {
     if (changed_serial.size() < table.slots()) changed_serial.resize(table.slots(), 0);
-    if (kind_changed.size() < table.slots()) kind_changed.resize(table.slots());
   }
   // Moving object d (dense index) was changed by the whole-frame move.
   bool changed_by_whole_frame(std::uint32_t d) const {
@@ -354,7 +354,7 @@ struct BroadPhase::Impl {
     size_change_marks();
     for (const Handle h : handles) {
       changed_serial[HandleTable::slot_of(h)] = frame_serial;  // a slot reused this frame counts again
-      kind_changed[HandleTable::slot_of(h)] = {};
+      if (HandleTable::slot_of(h) < kind_changed.size()) kind_changed[HandleTable::slot_of(h)] = {};
     }
     if (boxes.empty()) return handles;
     if (o.is_static) {
@@ -527,6 +527,7 @@ struct BroadPhase::Impl {
     if (!any) return;
     mark_whole_frame_moves();  // before the dense order changes
     size_change_marks();
+    if (kind_changed.size() < table.slots()) kind_changed.resize(table.slots());
     std::uint32_t static_first = 0, moved_first = 0;
     for (const Handle h : handles) {
       const std::uint32_t s = HandleTable::slot_of(h);
@@ -1050,27 +1051,27 @@ struct BroadPhase::Impl {
     }
   }
 
-  detail::BroadPhaseState state() const {
-    detail::BroadPhaseState st;
-    st.kind = table.kinds();
-    st.generation = table.generations();
-    st.layer = table.layer_table();
-    st.free_slots = table.free_slots();
-    st.boxes.resize(table.slots());
-    for (std::uint32_t s = 0; s < table.slots(); ++s)
-      if (table.kind(s) != HandleTable::kFree) st.boxes[s] = box_of(s);
-    st.collide_mask = collide_mask;
-    st.last = result;
-    st.stats = stats;
-    st.pending_moved = moved;
-    st.pending_static_changes = static_changes;
+  // The state as write_snapshot reads it: views of the table and the
+  // results, boxes by box_of; only the stats' marks are collected.
+  detail::SnapshotSource source() const {
+    detail::SnapshotSource src;
+    src.kind = table.kinds();
+    src.generation = table.generations();
+    src.layer = table.layer_table();
+    src.free_slots = table.free_slots();
+    src.box = [this](std::uint32_t s) { return box_of(s); };
+    src.collide_mask = collide_mask;
+    src.last = &result;
+    src.stats = stats;
+    src.pending_moved = moved;
+    src.pending_static_changes = static_changes;
     for_each_counted([&](std::uint32_t s, bool kind_change, bool moved_counted) {
-      st.counted.push_back(s);
+      src.counted.push_back(s);
       if (!kind_change) return;
-      st.kind_changed.push_back(s);
-      st.kind_changed_moved.push_back(moved_counted);
+      src.kind_changed.push_back(s);
+      src.kind_changed_moved.push_back(moved_counted);
     });
-    return st;
+    return src;
   }
 
   detail::SnapshotShape snapshot_shape() const {
@@ -1097,8 +1098,9 @@ struct BroadPhase::Impl {
     stats = st.stats;
     moved = st.pending_moved;
     static_changes = st.pending_static_changes;
-    changed_serial.assign(table.slots(), 0);
-    kind_changed.assign(table.slots(), KindChange{});
+    // The marks' arrays only where there are marks (edits size them later).
+    if (!st.counted.empty()) changed_serial.assign(table.slots(), 0);
+    if (!st.kind_changed.empty()) kind_changed.assign(table.slots(), KindChange{});
     for (const std::uint32_t s : st.counted) changed_serial[s] = frame_serial;
     for (std::size_t i = 0; i < st.kind_changed.size(); ++i)
       kind_changed[st.kind_changed[i]] = {frame_serial, st.kind_changed_moved[i] != 0};
@@ -1143,9 +1145,9 @@ void BroadPhase::set_static(std::span<const Handle> handles, bool is_static) {
 }
 
 std::vector<std::byte> BroadPhase::snapshot() const {
-  const detail::BroadPhaseState state = impl_->state();
-  std::vector<std::byte> out(detail::snapshot_size(detail::shape_of(state)));
-  detail::write_snapshot(state, out);
+  const detail::SnapshotSource source = impl_->source();
+  std::vector<std::byte> out(detail::snapshot_size(detail::shape_of(source)));
+  detail::write_snapshot(source, out);
   return out;
 }
 std::size_t BroadPhase::snapshot_size() const { return detail::snapshot_size(impl_->snapshot_shape()); }
@@ -1154,7 +1156,7 @@ std::size_t BroadPhase::snapshot(std::span<std::byte> out) const {
   if (out.size() < size)
     throw CapacityExceeded("BroadPhase::snapshot: a buffer of " + std::to_string(out.size()) +
                            " bytes, the snapshot needs " + std::to_string(size));
-  detail::write_snapshot(impl_->state(), out);
+  detail::write_snapshot(impl_->source(), out);
   return size;
 }
 // Strong guarantee: the snapshot is read and checked whole, and the new

@@ -86,10 +86,12 @@ class Reader {
     copy_words(dst, p_, count, sizeof(Word));
     p_ += count * sizeof(Word);
   }
-  void get_bytes(void* dst, std::size_t n, const char* field) {
+  // The next n bytes, read in place.
+  const std::uint8_t* take(std::size_t n, const char* field) {
     need(n, field);
-    if (n) std::memcpy(dst, p_, n);
+    const auto* at = reinterpret_cast<const std::uint8_t*>(p_);
     p_ += n;
+    return at;
   }
   void finish() const {
     if (p_ != end_) fail(std::to_string(end_ - p_) + " bytes after the last field");
@@ -116,7 +118,7 @@ std::size_t payload_bytes(const SnapshotShape& s, int section) {
   return 0;
 }
 
-void write_section(Writer& w, const BroadPhaseState& s, int section) {
+void write_section(Writer& w, const SnapshotSource& s, int section) {
   const auto n32 = [](std::size_t n) { return static_cast<std::uint32_t>(n); };
   switch (section) {
     case kSlot:
@@ -129,32 +131,24 @@ void write_section(Writer& w, const BroadPhaseState& s, int section) {
       w.put(n32(s.free_slots.size()));
       w.put_words<std::uint32_t>(s.free_slots.data(), s.free_slots.size());
       break;
-    case kBoxes: {
-      w.put(n32(live_count(s)));
-      // Runs of live slots, one copy each.
-      const std::size_t slots = s.kind.size();
-      for (std::size_t b = 0; b < slots;) {
-        if (s.kind[b] == HandleTable::kFree) {
-          ++b;
-          continue;
-        }
-        std::size_t e = b + 1;
-        while (e < slots && s.kind[e] != HandleTable::kFree) ++e;
-        w.put_words<float>(s.boxes.data() + b, (e - b) * 6);
-        b = e;
+    case kBoxes:
+      w.put(n32(s.kind.size() - s.free_slots.size()));
+      for (std::uint32_t slot = 0; slot < s.kind.size(); ++slot) {
+        if (s.kind[slot] == HandleTable::kFree) continue;
+        const Aabb b = s.box(slot);
+        w.put_words<float>(&b, 6);
       }
       break;
-    }
     case kLayers:
       w.put(kLayerCount);
       w.put_words<std::uint32_t>(s.collide_mask.data(), kLayerCount);
       break;
-    case kPairs:
-      for (const auto* list : {&s.last.pairs, &s.last.created, &s.last.removed})
-        w.put(static_cast<std::uint64_t>(list->size()));
-      for (const auto* list : {&s.last.pairs, &s.last.created, &s.last.removed})
-        w.put_words<std::uint32_t>(list->data(), 2 * list->size());
+    case kPairs: {
+      const std::vector<Pair>* lists[3] = {&s.last->pairs, &s.last->created, &s.last->removed};
+      for (const auto* list : lists) w.put(static_cast<std::uint64_t>(list->size()));
+      for (const auto* list : lists) w.put_words<std::uint32_t>(list->data(), 2 * list->size());
       break;
+    }
     case kStats:
       w.put(s.stats.moving);
       w.put(s.stats.statics);
@@ -197,12 +191,10 @@ void read_slots(Reader& r, BroadPhaseState& s) {
     r.fail(std::to_string(slots) + " slots, more than the " + std::to_string(1u << kHandleSlotBits) +
            " a handle can name");
   r.need(3 * std::size_t{slots}, "the slot arrays");
-  s.kind.resize(slots);
-  s.generation.resize(slots);
-  s.layer.resize(slots);
-  r.get_bytes(s.kind.data(), slots, "kind");
-  r.get_bytes(s.generation.data(), slots, "generation");
-  r.get_bytes(s.layer.data(), slots, "layer");
+  for (auto* array : {&s.kind, &s.generation, &s.layer}) {
+    const std::uint8_t* at = r.take(slots, "the slot arrays");
+    array->assign(at, at + slots);
+  }
   r.finish();
   for (std::uint32_t i = 0; i < slots; ++i) {
     if (s.kind[i] > HandleTable::kStatic)
@@ -226,11 +218,14 @@ void check_free(Reader& r, const BroadPhaseState& s) {
   std::vector<std::uint8_t> listed(slots, 0);
   for (std::size_t i = 0; i < s.free_slots.size(); ++i) {
     const std::uint32_t f = s.free_slots[i];
+    if (f < slots && s.kind[f] == HandleTable::kFree && !listed[f]) {
+      listed[f] = 1;
+      continue;
+    }
     if (f >= slots) r.fail("entry " + std::to_string(i) + ": slot " + std::to_string(f) + " of " + std::to_string(slots));
     if (s.kind[f] != HandleTable::kFree)
       r.fail("entry " + std::to_string(i) + ": slot " + std::to_string(f) + " holds a live object");
-    if (listed[f]) r.fail("entry " + std::to_string(i) + ": slot " + std::to_string(f) + " listed twice");
-    listed[f] = 1;
+    r.fail("entry " + std::to_string(i) + ": slot " + std::to_string(f) + " listed twice");
   }
   const std::size_t free_in_table = static_cast<std::size_t>(std::count(s.kind.begin(), s.kind.end(), 0));
   if (free_in_table != s.free_slots.size())
@@ -245,22 +240,19 @@ void read_boxes(Reader& r, BroadPhaseState& s) {
   const std::size_t live = live_count(s);
   if (n != live) r.fail(std::to_string(n) + " boxes for " + std::to_string(live) + " live objects");
   r.need(sizeof(Aabb) * std::size_t{n}, "the boxes");
-  s.boxes.assign(s.kind.size(), Aabb{});
+  // One pass: each box read, checked and appended (a free slot's is zero).
   const std::size_t slots = s.kind.size();
-  for (std::size_t b = 0; b < slots;) {
-    if (s.kind[b] == HandleTable::kFree) {
-      ++b;
-      continue;
+  s.boxes.clear();
+  s.boxes.reserve(slots);
+  for (std::size_t i = 0; i < slots; ++i) {
+    Aabb b{};
+    if (s.kind[i] != HandleTable::kFree) {
+      r.get_words<float>(&b, 6, "the boxes");
+      if (const char* d = box_defect(b)) r.fail("slot " + std::to_string(i) + ": " + d);
     }
-    std::size_t e = b + 1;
-    while (e < slots && s.kind[e] != HandleTable::kFree) ++e;
-    r.get_words<float>(s.boxes.data() + b, (e - b) * 6, "the boxes");
-    b = e;
+    s.boxes.push_back(b);
   }
   r.finish();
-  for (std::size_t i = 0; i < slots; ++i)
-    if (s.kind[i] != HandleTable::kFree)
-      if (const char* d = box_defect(s.boxes[i])) r.fail("slot " + std::to_string(i) + ": " + d);
 }
 
 void read_layers(Reader& r, BroadPhaseState& s) {
@@ -278,11 +270,13 @@ void read_layers(Reader& r, BroadPhaseState& s) {
 void check_pairs(Reader& r, const std::vector<Pair>& list, const char* name, std::size_t slots) {
   for (std::size_t i = 0; i < list.size(); ++i) {
     const Pair& p = list[i];
+    const bool ordered = p.a < p.b, after = i == 0 || list[i - 1] < p;
+    const bool in_table = HandleTable::slot_of(p.a) < slots && HandleTable::slot_of(p.b) < slots;
+    if (ordered && after && in_table) continue;
     const std::string at = std::string(name) + " row " + std::to_string(i) + " " + pair_text(p) + ": ";
-    if (!(p.a < p.b)) r.fail(at + "not a < b");
-    if (i > 0 && !(list[i - 1] < p)) r.fail(at + "not after the row before (sorted, no repeats)");
-    if (HandleTable::slot_of(p.b) >= slots || HandleTable::slot_of(p.a) >= slots)
-      r.fail(at + "a handle names a slot the table does not have");
+    if (!ordered) r.fail(at + "not a < b");
+    if (!after) r.fail(at + "not after the row before (sorted, no repeats)");
+    r.fail(at + "a handle names a slot the table does not have");
   }
 }
 
@@ -328,9 +322,11 @@ void read_stats(Reader& r, BroadPhaseState& s) {
 void check_slot_list(Reader& r, const std::vector<std::uint32_t>& list, const char* name, const BroadPhaseState& s) {
   for (std::size_t i = 0; i < list.size(); ++i) {
     const std::uint32_t v = list[i];
+    const bool live = v < s.kind.size() && s.kind[v] != HandleTable::kFree, after = i == 0 || list[i - 1] < v;
+    if (live && after) continue;
     const std::string at = std::string(name) + " row " + std::to_string(i) + ": slot " + std::to_string(v);
-    if (v >= s.kind.size() || s.kind[v] == HandleTable::kFree) r.fail(at + " holds no live object");
-    if (i > 0 && !(list[i - 1] < v)) r.fail(at + " not after the row before (increasing)");
+    if (!live) r.fail(at + " holds no live object");
+    r.fail(at + " not after the row before (increasing)");
   }
 }
 
@@ -357,12 +353,12 @@ void read_edits(Reader& r, BroadPhaseState& s) {
 
 }  // namespace
 
-SnapshotShape shape_of(const BroadPhaseState& s) {
+SnapshotShape shape_of(const SnapshotSource& s) {
   return {.slots = s.kind.size(),
           .free_slots = s.free_slots.size(),
-          .pairs = s.last.pairs.size(),
-          .created = s.last.created.size(),
-          .removed = s.last.removed.size(),
+          .pairs = s.last->pairs.size(),
+          .created = s.last->created.size(),
+          .removed = s.last->removed.size(),
           .counted = s.counted.size(),
           .kind_changed = s.kind_changed.size()};
 }
@@ -373,7 +369,7 @@ std::size_t snapshot_size(const SnapshotShape& shape) {
   return n;
 }
 
-void write_snapshot(const BroadPhaseState& state, std::span<std::byte> out) {
+void write_snapshot(const SnapshotSource& state, std::span<std::byte> out) {
   const SnapshotShape shape = shape_of(state);
   const std::size_t size = snapshot_size(shape);
   if (out.size() < size) throw InvalidInput("write_snapshot: the buffer is smaller than the snapshot");

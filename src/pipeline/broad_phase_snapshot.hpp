@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
 #pragma once
-// The snapshot format of hbp::BroadPhase: its logical state (BroadPhaseState)
-// to bytes and back. Derived structures (dense arrays, trees, caches, the
+// The snapshot format of hbp::BroadPhase: its logical state to bytes
+// (SnapshotSource) and back (BroadPhaseState). Derived structures (dense arrays, trees, caches, the
 // hybrid system) are not stored: they are rebuilt from this state.
 //
 // Layout (little-endian; docs/broad-phase.md, "Snapshots"):
@@ -21,6 +21,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <span>
 #include <vector>
 
@@ -50,16 +51,32 @@ struct BroadPhaseState {
 
 inline constexpr std::uint32_t kSnapshotVersion = 1;
 
+// What write_snapshot reads: the same state, the large arrays as views of
+// the BroadPhase's own (no copy), a box by slot (moving objects keep theirs
+// in dense arrays).
+struct SnapshotSource {
+  std::span<const std::uint8_t> kind, generation, layer;
+  std::span<const std::uint32_t> free_slots;
+  std::function<Aabb(std::uint32_t slot)> box;  // of a live slot
+  std::span<const std::uint32_t> collide_mask;  // kLayerCount
+  const BroadPhaseUpdate* last = nullptr;
+  BroadPhaseUpdateStats stats;
+  std::uint32_t pending_moved = 0, pending_static_changes = 0;
+  std::vector<std::uint32_t> counted;
+  std::vector<std::uint32_t> kind_changed;
+  std::vector<std::uint8_t> kind_changed_moved;
+};
+
 // The sizes a snapshot's length follows from (so it is known without
-// building the state), and that length in bytes.
+// writing it), and that length in bytes.
 struct SnapshotShape {
   std::size_t slots = 0, free_slots = 0, pairs = 0, created = 0, removed = 0, counted = 0, kind_changed = 0;
 };
-SnapshotShape shape_of(const BroadPhaseState& state);
+SnapshotShape shape_of(const SnapshotSource& source);
 std::size_t snapshot_size(const SnapshotShape& shape);
-// Writes the snapshot into out[0, snapshot_size(shape_of(state))) (out is
+// Writes the snapshot into out[0, snapshot_size(shape_of(source))) (out is
 // at least that long).
-void write_snapshot(const BroadPhaseState& state, std::span<std::byte> out);
+void write_snapshot(const SnapshotSource& source, std::span<std::byte> out);
 // The state a snapshot holds; InvalidInput (message prefixed by `call`)
 // naming what is wrong with malformed, truncated or corrupted data.
 BroadPhaseState read_snapshot(std::span<const std::byte> data, const char* call);
