@@ -305,6 +305,13 @@ TEST(BroadPhaseSnapshot, InconsistentFieldsAreRejected) {
                   "section 'EDIT': counted row 0: slot 3 holds no live object");
   expect_rejected(edited("EDIT", [](Bytes& b, std::size_t at, std::size_t) { poke<std::uint32_t>(b, at + 8, 1000); }),
                   "section 'EDIT': truncated");
+  // Counts far past the data: refused before anything is sized by them.
+  expect_rejected(edited("EDIT", [](Bytes& b, std::size_t at, std::size_t) { poke<std::uint32_t>(b, at + 8, 0xFFFFFFFFu); }),
+                  "section 'EDIT': truncated");
+  expect_rejected(edited("FREE", [](Bytes& b, std::size_t at, std::size_t) { poke<std::uint32_t>(b, at, 0xFFFFFFFFu); }),
+                  "section 'FREE': truncated");
+  expect_rejected(edited("PAIR", [](Bytes& b, std::size_t at, std::size_t) { poke<std::uint64_t>(b, at, 1ull << 39); }),
+                  "section 'PAIR': truncated");
   expect_rejected(edited("STAT", [](Bytes& b, std::size_t at, std::size_t) { std::memcpy(b.data() + at - 16, "ZZZZ", 4); }),
                   "section 'ZZZZ' is required but unknown");
   expect_rejected(edited("STAT", [](Bytes& b, std::size_t at, std::size_t) { poke<std::uint32_t>(b, at - 12, 6); }),

@@ -207,6 +207,7 @@ void read_slots(Reader& r, BroadPhaseState& s) {
 
 void read_free(Reader& r, BroadPhaseState& s) {
   const std::uint32_t n = r.get<std::uint32_t>("the free slot count");
+  r.need(4 * std::size_t{n}, "the free slots");  // before sizing anything by a count read
   s.free_slots.resize(n);
   r.get_words<std::uint32_t>(s.free_slots.data(), n, "the free slots");
   r.finish();
@@ -335,6 +336,7 @@ void read_edits(Reader& r, BroadPhaseState& s) {
   s.pending_static_changes = r.get<std::uint32_t>("static_changes");
   const std::uint32_t n_counted = r.get<std::uint32_t>("the counted slot count");
   const std::uint32_t n_kind = r.get<std::uint32_t>("the kind change count");
+  r.need(4 * std::size_t{n_counted}, "the counted slots");  // before sizing anything by a count read
   s.counted.resize(n_counted);
   r.get_words<std::uint32_t>(s.counted.data(), n_counted, "the counted slots");
   r.need(8 * std::size_t{n_kind}, "the kind changes");
