@@ -143,7 +143,8 @@ class BroadPhase {
   // stale or repeated handle; a call that throws changes nothing.
   void set_static(std::span<const Handle> handles, bool is_static);
 
-  // The whole logical state as bytes (see Semantics).
+  // The whole logical state as bytes (see Semantics). The snapshot calls
+  // may run concurrently with queries and each other, not with edits.
   std::vector<std::byte> snapshot() const;
   // snapshot() into a caller's buffer: its length in bytes, written to
   // out[0, length); CapacityExceeded (nothing written) when out is shorter

@@ -1144,15 +1144,22 @@ void BroadPhase::set_static(std::span<const Handle> handles, bool is_static) {
   impl_->set_static(handles, is_static);
 }
 
+// A snapshot reads what a query's synchronisation writes (dense indices and
+// arrays): it holds the same lock, so it may run beside queries.
 std::vector<std::byte> BroadPhase::snapshot() const {
+  std::lock_guard<std::mutex> lock(impl_->query_sync);
   const detail::SnapshotSource source = impl_->source();
   std::vector<std::byte> out(detail::snapshot_size(detail::shape_of(source)));
   detail::write_snapshot(source, out);
   return out;
 }
-std::size_t BroadPhase::snapshot_size() const { return detail::snapshot_size(impl_->snapshot_shape()); }
+std::size_t BroadPhase::snapshot_size() const {
+  std::lock_guard<std::mutex> lock(impl_->query_sync);
+  return detail::snapshot_size(impl_->snapshot_shape());
+}
 std::size_t BroadPhase::snapshot(std::span<std::byte> out) const {
-  const std::size_t size = snapshot_size();
+  std::lock_guard<std::mutex> lock(impl_->query_sync);
+  const std::size_t size = detail::snapshot_size(impl_->snapshot_shape());
   if (out.size() < size)
     throw CapacityExceeded("BroadPhase::snapshot: a buffer of " + std::to_string(out.size()) +
                            " bytes, the snapshot needs " + std::to_string(size));
