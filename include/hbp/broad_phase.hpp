@@ -19,10 +19,10 @@
 //   is moving (static-static pairs are never reported), the layers collide
 //   (set_collides) and the pair filter, when set, accepts it. Filtering
 //   happens before a pair is stored.
-// - Edits (add, move, remove, set_collides, set_pair_filter) take effect at the
-//   next update(). Each edit call validates its whole batch first and throws
-//   InvalidInput naming the offending row or handle; a call that throws
-//   changes nothing.
+// - Edits (add, move, remove, set_layer, set_static, set_collides,
+//   set_pair_filter) take effect at the next update(). Each edit call
+//   validates its whole batch first and throws InvalidInput naming the
+//   offending row or handle; a call that throws changes nothing.
 // - update() returns the frame's pairs and the pairs created and removed since
 //   the previous update (a pair whose object was removed counts as removed;
 //   a pair whose object moved away, changed layer filter or was rejected by a
