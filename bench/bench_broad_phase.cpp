@@ -24,6 +24,18 @@
 //     exact: the confirmation is a flag test; pairs checked equal each
 //     frame); exact = 0: every coordinate moved by 2^-30 (no float box
 //     exact: every candidate pair goes through the double test).
+//   SleepingWorld/<n>/<threads>: the MostlyStatic world with its n / 100
+//     moving objects spread over the handles (every 100th object), built two
+//     ways: all n added moving, then 99 % put to sleep with set_static
+//     ("slept"), and the same objects added static or moving from the start
+//     in the same handle order ("built"). Per frame both move their movers
+//     and update (same pairs checked); the slept world's steady frame
+//     against the built one's.
+//   Snapshot/<n>/<moving %>: snapshot() and restore() of a world of n paper
+//     objects (1 %: the SleepingWorld world; 100 %: all moving), and the
+//     first update() after a restore (it rebuilds the derived structures).
+//     Medians, and the first call apart: it takes fresh pages from the
+//     kernel, the later ones mostly reuse the allocator's.
 //   BoxQueries/<n>, RayQueries/<n>: one thread, the paper frame of n objects
 //     as static objects; boxes of the objects' sizes, rays of 500 m; beside
 //     btDbvtBroadphase::aabbTest / rayTest on the same boxes (answers checked
@@ -358,6 +370,142 @@ void DoublePrecision(benchmark::State& state) {
     state.counters["double_over_float_update_cpu"] = median(double_cpu) / median(float_cpu);
   }
   state.counters["pairs"] = static_cast<double>(pairs);
+}
+
+// The SleepingWorld / Snapshot world: the paper frame of n objects, the
+// movers (every 100th object) from the mover scenario of MostlyStatic.
+struct SleepScene {
+  std::uint32_t n, moving;
+  BoxArray all;
+  hbp::Scenario mover;
+  BoxArray mover_boxes;
+  std::vector<Aabb> aabbs, moved;
+  std::vector<Handle> movers, sleepers;  // handles = object indices in both worlds
+
+  explicit SleepScene(std::uint32_t objects)
+      : n(objects), moving(objects / 100), all(paper_frame(objects, 0)), mover(moving_scenario(n - moving, moving)) {
+    mover.compute_boxes(mover_boxes);
+    for (std::uint32_t k = 0; k < moving; ++k) all.set(100 * k, mover_boxes.get(k));
+    to_aabbs(all, aabbs);
+    for (std::uint32_t i = 0; i < n; ++i) (is_mover(i) ? movers : sleepers).push_back(i);
+    moved.resize(moving);
+  }
+  static bool is_mover(std::uint32_t i) { return i % 100 == 0; }
+  void step() {
+    mover.step();
+    mover.compute_boxes(mover_boxes);
+    for (std::uint32_t k = 0; k < moving; ++k) moved[k] = mover_boxes.get(k);
+  }
+  // Added moving, then 99 % put to sleep.
+  void slept(hbp::BroadPhase& bp) const {
+    if (bp.add(aabbs).back() != n - 1) throw std::logic_error("handle != index");
+    bp.update();
+    bp.set_static(sleepers, true);
+    bp.update();
+  }
+  // Each object added with its kind, in index order (runs of one kind).
+  void built(hbp::BroadPhase& bp) const {
+    for (std::uint32_t b = 0; b < n;) {
+      std::uint32_t e = b + 1;
+      while (e < n && is_mover(e) == is_mover(b)) ++e;
+      const auto h = bp.add(std::span<const Aabb>(aabbs).subspan(b, e - b), {.is_static = !is_mover(b)});
+      if (h.back() != e - 1) throw std::logic_error("handle != index");
+      b = e;
+    }
+    bp.update();
+  }
+};
+
+void SleepingWorld(benchmark::State& state) {
+  const auto n = static_cast<std::uint32_t>(state.range(0));
+  const auto threads = static_cast<unsigned>(state.range(1));
+  SleepScene scene(n);
+  hbp::BroadPhase slept({.threads = threads}), built({.threads = threads});
+  scene.slept(slept);
+  scene.built(built);
+  if (slept.stats().statics != built.stats().statics) throw std::logic_error("not the same world");
+  std::vector<double> slept_ms, built_ms;
+  std::uint64_t pairs = 0;
+  auto run_frame = [&](bool timed) {
+    scene.step();
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));  // the scenario's workers go idle
+    const bool slept_first = slept_ms.size() % 2 == 0;  // neither always gets the warm cache
+    double t[2];
+    for (int k = 0; k < 2; ++k) {
+      hbp::BroadPhase& bp = (k == 0) == slept_first ? slept : built;
+      const auto t0 = SteadyClock::now();
+      bp.move(scene.movers, scene.moved);
+      bp.update();
+      t[&bp == &slept ? 0 : 1] = ms_since(t0);
+    }
+    if (slept.last_update().pairs != built.last_update().pairs) throw std::runtime_error("slept and built differ");
+    if (timed) {
+      slept_ms.push_back(t[0]);
+      built_ms.push_back(t[1]);
+      pairs = slept.last_update().pairs.size();
+    }
+    return t[0];
+  };
+  for (int w = 0; w < 3; ++w) run_frame(false);
+  for (auto _ : state) state.SetIterationTime(run_frame(true) / 1000.0);
+  state.counters["slept_median_ms"] = median(slept_ms);
+  state.counters["slept_worst_ms"] = worst(slept_ms);
+  state.counters["built_median_ms"] = median(built_ms);
+  state.counters["built_worst_ms"] = worst(built_ms);
+  state.counters["slept_over_built"] = median(slept_ms) / median(built_ms);
+  state.counters["pairs"] = static_cast<double>(pairs);
+}
+
+void Snapshot(benchmark::State& state) {
+  const auto n = static_cast<std::uint32_t>(state.range(0));
+  const bool all_moving = state.range(1) == 100;
+  hbp::BroadPhase bp({.threads = 2}), target({.threads = 2});
+  SleepScene scene(n);
+  if (all_moving) {
+    bp.add(scene.aabbs);
+    bp.update();
+  } else {
+    scene.built(bp);
+  }
+  scene.step();
+  bp.move(scene.movers, scene.moved);
+  bp.update();  // a frame with events, then a pending edit
+  scene.step();
+  bp.move(scene.movers, scene.moved);
+  // Both are single-threaded: the calling thread's CPU time is all their
+  // work (page faults included), whatever else the machine runs.
+  std::vector<double> snapshot_ms, restore_ms, update_ms, snapshot_cpu_ms, restore_cpu_ms;
+  std::size_t bytes = 0;
+  for (auto _ : state) {
+    auto t0 = SteadyClock::now();
+    double c0 = thread_cpu_ms();
+    const std::vector<std::byte> data = bp.snapshot();
+    snapshot_ms.push_back(ms_since(t0));
+    snapshot_cpu_ms.push_back(thread_cpu_ms() - c0);
+    t0 = SteadyClock::now();
+    c0 = thread_cpu_ms();
+    target.restore(data);
+    restore_ms.push_back(ms_since(t0));
+    restore_cpu_ms.push_back(thread_cpu_ms() - c0);
+    t0 = SteadyClock::now();
+    target.update();
+    update_ms.push_back(ms_since(t0));
+    bytes = data.size();
+    state.SetIterationTime((snapshot_ms.back() + restore_ms.back()) / 1000.0);
+  }
+  const std::vector<Pair> expect = bp.update().pairs;
+  if (target.last_update().pairs != expect) throw std::runtime_error("restored world differs");
+  state.counters["snapshot_median_ms"] = median(snapshot_ms);
+  state.counters["restore_median_ms"] = median(restore_ms);
+  state.counters["snapshot_cpu_median_ms"] = median(snapshot_cpu_ms);
+  // The first call gets its memory fresh from the kernel (page faults); the
+  // later ones mostly reuse what the allocator kept.
+  state.counters["snapshot_first_ms"] = snapshot_ms.front();
+  state.counters["restore_first_ms"] = restore_ms.front();
+  state.counters["restore_cpu_median_ms"] = median(restore_cpu_ms);
+  state.counters["first_update_after_restore_median_ms"] = median(update_ms);
+  state.counters["snapshot_MB"] = static_cast<double>(bytes) / 1e6;
+  state.counters["pairs"] = static_cast<double>(expect.size());
 }
 
 // A paper frame loaded into both systems, for queries.
@@ -829,6 +977,11 @@ BENCHMARK(AllMoving)->Args({128000, 2})->Args({1024000, 2})->Args({1024000, 1})-
 BENCHMARK(DoublePrecision)->Args({1000000, 2, 1})->Args({1000000, 2, 0})->Args({1000000, 1, 1})->Args({1000000, 1, 0})
     ->UseManualTime()
     ->Unit(benchmark::kMillisecond)->Iterations(15);
+// 100 frames: a frame is under a millisecond, so the medians need many.
+BENCHMARK(SleepingWorld)->Args({1000000, 2})->Args({1000000, 1})->UseManualTime()->Unit(benchmark::kMillisecond)
+    ->Iterations(100);
+BENCHMARK(Snapshot)->Args({1000000, 1})->Args({1000000, 100})->UseManualTime()->Unit(benchmark::kMillisecond)
+    ->Iterations(20);
 BENCHMARK(BoxQueries)->Arg(1000000)->UseManualTime()->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK(RayQueries)->Arg(1000000)->UseManualTime()->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK(ClosestRays)->Arg(1000000)->UseManualTime()->Unit(benchmark::kMillisecond)->Iterations(5);

@@ -21,8 +21,9 @@
 //   Box2D's rule) and the pair filter, when set, accepts it. Filtering
 //   happens before a pair is stored. An object's box is the box it was
 //   given grown by its margin (set_margin), or a swept union (move_swept).
-// - Edits (add, move, move_swept, remove, set_layer, set_filter, set_margin,
-//   set_collides, set_pair_filter) take effect at the next update(). Each edit call validates its whole batch first and throws
+// - Edits (add, move, move_swept, remove, set_layer, set_static, set_filter,
+//   set_margin, set_collides, set_pair_filter) take effect at the next
+//   update(). Each edit call validates its whole batch first and throws
 //   InvalidInput naming the offending row or handle; a call that throws
 //   changes nothing.
 // - update() returns the frame's pairs and the pairs created and removed since
@@ -42,7 +43,27 @@
 //   closed query box, sorted by handle; query_ray every object whose box the
 //   segment origin + t * direction, 0 <= t <= max_t, touches, sorted by entry
 //   t (0 when the origin is inside), ties by handle.
+// - Sleeping and waking: set_static(handles, true) makes moving objects
+//   static (a body going to sleep), set_static(handles, false) makes static
+//   objects moving (a body waking, a door that starts to move); handles,
+//   boxes and layers stay. Events follow the pair rule above, by handle: a
+//   pair reported before and after the change (one of its objects still
+//   moving) is in neither created nor removed; a pair whose two objects are
+//   both static after the change is removed (static-static pairs are never
+//   reported), and created again when one of them wakes while the boxes
+//   still overlap. A sleeping object costs what a static object costs.
+// - Snapshots: snapshot() holds the whole logical state: the slot table
+//   (handles, generations, free-slot order, so add() after restore() returns
+//   the same handles), kinds, layers, boxes, the layer table, the last
+//   update's lists and stats, and the edits since it (the next update()
+//   reports what the original's would). restore() replaces this object's
+//   state with a snapshot's; the next update() and every call after it
+//   behave as the original's. Not held: the options (this object keeps its
+//   own) and the pair filter (restore() keeps the current one; the stored
+//   pairs were filtered by the original's). The format is versioned, with
+//   tagged sections and a checksum (docs/broad-phase.md, "Snapshots").
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <concepts>
 #include <functional>
@@ -84,10 +105,13 @@ struct BroadPhaseUpdate {
 
 struct BroadPhaseUpdateStats {
   std::uint32_t moving = 0, statics = 0;  // live objects
-  // Objects counted once each, whatever the number of edits: a move to the
-  // box an object already has changes nothing.
-  std::uint32_t moved = 0;                // moving objects added, or moved to another box, since the last update
-  std::uint32_t static_changes = 0;       // static objects added, moved to another box or removed since then
+  // Objects counted once each per counter, whatever the number of edits: a
+  // move to the box an object already has changes nothing. A kind change
+  // (set_static) counts as a static object added (sleeping) or removed and a
+  // moving object added (waking).
+  std::uint32_t moved = 0;                // moving objects added, woken, or moved to another box, since the last update
+  std::uint32_t static_changes = 0;       // static objects added, moved to another box or removed, objects put to
+                                          // sleep or woken, since then
   double wall_ms = 0;                     // measured wall time of update()
 };
 
@@ -130,6 +154,28 @@ class BroadPhase {
   void remove(std::span<const Handle> handles);
   // Changes the layer of `handles`.
   void set_layer(std::span<const Handle> handles, std::uint8_t layer);
+
+  // Makes `handles` static (is_static: sleeping) or moving (waking), keeping
+  // their handles, boxes and layers (see Semantics). Objects already of that
+  // kind are left as they are. InvalidInput naming the row of an unknown,
+  // stale or repeated handle; a call that throws changes nothing.
+  void set_static(std::span<const Handle> handles, bool is_static);
+
+  // The whole logical state as bytes (see Semantics). The snapshot calls
+  // may run concurrently with queries and each other, not with edits.
+  std::vector<std::byte> snapshot() const;
+  // snapshot() into a caller's buffer: its length in bytes, written to
+  // out[0, length); CapacityExceeded (nothing written) when out is shorter
+  // than snapshot_size().
+  std::size_t snapshot_size() const;
+  std::size_t snapshot(std::span<std::byte> out) const;
+  // Replaces the state with a snapshot's (the options and pair filter stay;
+  // references update() and last_update() returned are invalidated).
+  // InvalidInput naming what is wrong with malformed, truncated, corrupted
+  // or wrong-version data, and the object is unchanged.
+  void restore(std::span<const std::byte> data);
+  // A new broad phase with `options` and a snapshot's state.
+  static BroadPhase from_snapshot(std::span<const std::byte> data, const BroadPhaseOptions& options = {});
 
   // Symmetric; every pair of layers collides by default.
   void set_collides(std::uint32_t layer_a, std::uint32_t layer_b, bool collides);

@@ -60,7 +60,8 @@ typedef enum hbp_status {
    * handle, a layer >= HBP_LAYER_COUNT, an unknown engine, a bad option. */
   HBP_ERROR_INVALID_ARGUMENT = 1,
   /* More pairs than options.max_pairs, or more than HBP_MAX_OBJECTS live
-   * objects. Nothing was applied; the previous update's results stay. */
+   * objects, or a buffer smaller than needed (hbp_snapshot). Nothing was
+   * applied; the previous update's results stay. */
   HBP_ERROR_CAPACITY = 2,
   /* Memory could not be allocated. Nothing was applied. */
   HBP_ERROR_OUT_OF_MEMORY = 3,
@@ -148,8 +149,8 @@ hbp_status hbp_update(hbp_broad_phase* bp);
 
 /* The last successful update's pairs: every pair now, the pairs new since
  * the update before, and the pairs gone since then. Each list is sorted by
- * (a, b). The array stays valid and unchanged until the next hbp_update or
- * hbp_destroy of bp; *pairs may be NULL when *count is 0. */
+ * (a, b). The array stays valid and unchanged until the next hbp_update,
+ * hbp_restore or hbp_destroy of bp; *pairs may be NULL when *count is 0. */
 hbp_status hbp_pairs(const hbp_broad_phase* bp, const hbp_pair** pairs, size_t* count);
 hbp_status hbp_created_pairs(const hbp_broad_phase* bp, const hbp_pair** pairs, size_t* count);
 hbp_status hbp_removed_pairs(const hbp_broad_phase* bp, const hbp_pair** pairs, size_t* count);
@@ -281,6 +282,43 @@ hbp_status hbp_move_d(hbp_broad_phase* bp, const hbp_handle* handles, const hbp_
 hbp_status hbp_get_box_d(const hbp_broad_phase* bp, hbp_handle handle, hbp_box_d* box_out);
 hbp_status hbp_query_box_d(const hbp_broad_phase* bp, const hbp_box_d* box, hbp_hit_callback callback, void* user,
                            size_t* hits_out);
+
+/* ---- Sleeping and waking ---- */
+
+/* Makes count objects static (is_static != 0: bodies going to sleep) or
+ * moving (0: waking), keeping their handles, boxes and layers; objects
+ * already of that kind stay as they are. An unknown, stale or repeated
+ * handle is an error naming its row. At the next hbp_update a pair that is
+ * reported before and after (one of its objects still moving) is neither
+ * created nor removed; a pair whose two objects are now static is removed
+ * (static-static pairs are never reported), and created again when one of
+ * them wakes while the boxes still overlap. A sleeping object costs what a
+ * static one costs. */
+hbp_status hbp_set_static(hbp_broad_phase* bp, const hbp_handle* handles, size_t count, int is_static);
+
+/* ---- Snapshots ---- */
+
+/* A snapshot is bp's whole logical state as bytes: the objects with their
+ * handles, kinds, layers and boxes, the order free slots are reused in (so
+ * handles added after a restore are the same), the layer table, the last
+ * update's pairs and what was edited since. A broad phase it is restored
+ * into reports from its next hbp_update on what bp would. Not held: the
+ * options (the restored object keeps its own). The bytes are a versioned,
+ * checksummed, little-endian format (docs/broad-phase.md, "Snapshots"),
+ * with no pointers: they may be stored and restored by another process.
+ *
+ * hbp_snapshot_size writes the snapshot's length in bytes to *size_out.
+ * hbp_snapshot writes the snapshot into buffer[0 .. *size_out) and its
+ * length to *size_out; when capacity is smaller than that length it writes
+ * nothing into buffer, sets *size_out to the length needed and returns
+ * HBP_ERROR_CAPACITY (buffer may be NULL when capacity is 0). */
+hbp_status hbp_snapshot_size(const hbp_broad_phase* bp, size_t* size_out);
+hbp_status hbp_snapshot(const hbp_broad_phase* bp, void* buffer, size_t capacity, size_t* size_out);
+
+/* Replaces bp's state with the snapshot in data[0 .. size). Malformed,
+ * truncated, corrupted or wrong-version data is HBP_ERROR_INVALID_ARGUMENT
+ * naming what is wrong, with bp unchanged. */
+hbp_status hbp_restore(hbp_broad_phase* bp, const void* data, size_t size);
 
 #ifdef __cplusplus
 }

@@ -16,6 +16,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -238,6 +239,45 @@ class PyBroadPhase {
     Exclusive lock(mutex_);
     check_live(h.handles);
     bp_.set_layer(h.handles, l);
+  }
+
+  void set_static(py::handle handles_obj, bool is_static) {
+    const HandlesView h = handles_view(handles_obj);
+    Exclusive lock(mutex_);
+    check_live(h.handles);  // duplicates in the batch: the C++ side names both rows
+    bp_.set_static(h.handles, is_static);
+  }
+
+  py::bytes snapshot() {
+    std::vector<std::byte> data;
+    {
+      Exclusive lock(mutex_);
+      data = bp_.snapshot();
+    }
+    return py::bytes(reinterpret_cast<const char*>(data.data()), data.size());
+  }
+
+  // Any C-contiguous bytes-like object (bytes, bytearray, memoryview, a
+  // uint8 numpy array). The buffer is released under the GIL, after the
+  // lock is given back.
+  void restore(py::handle data) {
+    struct Buffer {
+      Py_buffer view{};
+      bool held = false;
+      ~Buffer() {
+        if (held) PyBuffer_Release(&view);
+      }
+    } buffer;
+    if (PyObject_GetBuffer(data.ptr(), &buffer.view, PyBUF_SIMPLE) != 0) {
+      PyErr_Clear();
+      throw ArgumentError("restore: data must be a contiguous bytes-like object (bytes, bytearray, memoryview), got " +
+                          py::str(py::type::of(data).attr("__name__")).cast<std::string>());
+    }
+    buffer.held = true;
+    const std::span<const std::byte> bytes(static_cast<const std::byte*>(buffer.view.buf),
+                                           static_cast<std::size_t>(buffer.view.len));
+    Exclusive lock(mutex_);
+    bp_.restore(bytes);
   }
 
   void set_collides(const py::object& a, const py::object& b, bool collides) {
@@ -683,9 +723,10 @@ PYBIND11_MODULE(hybrid_broadphase, m) {
                std::to_string(r.created.shape(0)) + ", removed=" + std::to_string(r.removed.shape(0)) + ")";
       }, "The three counts, e.g. UpdateResult(pairs=2, created=1, removed=0).");
 
-  py::class_<PyBroadPhase>(m, "BroadPhase",
+  py::class_<PyBroadPhase> broad_phase(m, "BroadPhase",
                            "Persistent handles, static and moving objects, pair events, layer filtering and "
-                           "queries. Edits take effect at the next update(); a call that raises changes nothing.")
+                           "queries. Edits take effect at the next update(); a call that raises changes nothing.");
+  broad_phase
       .def(py::init<const std::string&, const py::object&, long long, long long, bool>(), py::kw_only(),
            py::arg("engine") = "sw", py::arg("threads") = 0, py::arg("cell_limit") = 0, py::arg("max_pairs") = 0,
            py::arg("double_precision") = false,
@@ -728,6 +769,20 @@ PYBIND11_MODULE(hybrid_broadphase, m) {
            "ValueError naming the row of an unknown, stale or repeated handle.")
       .def("set_layer", &PyBroadPhase::set_layer, py::arg("handles"), py::arg("layer"),
            "Moves the objects of handles ((m,) integers) to layer (0..LAYER_COUNT - 1).")
+      .def("set_static", &PyBroadPhase::set_static, py::arg("handles"), py::arg("static"),
+           "Makes the objects of handles ((m,) integers) static (static=True: bodies going to sleep, costing what "
+           "a static object costs) or moving (False: waking), keeping their handles, boxes and layers; objects "
+           "already of that kind stay. At the next update() a pair reported before and after (one object still "
+           "moving) is neither created nor removed; a pair of two objects now static is removed, and created "
+           "again when one wakes. ValueError naming the row of an unknown, stale or repeated handle.")
+      .def("snapshot", &PyBroadPhase::snapshot,
+           "The whole logical state as bytes: objects (handles, kinds, layers, boxes), the order free slots are "
+           "reused in, the layer table, the last update's pairs and the edits since. restore() or "
+           "from_snapshot() of it gives a broad phase whose next updates and new handles are this one's. "
+           "Not held: the options and the pair filter.")
+      .def("restore", &PyBroadPhase::restore, py::arg("data"),
+           "Replaces the state with a snapshot's (bytes-like); the options and the pair filter stay. ValueError "
+           "naming what is wrong with malformed, truncated, corrupted or wrong-version data, the object unchanged.")
       .def("set_collides", &PyBroadPhase::set_collides, py::arg("layer_a"), py::arg("layer_b"),
            py::arg("collides"), "Symmetric; every pair of layers collides by default.")
       .def("collides", &PyBroadPhase::collides, py::arg("layer_a"), py::arg("layer_b"),
@@ -803,4 +858,22 @@ PYBIND11_MODULE(hybrid_broadphase, m) {
       .def("__repr__", [](PyBroadPhase& b) {
         return "BroadPhase(engine='" + b.options().engine + "', objects=" + std::to_string(b.size()) + ")";
       }, "The engine and the number of live objects.");
+  // A classmethod: cls(**options), then restore(data) (a subclass gets an
+  // instance of itself).
+  broad_phase.attr("from_snapshot") = py::reinterpret_steal<py::object>(PyClassMethod_New(
+      py::cpp_function(
+          [](const py::object& cls, const py::object& data, const std::string& engine, const py::object& threads,
+             long long cell_limit, long long max_pairs, bool double_precision) {
+            py::object bp = cls(py::arg("engine") = engine, py::arg("threads") = threads,
+                                py::arg("cell_limit") = cell_limit, py::arg("max_pairs") = max_pairs,
+                                py::arg("double_precision") = double_precision);
+            bp.cast<PyBroadPhase&>().restore(data);
+            return bp;
+          },
+          py::name("from_snapshot"), py::arg("cls"), py::arg("data"), py::kw_only(), py::arg("engine") = "sw",
+          py::arg("threads") = 0, py::arg("cell_limit") = 0, py::arg("max_pairs") = 0,
+          py::arg("double_precision") = false,
+          "A new BroadPhase (of the class it is called on) with the options given and a snapshot's state "
+          "(bytes-like, from snapshot()). ValueError for malformed data, as restore().")
+          .ptr()));
 }

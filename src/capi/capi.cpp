@@ -529,4 +529,56 @@ hbp_status hbp_query_box_d(const hbp_broad_phase* bp, const hbp_box_d* box, hbp_
   return guarded([&] { return report_calls(bp->bp.query_box(*as_aabbs(box), c_visitor(callback, user)), hits_out); });
 }
 
+hbp_status hbp_set_static(hbp_broad_phase* bp, const hbp_handle* handles, size_t count, int is_static) {
+  if (bp == nullptr) return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_set_static: bp must not be NULL");
+  if (count > 0 && handles == nullptr) {
+    return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_set_static: handles must not be NULL when count > 0");
+  }
+  return guarded([&] {
+    bp->bp.set_static(std::span<const hbp::Handle>(handles, count), is_static != 0);
+    return ok();
+  });
+}
+
+hbp_status hbp_snapshot_size(const hbp_broad_phase* bp, size_t* size_out) {
+  if (bp == nullptr || size_out == nullptr) {
+    return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_snapshot_size: bp and size_out must not be NULL");
+  }
+  return guarded([&] {
+    *size_out = bp->bp.snapshot_size();
+    return ok();
+  });
+}
+
+hbp_status hbp_snapshot(const hbp_broad_phase* bp, void* buffer, size_t capacity, size_t* size_out) {
+  if (bp == nullptr || size_out == nullptr) {
+    return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_snapshot: bp and size_out must not be NULL");
+  }
+  if (capacity > 0 && buffer == nullptr) {
+    return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_snapshot: buffer must not be NULL when capacity > 0");
+  }
+  return guarded([&] {
+    const std::size_t need = bp->bp.snapshot_size();
+    *size_out = need;
+    if (capacity < need) {
+      return fail(HBP_ERROR_CAPACITY, ("hbp_snapshot: a buffer of " + std::to_string(capacity) +
+                                       " bytes, the snapshot needs " + std::to_string(need) +
+                                       " (hbp_snapshot_size)").c_str());
+    }
+    bp->bp.snapshot(std::span<std::byte>(static_cast<std::byte*>(buffer), capacity));
+    return ok();
+  });
+}
+
+hbp_status hbp_restore(hbp_broad_phase* bp, const void* data, size_t size) {
+  if (bp == nullptr) return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_restore: bp must not be NULL");
+  if (size > 0 && data == nullptr) {
+    return fail(HBP_ERROR_INVALID_ARGUMENT, "hbp_restore: data must not be NULL when size > 0");
+  }
+  return guarded([&] {
+    bp->bp.restore(std::span<const std::byte>(static_cast<const std::byte*>(data), size));
+    return ok();
+  });
+}
+
 }  // extern "C"

@@ -58,6 +58,7 @@
 #include "pipeline/box_cast.hpp"
 #include "pipeline/frame_threads.hpp"
 #include "pipeline/box_tree.hpp"
+#include "pipeline/broad_phase_snapshot.hpp"
 #include "pipeline/fat_moving_pairs.hpp"
 #include "pipeline/handle_table.hpp"
 #include "pipeline/outward_box.hpp"
@@ -274,6 +275,17 @@ struct BroadPhase::Impl {
   std::uint32_t moved = 0, static_changes = 0;
   std::vector<std::uint32_t> changed_serial;
   std::uint32_t frame_serial = 1;
+  // Objects whose kind changed this frame (set_static): serial ==
+  // frame_serial marks them, and such an object is counted in
+  // static_changes; moved_counted says whether it is in `moved` too. An
+  // object with no such mark has had its kind all frame, and changed_serial
+  // says whether the counter of that kind counts it. Sized by set_static
+  // (a world that never changes kinds has none).
+  struct KindChange {
+    std::uint32_t serial = 0;
+    bool moved_counted = false;
+  };
+  std::vector<KindChange> kind_changed;
   // The whole-frame move (move_every_moving) was this frame's first change
   // of a moving box: moving_boxes.replaced() holds the boxes before it, in
   // the same dense order, and the moving objects whose box differs from
@@ -390,7 +402,10 @@ struct BroadPhase::Impl {
       static_pairs_valid = false;
     }
     size_change_marks();
-    for (const Handle h : handles) changed_serial[HandleTable::slot_of(h)] = frame_serial;  // a slot reused this frame counts again
+    for (const Handle h : handles) {
+      changed_serial[HandleTable::slot_of(h)] = frame_serial;  // a slot reused this frame counts again
+      if (HandleTable::slot_of(h) < kind_changed.size()) kind_changed[HandleTable::slot_of(h)] = {};
+    }
     if (boxes.empty()) return handles;
     if (o.is_static) {
       statics_changed(static_cast<std::uint32_t>(boxes.size()));
@@ -645,6 +660,53 @@ struct BroadPhase::Impl {
   bool passes(const QueryFilter& q, Handle h) const {
     const std::uint32_t s = HandleTable::slot_of(h);
     return ((q.layers_mask >> table.layer(s)) & 1u) && (slot_filter[s].category & q.category_mask) != 0;
+  }
+
+  // ---- sleeping and waking -------------------------------------------------
+
+  // A kind change is a membership change of both sets: the object leaves
+  // the dense arrays of its old kind and joins the other's at the next
+  // gather, keeping its slot (so its handle) and layer. Its box goes to
+  // slot_box first, where both gathers read it. Stats: a sleeping object
+  // counts as a static added, a waking one as a static removed and a moving
+  // object added, each counter at most once per object per frame.
+  void set_static(std::span<const Handle> handles, bool to_static) {
+    check_handles("set_static", handles);
+    const auto want = to_static ? HandleTable::kStatic : HandleTable::kMoving;
+    bool any = false;
+    for (const Handle h : handles) any |= table.kind(HandleTable::slot_of(h)) != want;
+    if (!any) return;
+    mark_whole_frame_moves();  // before the dense order changes
+    size_change_marks();
+    if (kind_changed.size() < table.slots()) kind_changed.resize(table.slots());
+    std::uint32_t static_first = 0, moved_first = 0;
+    for (const Handle h : handles) {
+      const std::uint32_t s = HandleTable::slot_of(h);
+      const auto kind = table.kind(s);
+      if (kind == want) continue;
+      if (kind == HandleTable::kMoving && table.index(s) != kNoIndex) slot_box[s] = moving_boxes.get(table.index(s));
+      KindChange& k = kind_changed[s];
+      bool static_counted, moved_counted;
+      if (k.serial == frame_serial) {
+        static_counted = true;
+        moved_counted = k.moved_counted;
+      } else {
+        const bool counted = changed_serial[s] == frame_serial;
+        static_counted = counted && kind == HandleTable::kStatic;
+        moved_counted = counted && kind == HandleTable::kMoving;
+      }
+      static_first += !static_counted;
+      if (!to_static) {
+        moved_first += !moved_counted;
+        moved_counted = true;
+      }
+      k = {frame_serial, moved_counted};
+      changed_serial[s] = frame_serial;  // the new kind's counter counts it
+      table.set_kind(s, want);
+    }
+    statics_changed(static_first);
+    moving_membership_changed();
+    moved += moved_first;
   }
 
   // With no objects left, nothing the next frames need is kept (the slot
@@ -1105,6 +1167,7 @@ struct BroadPhase::Impl {
     whole_frame_moved = false;
     if (++frame_serial == 0) {  // after 2^32 frames: no mark may look current
       std::fill(changed_serial.begin(), changed_serial.end(), 0u);
+      std::fill(kind_changed.begin(), kind_changed.end(), KindChange{});
       frame_serial = 1;
     }
     stats.wall_ms = ms_since(start);
@@ -1462,6 +1525,82 @@ struct BroadPhase::Impl {
     });
   }
 
+  // ---- snapshots ------------------------------------------------------------
+
+  // Calls f(slot, whether its kind changed, whether it is then counted in
+  // `moved`) for each live slot the pending stats count already (see
+  // changed_serial and kind_changed), in slot order.
+  template <class F>
+  void for_each_counted(F&& f) const {
+    for (std::uint32_t s = 0; s < table.slots(); ++s) {
+      if (table.kind(s) == HandleTable::kFree) continue;
+      const std::uint32_t d = table.kind(s) == HandleTable::kMoving ? table.index(s) : kNoIndex;
+      const bool counted = (s < changed_serial.size() && changed_serial[s] == frame_serial) ||
+                           (d != kNoIndex && changed_by_whole_frame(d));
+      if (!counted) continue;
+      const bool kind_change = s < kind_changed.size() && kind_changed[s].serial == frame_serial;
+      f(s, kind_change, kind_change && kind_changed[s].moved_counted);
+    }
+  }
+
+  // The state as write_snapshot reads it: views of the table and the
+  // results, boxes by box_of; only the stats' marks are collected.
+  detail::SnapshotSource source() const {
+    detail::SnapshotSource src;
+    src.kind = table.kinds();
+    src.generation = table.generations();
+    src.layer = table.layer_table();
+    src.free_slots = table.free_slots();
+    src.box = [this](std::uint32_t s) { return box_of(s); };
+    src.collide_mask = collide_mask;
+    src.last = &result;
+    src.stats = stats;
+    src.pending_moved = moved;
+    src.pending_static_changes = static_changes;
+    for_each_counted([&](std::uint32_t s, bool kind_change, bool moved_counted) {
+      src.counted.push_back(s);
+      if (!kind_change) return;
+      src.kind_changed.push_back(s);
+      src.kind_changed_moved.push_back(moved_counted);
+    });
+    return src;
+  }
+
+  detail::SnapshotShape snapshot_shape() const {
+    detail::SnapshotShape shape{.slots = table.slots(),
+                                .free_slots = table.free_slots().size(),
+                                .pairs = result.pairs.size(),
+                                .created = result.created.size(),
+                                .removed = result.removed.size()};
+    for_each_counted([&](std::uint32_t, bool kind_change, bool) {
+      ++shape.counted;
+      shape.kind_changed += kind_change;
+    });
+    return shape;
+  }
+
+  // Takes a state read_snapshot checked, into a fresh Impl: every derived
+  // structure is rebuilt from it at the next update or query, exactly as
+  // after the same edits.
+  void assign(detail::BroadPhaseState&& st) {
+    table.assign(std::move(st.kind), std::move(st.generation), std::move(st.layer), std::move(st.free_slots));
+    slot_box = std::move(st.boxes);
+    collide_mask = st.collide_mask;
+    result = std::move(st.last);
+    stats = st.stats;
+    moved = st.pending_moved;
+    static_changes = st.pending_static_changes;
+    // The marks' arrays only where there are marks (edits size them later).
+    if (!st.counted.empty()) changed_serial.assign(table.slots(), 0);
+    if (!st.kind_changed.empty()) kind_changed.assign(table.slots(), KindChange{});
+    for (const std::uint32_t s : st.counted) changed_serial[s] = frame_serial;
+    for (std::size_t i = 0; i < st.kind_changed.size(); ++i)
+      kind_changed[st.kind_changed[i]] = {frame_serial, st.kind_changed_moved[i] != 0};
+    statics_dirty = true;
+    structure_changed = true;
+    moving_membership_changed();
+  }
+
   Handle checked(const char* call, Handle h) const {
     const std::string why = table.defect(h);
     if (!why.empty()) throw InvalidInput(std::string("BroadPhase::") + call + ": " + why);
@@ -1500,6 +1639,47 @@ void BroadPhase::move(std::span<const Handle> handles, std::span<const Aabb> box
 void BroadPhase::remove(std::span<const Handle> handles) { impl_->remove(handles); }
 void BroadPhase::set_layer(std::span<const Handle> handles, std::uint8_t layer) {
   impl_->set_layer(handles, layer);
+}
+
+void BroadPhase::set_static(std::span<const Handle> handles, bool is_static) {
+  impl_->set_static(handles, is_static);
+}
+
+// A snapshot reads what a query's synchronisation writes (dense indices and
+// arrays): it holds the same lock, so it may run beside queries.
+std::vector<std::byte> BroadPhase::snapshot() const {
+  std::lock_guard<std::mutex> lock(impl_->query_sync);
+  const detail::SnapshotSource source = impl_->source();
+  std::vector<std::byte> out(detail::snapshot_size(detail::shape_of(source)));
+  detail::write_snapshot(source, out);
+  return out;
+}
+std::size_t BroadPhase::snapshot_size() const {
+  std::lock_guard<std::mutex> lock(impl_->query_sync);
+  return detail::snapshot_size(impl_->snapshot_shape());
+}
+std::size_t BroadPhase::snapshot(std::span<std::byte> out) const {
+  std::lock_guard<std::mutex> lock(impl_->query_sync);
+  const std::size_t size = detail::snapshot_size(impl_->snapshot_shape());
+  if (out.size() < size)
+    throw CapacityExceeded("BroadPhase::snapshot: a buffer of " + std::to_string(out.size()) +
+                           " bytes, the snapshot needs " + std::to_string(size));
+  detail::write_snapshot(impl_->source(), out);
+  return size;
+}
+// Strong guarantee: the snapshot is read and checked whole, and the new
+// state built in a fresh Impl, before it replaces the current one.
+void BroadPhase::restore(std::span<const std::byte> data) {
+  detail::BroadPhaseState state = detail::read_snapshot(data, "BroadPhase::restore");
+  auto fresh = std::make_unique<Impl>(impl_->options);
+  fresh->filter = impl_->filter;
+  fresh->assign(std::move(state));
+  impl_ = std::move(fresh);
+}
+BroadPhase BroadPhase::from_snapshot(std::span<const std::byte> data, const BroadPhaseOptions& options) {
+  BroadPhase bp(options);
+  bp.restore(data);
+  return bp;
 }
 
 void BroadPhase::set_collides(std::uint32_t layer_a, std::uint32_t layer_b, bool collides) {

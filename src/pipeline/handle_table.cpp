@@ -2,6 +2,7 @@
 #include "pipeline/handle_table.hpp"
 
 #include <cstdio>
+#include <utility>
 
 namespace hbp::detail {
 
@@ -54,5 +55,15 @@ void HandleTable::release(std::uint32_t slot) {
 }
 
 void HandleTable::clear() { *this = HandleTable(); }
+
+void HandleTable::assign(std::vector<std::uint8_t> kinds, std::vector<std::uint8_t> generations,
+                         std::vector<std::uint8_t> layers, std::vector<std::uint32_t> free_slots) {
+  live_ = kinds.size() - free_slots.size();
+  kind_ = std::move(kinds);
+  generation_ = std::move(generations);
+  layer_ = std::move(layers);
+  free_ = std::move(free_slots);
+  index_.assign(kind_.size(), kNoIndex);
+}
 
 }  // namespace hbp::detail

@@ -44,6 +44,22 @@ class HandleTable {
   std::uint32_t index(std::uint32_t slot) const { return index_[slot]; }
   void set_index(std::uint32_t slot, std::uint32_t index) { index_[slot] = index; }
   const std::uint8_t* layers() const { return layer_.data(); }
+  // A live object becomes static or moving; it has no dense index until the
+  // arrays of its new kind are gathered again.
+  void set_kind(std::uint32_t slot, Kind kind) {
+    kind_[slot] = kind;
+    index_[slot] = kNoIndex;
+  }
+
+  // The table as a snapshot holds it (by slot; the free list in push order,
+  // its last entry reused first), and back. assign takes arrays the caller
+  // has checked: the free list names exactly the free slots, once each.
+  const std::vector<std::uint8_t>& kinds() const { return kind_; }
+  const std::vector<std::uint8_t>& generations() const { return generation_; }
+  const std::vector<std::uint8_t>& layer_table() const { return layer_; }
+  const std::vector<std::uint32_t>& free_slots() const { return free_; }
+  void assign(std::vector<std::uint8_t> kinds, std::vector<std::uint8_t> generations,
+              std::vector<std::uint8_t> layers, std::vector<std::uint32_t> free_slots);
 
  private:
   std::vector<std::uint8_t> kind_, generation_, layer_;
