@@ -54,13 +54,16 @@
 //   still overlap. A sleeping object costs what a static object costs.
 // - Snapshots: snapshot() holds the whole logical state: the slot table
 //   (handles, generations, free-slot order, so add() after restore() returns
-//   the same handles), kinds, layers, boxes, the layer table, the last
-//   update's lists and stats, and the edits since it (the next update()
-//   reports what the original's would). restore() replaces this object's
-//   state with a snapshot's; the next update() and every call after it
-//   behave as the original's. Not held: the options (this object keeps its
-//   own) and the pair filter (restore() keeps the current one; the stored
-//   pairs were filtered by the original's). The format is versioned, with
+//   the same handles), kinds, layers, boxes (and double boxes), the
+//   objects' filters, user data, margins and sweeps, the layer table, the
+//   last update's lists and stats, and the edits since it (the next
+//   update() reports what the original's would). restore() replaces this
+//   object's state with a snapshot's; the next update() and every call
+//   after it behave as the original's. Not held: the options (this object
+//   keeps its own; a double_precision snapshot restores only into a
+//   double_precision broad phase, a float one only into a float one) and the
+//   pair filter (restore() keeps the current one; the stored pairs were
+//   filtered by the original's). The format is versioned, with
 //   tagged sections and a checksum (docs/broad-phase.md, "Snapshots").
 #include <array>
 #include <cstddef>

@@ -1543,8 +1543,20 @@ struct BroadPhase::Impl {
     }
   }
 
+  // Calls f(slot) for each live slot whose filter, user data, margin or
+  // sweep differs from the defaults, in slot order.
+  template <class F>
+  void for_each_attributed(F&& f) const {
+    const std::uint32_t n = std::min<std::uint32_t>(table.slots(), static_cast<std::uint32_t>(slot_filter.size()));
+    for (std::uint32_t s = 0; s < n; ++s)
+      if (table.kind(s) != HandleTable::kFree &&
+          (!is_default(slot_filter[s]) || slot_user_data[s] != 0 || slot_margin[s] != 0 || slot_swept[s]))
+        f(s);
+  }
+
   // The state as write_snapshot reads it: views of the table and the
-  // results, boxes by box_of; only the stats' marks are collected.
+  // results, boxes by box_of; only the stats' marks and the attributed
+  // objects are collected.
   detail::SnapshotSource source() const {
     detail::SnapshotSource src;
     src.kind = table.kinds();
@@ -1563,6 +1575,15 @@ struct BroadPhase::Impl {
       src.kind_changed.push_back(s);
       src.kind_changed_moved.push_back(moved_counted);
     });
+    for_each_attributed([&](std::uint32_t s) {
+      src.attributes.push_back({.slot = s,
+                                .filter = slot_filter[s],
+                                .user_data = slot_user_data[s],
+                                .margin = slot_margin[s],
+                                .swept = slot_swept[s] != 0,
+                                .sweep_end = slot_swept[s] ? slot_end[s] : Aabb{}});
+    });
+    if (options.double_precision) src.box_d = [this](std::uint32_t s) { return slot_box_d[s]; };
     return src;
   }
 
@@ -1576,6 +1597,8 @@ struct BroadPhase::Impl {
       ++shape.counted;
       shape.kind_changed += kind_change;
     });
+    for_each_attributed([&](std::uint32_t) { ++shape.attributes; });
+    shape.double_precision = options.double_precision;
     return shape;
   }
 
@@ -1596,6 +1619,33 @@ struct BroadPhase::Impl {
     for (const std::uint32_t s : st.counted) changed_serial[s] = frame_serial;
     for (std::size_t i = 0; i < st.kind_changed.size(); ++i)
       kind_changed[st.kind_changed[i]] = {frame_serial, st.kind_changed_moved[i] != 0};
+    // The per-slot attributes, defaults but for the objects listed.
+    const std::uint32_t slots = table.slots();
+    slot_filter.assign(slots, Filter{});
+    slot_user_data.assign(slots, 0);
+    slot_margin.assign(slots, 0.0f);
+    slot_end.assign(slots, Aabb{});
+    slot_swept.assign(slots, 0);
+    for (const detail::ObjectAttributes& a : st.attributes) {
+      slot_filter[a.slot] = a.filter;
+      slot_user_data[a.slot] = a.user_data;
+      slot_margin[a.slot] = a.margin;
+      slot_swept[a.slot] = a.swept;
+      slot_end[a.slot] = a.sweep_end;
+      filtered_objects += !is_default(a.filter);
+      margined_objects += a.margin > 0;
+      swept_objects += a.swept;
+    }
+    // Double precision: the double boxes as given, the float boxes the
+    // engine holds rounded from them (as add and move round them).
+    if (st.double_precision) {
+      slot_box_d = std::move(st.boxes_d);
+      slot_exact.assign(slots, 0);
+      slot_inner.assign(slots, Aabb{});
+      for (std::uint32_t s = 0; s < slots; ++s)
+        if (table.kind(s) != HandleTable::kFree)
+          slot_exact[s] = detail::round_box(slot_box_d[s], slot_box[s], slot_inner[s]);
+    }
     statics_dirty = true;
     structure_changed = true;
     moving_membership_changed();
@@ -1671,8 +1721,13 @@ std::size_t BroadPhase::snapshot(std::span<std::byte> out) const {
 // state built in a fresh Impl, before it replaces the current one.
 void BroadPhase::restore(std::span<const std::byte> data) {
   detail::BroadPhaseState state = detail::read_snapshot(data, "BroadPhase::restore");
+  if (state.double_precision != impl_->options.double_precision)
+    throw InvalidInput(std::string("BroadPhase::restore: a snapshot of a ") +
+                       (state.double_precision ? "double_precision" : "float") + " broad phase into a " +
+                       (impl_->options.double_precision ? "double_precision" : "float") + " one");
   auto fresh = std::make_unique<Impl>(impl_->options);
   fresh->filter = impl_->filter;
+  fresh->confirm_filter = impl_->confirm_filter;
   fresh->assign(std::move(state));
   impl_ = std::move(fresh);
 }

@@ -22,8 +22,12 @@ constexpr std::size_t kSectionHeaderBytes = 16;
 constexpr std::uint32_t kOptionalSection = 1u;
 
 // Version 1's sections, in the order they are written.
-enum Section { kSlot, kFree, kBoxes, kLayers, kPairs, kStats, kEdits, kSectionCount };
-constexpr const char* kTags[kSectionCount] = {"SLOT", "FREE", "BOXS", "LAYR", "PAIR", "STAT", "EDIT"};
+enum Section { kSlot, kFree, kBoxes, kLayers, kPairs, kStats, kEdits, kAttributes, kDoubles, kSectionCount };
+constexpr const char* kTags[kSectionCount] = {"SLOT", "FREE", "BOXS", "LAYR", "PAIR",
+                                              "STAT", "EDIT", "ATTR", "DBLB"};
+// One ATTR entry: slot, swept, category, mask, group, margin, user data,
+// the sweep's end box.
+constexpr std::size_t kAttributeBytes = 4 + 4 + 8 + 8 + 4 + 4 + 8 + sizeof(Aabb);
 
 // Words of `size` bytes are stored little-endian: one copy on a
 // little-endian host, byte-reversed words on a big-endian one.
@@ -114,6 +118,8 @@ std::size_t payload_bytes(const SnapshotShape& s, int section) {
     case kPairs: return 24 + sizeof(Pair) * (s.pairs + s.created + s.removed);
     case kStats: return 16 + 8;
     case kEdits: return 16 + 4 * s.counted + 8 * s.kind_changed;
+    case kAttributes: return 4 + kAttributeBytes * s.attributes;
+    case kDoubles: return 8 + (s.double_precision ? sizeof(AabbD) * (s.slots - s.free_slots) : 0);
   }
   return 0;
 }
@@ -167,6 +173,31 @@ void write_section(Writer& w, const SnapshotSource& s, int section) {
         w.put(static_cast<std::uint32_t>(s.kind_changed_moved[i]));
       }
       break;
+    case kAttributes:
+      w.put(n32(s.attributes.size()));
+      for (const ObjectAttributes& a : s.attributes) {
+        w.put(a.slot);
+        w.put(static_cast<std::uint32_t>(a.swept));
+        w.put(a.filter.category);
+        w.put(a.filter.mask);
+        w.put(a.filter.group);
+        w.put(a.margin);
+        w.put(a.user_data);
+        w.put_words<float>(&a.sweep_end, 6);
+      }
+      break;
+    case kDoubles: {
+      const bool doubles = static_cast<bool>(s.box_d);
+      w.put(static_cast<std::uint32_t>(doubles));
+      w.put(n32(doubles ? s.kind.size() - s.free_slots.size() : 0));
+      if (!doubles) break;
+      for (std::uint32_t slot = 0; slot < s.kind.size(); ++slot) {
+        if (s.kind[slot] == HandleTable::kFree) continue;
+        const AabbD b = s.box_d(slot);
+        w.put_words<double>(&b, 6);
+      }
+      break;
+    }
   }
 }
 
@@ -353,6 +384,58 @@ void read_edits(Reader& r, BroadPhaseState& s) {
   check_slot_list(r, s.kind_changed, "kind change", s);
 }
 
+void read_attributes(Reader& r, BroadPhaseState& s) {
+  const std::uint32_t n = r.get<std::uint32_t>("the attribute count");
+  r.need(kAttributeBytes * std::size_t{n}, "the attributes");  // before sizing anything by a count read
+  s.attributes.resize(n);
+  for (std::uint32_t i = 0; i < n; ++i) {
+    ObjectAttributes& a = s.attributes[i];
+    a.slot = r.get<std::uint32_t>("a slot");
+    const std::uint32_t swept = r.get<std::uint32_t>("a sweep flag");
+    a.filter.category = r.get<std::uint64_t>("a category");
+    a.filter.mask = r.get<std::uint64_t>("a mask");
+    a.filter.group = r.get<std::int32_t>("a group");
+    a.margin = r.get<float>("a margin");
+    a.user_data = r.get<std::uint64_t>("a user data");
+    r.get_words<float>(&a.sweep_end, 6, "a sweep's end box");
+    const std::string at = "attribute row " + std::to_string(i) + " (slot " + std::to_string(a.slot) + "): ";
+    const bool live = a.slot < s.kind.size() && s.kind[a.slot] != HandleTable::kFree;
+    if (!live) r.fail(at + "holds no live object");
+    if (i > 0 && s.attributes[i - 1].slot >= a.slot) r.fail(at + "not after the row before (increasing)");
+    if (swept > 1) r.fail(at + "sweep flag " + std::to_string(swept) + " (0 or 1)");
+    a.swept = swept != 0;
+    if (!(a.margin >= 0) || !std::isfinite(a.margin)) r.fail(at + "margin is negative or not finite");
+    if (a.swept) {
+      if (const char* d = box_defect(a.sweep_end)) r.fail(at + "sweep end box: " + d);
+    }
+  }
+  r.finish();
+}
+
+void read_doubles(Reader& r, BroadPhaseState& s) {
+  const std::uint32_t flag = r.get<std::uint32_t>("the double-precision flag");
+  const std::uint32_t n = r.get<std::uint32_t>("the double box count");
+  if (flag > 1) r.fail("double-precision flag " + std::to_string(flag) + " (0 or 1)");
+  s.double_precision = flag != 0;
+  const std::size_t live = live_count(s);
+  if (n != (s.double_precision ? live : 0))
+    r.fail(std::to_string(n) + " double boxes for " + std::to_string(live) + " live objects" +
+           (s.double_precision ? "" : " of a float snapshot"));
+  r.need(sizeof(AabbD) * std::size_t{n}, "the double boxes");
+  if (!s.double_precision) {
+    r.finish();
+    return;
+  }
+  const std::size_t slots = s.kind.size();
+  s.boxes_d.assign(slots, AabbD{});
+  for (std::size_t i = 0; i < slots; ++i) {
+    if (s.kind[i] == HandleTable::kFree) continue;
+    r.get_words<double>(&s.boxes_d[i], 6, "the double boxes");
+    if (const char* d = box_defect(s.boxes_d[i])) r.fail("slot " + std::to_string(i) + ": " + d);
+  }
+  r.finish();
+}
+
 }  // namespace
 
 SnapshotShape shape_of(const SnapshotSource& s) {
@@ -362,7 +445,9 @@ SnapshotShape shape_of(const SnapshotSource& s) {
           .created = s.last->created.size(),
           .removed = s.last->removed.size(),
           .counted = s.counted.size(),
-          .kind_changed = s.kind_changed.size()};
+          .kind_changed = s.kind_changed.size(),
+          .attributes = s.attributes.size(),
+          .double_precision = static_cast<bool>(s.box_d)};
 }
 
 std::size_t snapshot_size(const SnapshotShape& shape) {
@@ -484,6 +569,14 @@ BroadPhaseState read_snapshot(std::span<const std::byte> data, const char* call)
   {
     Reader r = reader(kEdits);
     read_edits(r, s);
+  }
+  {
+    Reader r = reader(kAttributes);
+    read_attributes(r, s);
+  }
+  {
+    Reader r = reader(kDoubles);
+    read_doubles(r, s);
   }
   return s;
 }

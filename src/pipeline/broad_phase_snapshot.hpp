@@ -10,10 +10,12 @@
 //     the header;
 //   sections, each: 4 ASCII tag bytes, u32 flags (bit 0: optional), u64
 //     payload length, the payload.
-// Version 1 has seven sections, each required once, in any order: SLOT
+// Version 1 has nine sections, each required once, in any order: SLOT
 // (slot table), FREE (free list), BOXS (boxes of the live objects), LAYR
 // (layer table), PAIR (last update's lists), STAT (last update's stats),
-// EDIT (stats counted since). A later version adds data as new sections; a
+// EDIT (stats counted since), ATTR (the objects whose filter, user data,
+// margin or sweep differ from the defaults), DBLB (double precision: the
+// double boxes of the live objects). A later version adds data as new sections; a
 // reader skips an unknown section flagged optional and rejects an unknown
 // required one. Reading checks everything (sizes, checksum, ranges, order,
 // the free list against the table) and throws InvalidInput naming the first
@@ -26,10 +28,22 @@
 #include <vector>
 
 #include "hbp/aabb.hpp"
+#include "hbp/aabb_d.hpp"
 #include "hbp/broad_phase.hpp"
+#include "hbp/collision_filter.hpp"
 #include "hbp/limits.hpp"
 
 namespace hbp::detail {
+
+// A live object's attributes when any differs from the defaults.
+struct ObjectAttributes {
+  std::uint32_t slot = 0;
+  Filter filter;
+  std::uint64_t user_data = 0;
+  float margin = 0;
+  bool swept = false;  // in a sweep: sweep_end is its last move_swept's box (grown)
+  Aabb sweep_end{};
+};
 
 struct BroadPhaseState {
   // The slot table, by slot (HandleTable's arrays): kind (HandleTable::Kind),
@@ -47,6 +61,9 @@ struct BroadPhaseState {
   std::vector<std::uint32_t> counted;
   std::vector<std::uint32_t> kind_changed;
   std::vector<std::uint8_t> kind_changed_moved;
+  std::vector<ObjectAttributes> attributes;  // by increasing slot
+  bool double_precision = false;
+  std::vector<AabbD> boxes_d;  // double precision: by slot (a free slot's is zero)
 };
 
 inline constexpr std::uint32_t kSnapshotVersion = 1;
@@ -65,12 +82,16 @@ struct SnapshotSource {
   std::vector<std::uint32_t> counted;
   std::vector<std::uint32_t> kind_changed;
   std::vector<std::uint8_t> kind_changed_moved;
+  std::vector<ObjectAttributes> attributes;
+  std::function<AabbD(std::uint32_t slot)> box_d;  // double precision only (else empty)
 };
 
 // The sizes a snapshot's length follows from (so it is known without
 // writing it), and that length in bytes.
 struct SnapshotShape {
   std::size_t slots = 0, free_slots = 0, pairs = 0, created = 0, removed = 0, counted = 0, kind_changed = 0;
+  std::size_t attributes = 0;
+  bool double_precision = false;
 };
 SnapshotShape shape_of(const SnapshotSource& source);
 std::size_t snapshot_size(const SnapshotShape& shape);
