@@ -15,30 +15,10 @@
 
 #include "hbp/hbp.h"
 
+#include "capi_check.h"
+
 #define MAX_LIVE 1200
 #define LAYERS 4
-
-static int failures = 0;
-#define CHECK(cond, ...)                                          \
-  do {                                                            \
-    if (!(cond)) {                                                \
-      fprintf(stderr, "%s:%d: check failed: %s: ", __FILE__, __LINE__, #cond); \
-      fprintf(stderr, __VA_ARGS__);                               \
-      fprintf(stderr, "\n");                                      \
-      ++failures;                                                 \
-      return 1;                                                   \
-    }                                                             \
-  } while (0)
-
-/* ---- deterministic random numbers ---- */
-static unsigned long long rng_state = 88172645463325252ull;
-static unsigned rnd(void) {
-  rng_state ^= rng_state << 13;
-  rng_state ^= rng_state >> 7;
-  rng_state ^= rng_state << 17;
-  return (unsigned)(rng_state >> 16);
-}
-static unsigned rnd_below(unsigned n) { return rnd() % n; }
 
 /* Boxes on a 0.5 grid: touching faces are frequent, and exact in float. */
 static hbp_box random_box(void) {
@@ -474,5 +454,5 @@ int main(int argc, char** argv) {
   if (check_errors()) return 1;
   if (run_frames(frames, 1)) return 1;
   if (run_frames(frames, 2)) return 1;
-  return failures == 0 ? 0 : 1;
+  return check_failures == 0 ? 0 : 1;
 }

@@ -14,26 +14,9 @@
 
 #include "hbp/hbp.h"
 
+#include "capi_check.h"
+
 #define MAX_LIVE 400
-
-#define CHECK(cond, ...)                                                          \
-  do {                                                                            \
-    if (!(cond)) {                                                                \
-      fprintf(stderr, "%s:%d: check failed: %s: ", __FILE__, __LINE__, #cond);   \
-      fprintf(stderr, __VA_ARGS__);                                               \
-      fprintf(stderr, "\n");                                                      \
-      return 1;                                                                   \
-    }                                                                             \
-  } while (0)
-
-static unsigned long long rng_state = 88172645463325252ull;
-static unsigned rnd(void) {
-  rng_state ^= rng_state << 13;
-  rng_state ^= rng_state >> 7;
-  rng_state ^= rng_state << 17;
-  return (unsigned)(rng_state >> 16);
-}
-static unsigned rnd_below(unsigned n) { return rnd() % n; }
 
 static hbp_box random_box(void) {
   hbp_box b;

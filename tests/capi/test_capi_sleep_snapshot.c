@@ -17,26 +17,11 @@
 
 #include "hbp/hbp.h"
 
+#include "capi_check.h"
+
 #define MAX_LIVE 400
 
-#define CHECK(cond, ...)                                                        \
-  do {                                                                          \
-    if (!(cond)) {                                                              \
-      fprintf(stderr, "%s:%d: check failed: %s: ", __FILE__, __LINE__, #cond); \
-      fprintf(stderr, __VA_ARGS__);                                             \
-      fprintf(stderr, "\n");                                                    \
-      return 1;                                                                 \
-    }                                                                           \
-  } while (0)
 #define OK(call) CHECK((call) == HBP_OK, "%s", hbp_last_error())
-
-static unsigned long long rng_state = 88172645463325252ull;
-static unsigned rnd(void) {
-  rng_state ^= rng_state << 13;
-  rng_state ^= rng_state >> 7;
-  rng_state ^= rng_state << 17;
-  return (unsigned)(rng_state >> 16);
-}
 
 static hbp_box random_box(void) {
   hbp_box b;

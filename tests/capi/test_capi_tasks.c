@@ -20,28 +20,11 @@
 
 #include "hbp/hbp.h"
 
+#include "capi_check.h"
+
 #define MAX_LIVE 30000
 #define WORKERS 3
 
-static int failures = 0;
-#define CHECK(cond, ...)                                                            \
-  do {                                                                              \
-    if (!(cond)) {                                                                  \
-      fprintf(stderr, "%s:%d: check failed: %s: ", __FILE__, __LINE__, #cond);    \
-      fprintf(stderr, __VA_ARGS__);                                                 \
-      fprintf(stderr, "\n");                                                        \
-      ++failures;                                                                   \
-      return 1;                                                                     \
-    }                                                                               \
-  } while (0)
-
-static unsigned long long rng_state = 88172645463325252ull;
-static unsigned rnd(void) {
-  rng_state ^= rng_state << 13;
-  rng_state ^= rng_state >> 7;
-  rng_state ^= rng_state << 17;
-  return (unsigned)(rng_state >> 16);
-}
 static float uniform(float lo, float hi) { return lo + (hi - lo) * (float)(rnd() % 1000000u) / 1000000.0f; }
 
 /* ---- the engine's job systems ---- */
@@ -321,5 +304,5 @@ int main(int argc, char** argv) {
   free(before);
   printf("ok: %u frames, %zu objects, %zu pairs at the end, %ld + %ld batches\n", frames, live, want_count,
          threads_log.batches, reverse_log.batches);
-  return failures != 0;
+  return check_failures != 0;
 }
