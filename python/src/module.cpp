@@ -366,21 +366,32 @@ class PyBroadPhase {
     return py::make_tuple(std::move(offsets), handles_array(std::move(all)));
   }
 
-  py::array_t<std::uint32_t> query_ray(py::handle origin_obj, py::handle direction_obj, double max_t,
-                                       const py::object& layers_mask, const py::object& category_mask) {
-    const QueryFilter qf = query_filter_args(layers_mask, category_mask);
-    float origin[3], direction[3];
-    vec3(origin_obj, "origin", origin);
-    vec3(direction_obj, "direction", direction);
+  // A ray's origin, direction and max_t, checked (max_t beyond float's
+  // range: the whole ray).
+  struct RayArgs {
+    BroadPhase::Vec3f origin, direction;
+    float max_t;
+  };
+  static RayArgs ray_args(py::handle origin_obj, py::handle direction_obj, double max_t) {
+    RayArgs r;
+    vec3(origin_obj, "origin", r.origin.data());
+    vec3(direction_obj, "direction", r.direction.data());
     if (!(max_t >= 0)) {  // NaN too; infinity: the whole ray
       throw ArgumentError("max_t: must be >= 0 (infinity allowed), got " + py::repr(py::float_(max_t)).cast<std::string>());
     }
+    r.max_t = max_t > std::numeric_limits<float>::max() ? std::numeric_limits<float>::infinity()
+                                                        : static_cast<float>(max_t);
+    return r;
+  }
+
+  py::array_t<std::uint32_t> query_ray(py::handle origin_obj, py::handle direction_obj, double max_t,
+                                       const py::object& layers_mask, const py::object& category_mask) {
+    const QueryFilter qf = query_filter_args(layers_mask, category_mask);
+    const RayArgs r = ray_args(origin_obj, direction_obj, max_t);
     std::vector<Handle> hits;
     {
       Exclusive lock(mutex_);
-      const float t = max_t > std::numeric_limits<float>::max() ? std::numeric_limits<float>::infinity()
-                                                                : static_cast<float>(max_t);
-      hits = bp_.query_ray({origin[0], origin[1], origin[2]}, {direction[0], direction[1], direction[2]}, t, qf);
+      hits = bp_.query_ray(r.origin, r.direction, r.max_t, qf);
     }
     return handles_array(std::move(hits));
   }
@@ -389,18 +400,11 @@ class PyBroadPhase {
   py::object raycast_closest(py::handle origin_obj, py::handle direction_obj, double max_t,
                              const py::object& layers_mask, const py::object& category_mask) {
     const QueryFilter qf = query_filter_args(layers_mask, category_mask);
-    float origin[3], direction[3];
-    vec3(origin_obj, "origin", origin);
-    vec3(direction_obj, "direction", direction);
-    if (!(max_t >= 0)) {  // NaN too; infinity: the whole ray
-      throw ArgumentError("max_t: must be >= 0 (infinity allowed), got " + py::repr(py::float_(max_t)).cast<std::string>());
-    }
+    const RayArgs r = ray_args(origin_obj, direction_obj, max_t);
     std::optional<RayHit> hit;
     {
       Exclusive lock(mutex_);
-      const float t = max_t > std::numeric_limits<float>::max() ? std::numeric_limits<float>::infinity()
-                                                                : static_cast<float>(max_t);
-      hit = bp_.raycast_closest({origin[0], origin[1], origin[2]}, {direction[0], direction[1], direction[2]}, t, qf);
+      hit = bp_.raycast_closest(r.origin, r.direction, r.max_t, qf);
     }
     if (!hit) return py::none();
     return py::make_tuple(hit->handle, static_cast<double>(hit->t));
