@@ -177,7 +177,8 @@ class BroadPhase {
   // InvalidInput naming what is wrong with malformed, truncated, corrupted
   // or wrong-version data, and the object is unchanged.
   void restore(std::span<const std::byte> data);
-  // A new broad phase with `options` and a snapshot's state.
+  // A new broad phase with `options` and a snapshot's state; its
+  // double_precision is the snapshot's, whatever `options` says.
   static BroadPhase from_snapshot(std::span<const std::byte> data, const BroadPhaseOptions& options = {});
 
   // Symmetric; every pair of layers collides by default.

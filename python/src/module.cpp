@@ -261,6 +261,17 @@ class PyBroadPhase {
   // uint8 numpy array). The buffer is released under the GIL, after the
   // lock is given back.
   void restore(py::handle data) {
+    with_bytes(data, "restore", [&](std::span<const std::byte> bytes) {
+      Exclusive lock(mutex_);
+      bp_.restore(bytes);
+    });
+  }
+
+  // f(the bytes of `data`) for any C-contiguous bytes-like object (bytes,
+  // bytearray, memoryview, a uint8 numpy array); the buffer is released
+  // under the GIL after f.
+  template <class F>
+  static void with_bytes(py::handle data, const char* call, F&& f) {
     struct Buffer {
       Py_buffer view{};
       bool held = false;
@@ -270,14 +281,19 @@ class PyBroadPhase {
     } buffer;
     if (PyObject_GetBuffer(data.ptr(), &buffer.view, PyBUF_SIMPLE) != 0) {
       PyErr_Clear();
-      throw ArgumentError("restore: data must be a contiguous bytes-like object (bytes, bytearray, memoryview), got " +
+      throw ArgumentError(std::string(call) +
+                          ": data must be a contiguous bytes-like object (bytes, bytearray, memoryview), got " +
                           py::str(py::type::of(data).attr("__name__")).cast<std::string>());
     }
     buffer.held = true;
-    const std::span<const std::byte> bytes(static_cast<const std::byte*>(buffer.view.buf),
-                                           static_cast<std::size_t>(buffer.view.len));
+    f(std::span<const std::byte>(static_cast<const std::byte*>(buffer.view.buf),
+                                 static_cast<std::size_t>(buffer.view.len)));
+  }
+
+  // Takes over a broad phase made elsewhere (from_snapshot).
+  void adopt(BroadPhase&& other) {
     Exclusive lock(mutex_);
-    bp_.restore(bytes);
+    bp_ = std::move(other);
   }
 
   void set_collides(const py::object& a, const py::object& b, bool collides) {
@@ -867,17 +883,28 @@ PYBIND11_MODULE(hybrid_broadphase, m) {
   broad_phase.attr("from_snapshot") = py::reinterpret_steal<py::object>(PyClassMethod_New(
       py::cpp_function(
           [](const py::object& cls, const py::object& data, const std::string& engine, const py::object& threads,
-             long long cell_limit, long long max_pairs, bool double_precision) {
+             long long cell_limit, long long max_pairs, const py::object& double_precision) {
+            // The precision is the snapshot's; one given must match it.
+            std::optional<hbp::BroadPhase> made;
+            PyBroadPhase::with_bytes(data, "from_snapshot", [&](std::span<const std::byte> bytes) {
+              made.emplace(hbp::BroadPhase::from_snapshot(bytes, make_options(engine, threads, cell_limit, max_pairs)));
+            });
+            const bool doubles = made->options().double_precision;
+            if (!double_precision.is_none() && double_precision.cast<bool>() != doubles)
+              throw ArgumentError(std::string("from_snapshot: double_precision=") +
+                                  (doubles ? "False" : "True") + " but the snapshot is of a " +
+                                  (doubles ? "double_precision" : "float") + " broad phase");
             py::object bp = cls(py::arg("engine") = engine, py::arg("threads") = threads,
                                 py::arg("cell_limit") = cell_limit, py::arg("max_pairs") = max_pairs,
-                                py::arg("double_precision") = double_precision);
-            bp.cast<PyBroadPhase&>().restore(data);
+                                py::arg("double_precision") = doubles);
+            bp.cast<PyBroadPhase&>().adopt(std::move(*made));
             return bp;
           },
           py::name("from_snapshot"), py::arg("cls"), py::arg("data"), py::kw_only(), py::arg("engine") = "sw",
           py::arg("threads") = 0, py::arg("cell_limit") = 0, py::arg("max_pairs") = 0,
-          py::arg("double_precision") = false,
+          py::arg("double_precision") = py::none(),
           "A new BroadPhase (of the class it is called on) with the options given and a snapshot's state "
-          "(bytes-like, from snapshot()). ValueError for malformed data, as restore().")
+          "(bytes-like, from snapshot()); its double_precision is the snapshot's (one given must match). "
+          "ValueError for malformed data, as restore().")
           .ptr()));
 }

@@ -153,3 +153,18 @@ def test_restore_keeps_options_and_filter():
     assert isinstance(s, Sub) and s.max_pairs == 5
     assert s.add(np.array([[0, 0, 0, 1, 1, 1]], np.float32)).tolist() == \
         src.add(np.array([[0, 0, 0, 1, 1, 1]], np.float32)).tolist()
+
+
+def test_from_snapshot_takes_the_snapshots_precision():
+    doubles = hbp.BroadPhase(double_precision=True)
+    h = doubles.add(np.array([[1e9, 1e9, 1e9, 1e9 + 1, 1e9 + 1, 1e9 + 1],
+                              [1e9 + 1, 1e9, 1e9, 1e9 + 2, 1e9 + 1, 1e9 + 1]]))
+    doubles.update()
+    restored = hbp.BroadPhase.from_snapshot(doubles.snapshot())
+    assert restored.double_precision
+    assert restored.box(h[1]).dtype == np.float64
+    np.testing.assert_array_equal(restored.update().pairs, [[h[0], h[1]]])
+    with pytest.raises(ValueError, match="double_precision=False"):
+        hbp.BroadPhase.from_snapshot(doubles.snapshot(), double_precision=False)
+    with pytest.raises(ValueError, match="double_precision broad phase into a float one"):
+        hbp.BroadPhase().restore(doubles.snapshot())

@@ -1732,8 +1732,11 @@ void BroadPhase::restore(std::span<const std::byte> data) {
   impl_ = std::move(fresh);
 }
 BroadPhase BroadPhase::from_snapshot(std::span<const std::byte> data, const BroadPhaseOptions& options) {
-  BroadPhase bp(options);
-  bp.restore(data);
+  detail::BroadPhaseState state = detail::read_snapshot(data, "BroadPhase::from_snapshot");
+  BroadPhaseOptions o = options;
+  o.double_precision = state.double_precision;
+  BroadPhase bp(o);
+  bp.impl_->assign(std::move(state));
   return bp;
 }
 
