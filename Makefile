@@ -69,7 +69,7 @@ test-sanitize: deps
 TSAN_TESTS = test_hybrid_broadphase test_adversarial test_bullet_broadphase test_raytrace_traversal \
   test_two_level_hierarchy test_scenario test_software_engine test_limits test_raytrace_colliding_objects \
   test_broad_phase test_pair_events test_parallel_pair_sort test_task_system \
-  test_broad_phase_sleep test_broad_phase_snapshot
+  test_broad_phase_sleep test_broad_phase_snapshot test_broad_phase_large_world
 TSAN_EXCLUDE = ^Limits\.(MemoryPerObjectAndPerPair|MaxPairsIsExactAndTheInstanceSurvives|UnlimitedExplosionIsExact)$$
 TSAN_TBB = $(abspath $(TSAN_BUILD))/tbb
 test-tsan: deps
