@@ -23,9 +23,10 @@ namespace hbp {
 class KdPartition;
 
 // The hybrid system's options. Every consumer honours each field except
-// `sorted`, which is HybridBroadPhase's alone: BroadPhase, the Bullet
-// adapter and DistributedBroadPhase always sort, CollisionPipeline keeps
-// cell order (its narrow phase takes the cells as they come).
+// two: `sorted` is HybridBroadPhase's alone (BroadPhase, the Bullet adapter
+// and DistributedBroadPhase always sort, CollisionPipeline keeps cell order:
+// its narrow phase takes the cells as they come), and `double_precision`
+// is BroadPhase's alone (the others refuse it).
 struct BroadPhaseOptions {
   std::string engine = "sw";     // see make_cell_engine()
   std::uint32_t cell_limit = 0;  // 0: the engine's default; else >= 2
