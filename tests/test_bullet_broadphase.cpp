@@ -210,6 +210,10 @@ TEST(BulletBroadphase, CacheIsExactAndIncrementalUnderChurn) {
 // Destroying proxy 0 moves the last proxy into its slot: the pair between
 // the two survivors persists (no remove and re-add), and a proxy created in
 // the same frame gets its pairs.
+TEST(BulletBroadphase, DoublePrecisionIsRefusedAtConstruction) {
+  EXPECT_THROW(BroadphaseAdapter(hbp::BroadPhaseOptions{.double_precision = true}), hbp::InvalidInput);
+}
+
 TEST(BulletBroadphase, SwapRemovalKeepsPersistingPairs) {
   btHashedOverlappingPairCache cache;
   PairLog log;

@@ -57,7 +57,7 @@ bool same_box(const btVector3& a_lo, const btVector3& a_hi, const btVector3& b_l
 }  // namespace
 
 struct BroadphaseAdapter::Impl {
-  explicit Impl(btOverlappingPairCache* external, const BroadPhaseOptions& opts) : options(opts), bp(options) {
+  explicit Impl(btOverlappingPairCache* external, const BroadPhaseOptions& opts) : options(opts), bp(checked(options)) {
     if (external) {
       cache = external;
     } else {
@@ -92,6 +92,13 @@ struct BroadphaseAdapter::Impl {
       return p;
     }
     return new Proxy();
+  }
+
+  // The adapter passes float boxes (Aabb): it has no double path.
+  static const BroadPhaseOptions& checked(const BroadPhaseOptions& o) {
+    if (o.double_precision)
+      throw InvalidInput("bullet::BroadphaseAdapter: double_precision is BroadPhase's alone (the adapter passes float boxes)");
+    return o;
   }
 
   BroadPhaseOptions options;
