@@ -205,13 +205,13 @@ TEST(BroadPhaseLargeWorld, FloatExactDoublesAndMixedWorlds) {
       boxes.push_back(b);
     }
     std::vector<Pair> previous;
-    std::uniform_int_distribution<std::size_t> pick(0, objs.size() - 1);
     for (int step = 0; step < 600; ++step) {
       if (step == 200) {  // handles no longer dense indices
         bp.remove(std::span<const Handle>(&objs[3].h, 1));
         objs.erase(objs.begin() + 3);
         boxes.erase(boxes.begin() + 3);
       }
+      std::uniform_int_distribution<std::size_t> pick(0, objs.size() - 1);  // after the removal too
       if (step == 400)
         bp.set_pair_filter([](Handle a, Handle b) { return (a + b) % 5 != 0; });
       std::vector<Handle> mh;
