@@ -190,8 +190,13 @@ class PyBroadPhase {
                              .filter = filter_args(category, mask, group),
                              .user_data = u64_arg(user_data, "user_data"),
                              .margin = margin_arg(margin)};
-    if (double_precision()) return add_d(boxes_obj, options);
-    const BoxesView view = boxes_view(boxes_obj, "boxes");
+    if (double_precision()) return add_view(boxes_d_view(boxes_obj, "boxes"), options);
+    return add_view(boxes_view(boxes_obj, "boxes"), options);
+  }
+
+  // add and move of a float (BoxesView) or double (BoxesDView) batch.
+  template <class View>
+  py::array_t<std::uint32_t> add_view(const View& view, const AddOptions& options) {
     std::vector<Handle> handles;
     {
       Exclusive lock(mutex_);
@@ -204,6 +209,16 @@ class PyBroadPhase {
     }
     return handles_array(std::move(handles));
   }
+  template <class View>
+  void move_view(const HandlesView& h, const View& b) {
+    if (h.handles.size() != b.boxes.size()) {
+      throw ArgumentError("move: " + std::to_string(h.handles.size()) + " handles but " +
+                          std::to_string(b.boxes.size()) + " boxes (must be equal)");
+    }
+    Exclusive lock(mutex_);
+    check_live(h.handles);  // duplicates in the batch: the C++ side names both rows
+    bp_.move(h.handles, b.boxes);
+  }
 
   void reserve(long long objects) {
     if (objects < 0 || static_cast<unsigned long long>(objects) > kMaxObjects)
@@ -214,16 +229,9 @@ class PyBroadPhase {
   }
 
   void move(py::handle handles_obj, py::handle boxes_obj) {
-    if (double_precision()) return move_d(handles_obj, boxes_obj);
     const HandlesView h = handles_view(handles_obj);
-    const BoxesView b = boxes_view(boxes_obj, "boxes");
-    if (h.handles.size() != b.boxes.size()) {
-      throw ArgumentError("move: " + std::to_string(h.handles.size()) + " handles but " +
-                          std::to_string(b.boxes.size()) + " boxes (must be equal)");
-    }
-    Exclusive lock(mutex_);
-    check_live(h.handles);  // duplicates in the batch: the C++ side names both rows
-    bp_.move(h.handles, b.boxes);
+    if (double_precision()) return move_view(h, boxes_d_view(boxes_obj, "boxes"));
+    move_view(h, boxes_view(boxes_obj, "boxes"));
   }
 
   void remove(py::handle handles_obj) {
@@ -591,32 +599,7 @@ class PyBroadPhase {
     bp_.shift_origin_d(offset);
   }
 
-  // The double-precision forms of add, move, query_box(es) and box.
-  py::array_t<std::uint32_t> add_d(py::handle boxes_obj, const AddOptions& options) {
-    const BoxesDView view = boxes_d_view(boxes_obj, "boxes");
-    std::vector<Handle> handles;
-    {
-      Exclusive lock(mutex_);
-      if (size_without_lock() + view.boxes.size() > kMaxObjects) {
-        throw ArgumentError("boxes: adding " + std::to_string(view.boxes.size()) + " objects to " +
-                            std::to_string(bp_.size()) + " exceeds the limit of " + std::to_string(kMaxObjects) +
-                            " live objects");
-      }
-      handles = bp_.add(view.boxes, options);
-    }
-    return handles_array(std::move(handles));
-  }
-  void move_d(py::handle handles_obj, py::handle boxes_obj) {
-    const HandlesView h = handles_view(handles_obj);
-    const BoxesDView b = boxes_d_view(boxes_obj, "boxes");
-    if (h.handles.size() != b.boxes.size()) {
-      throw ArgumentError("move: " + std::to_string(h.handles.size()) + " handles but " +
-                          std::to_string(b.boxes.size()) + " boxes (must be equal)");
-    }
-    Exclusive lock(mutex_);
-    check_live(h.handles);
-    bp_.move(h.handles, b.boxes);
-  }
+  // The double-precision forms of query_box(es) and box.
   py::array_t<std::uint32_t> query_box_d(py::handle box_obj, const QueryFilter& filter) {
     const BoxesDView view = boxes_d_view(box_obj, "box", /*single=*/true);
     std::vector<Handle> hits;
