@@ -108,7 +108,7 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     // Cells: the grid's target count (grid_plan.hpp).
     const std::uint64_t cells = std::min<std::uint64_t>(n / options.boxes_per_cell + 1, kMaxCells);
     size_references(static_cast<std::uint32_t>(refs), 0, static_cast<std::uint32_t>(std::min(refs, cells)), refs);
-    size_pairs(2ull * n);
+    size_pairs(2ull * n, n);
     pairs.clear();  // no frame yet
     info = {};
   }
@@ -197,16 +197,13 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     record(kBounds);
 
     // References: count, scan, emit.
-    launch_reference_count(g, b, n, ref_count_.as<std::uint32_t>(), is_large_.as<std::uint32_t>(), stream_);
-    scan(ref_count_.as<std::uint32_t>(), ref_offset_.as<std::uint32_t>(), n);
-    scan(is_large_.as<std::uint32_t>(), large_offset_.as<std::uint32_t>(), n);
-    check_cuda(cudaMemcpyAsync(pinned_, ref_offset_.as<std::uint32_t>() + n, 4, cudaMemcpyDeviceToHost, stream_), "refs");
-    check_cuda(cudaMemcpyAsync(reinterpret_cast<std::uint32_t*>(pinned_) + 1, large_offset_.as<std::uint32_t>() + n, 4,
-                               cudaMemcpyDeviceToHost, stream_),
-               "large");
+    launch_reference_count(g, b, n, ref_count_.as<std::uint64_t>(), is_large_.as<std::uint32_t>(), stream_);
+    scan(ref_count_.as<std::uint64_t>(), ref_offset_.as<std::uint64_t>(), n);
+    check_cuda(cudaMemcpyAsync(pinned_, ref_offset_.as<std::uint64_t>() + n, 8, cudaMemcpyDeviceToHost, stream_),
+               "references");
     sync();
-    const std::uint32_t refs = reinterpret_cast<std::uint32_t*>(pinned_)[0];
-    const std::uint32_t large = reinterpret_cast<std::uint32_t*>(pinned_)[1];
+    const auto refs = static_cast<std::uint32_t>(pinned_[0] & 0xffffffffu);
+    const auto large = static_cast<std::uint32_t>(pinned_[0] >> 32);
     info.references = refs;
     info.large = large;
     const std::uint32_t chunk = large_chunk(n, large);
@@ -215,9 +212,8 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     const std::uint32_t max_cells = std::min(refs, grid_.cells());
     size_references(refs, large, max_cells, slots);
     const int bits = position_bits(grid_.cells());
-    launch_emit(g, b, n, bits, is_large_.as<std::uint32_t>(), ref_offset_.as<std::uint32_t>(),
-                large_offset_.as<std::uint32_t>(), keys_.as<std::uint32_t>(), ids_.as<std::uint32_t>(),
-                large_list_.as<std::uint32_t>(), stream_);
+    launch_emit(g, b, n, bits, is_large_.as<std::uint32_t>(), ref_offset_.as<std::uint64_t>(), keys_.as<std::uint32_t>(),
+                ids_.as<std::uint32_t>(), large_list_.as<std::uint32_t>(), stream_);
     record(kRefs);
 
     // Sort by key (cell, position of min x) (stable), gather, cells.
@@ -228,12 +224,19 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
                    stream_))
       ++info.allocations;
     check_cuda(cudaMemsetAsync(cells_.as<std::uint32_t>(), 0, 4, stream_), "cells");
-    launch_gather_cells(packed_.as<float>(), sorted_keys, sorted_ids, refs, bits, lanes_.as<float>(),
-                        positions_.as<std::uint32_t>(), head_.as<std::uint32_t>(), stream_);
-    scan(head_.as<std::uint32_t>(), head_scan_.as<std::uint32_t>(), refs);
-    // The scan is written to out[1..refs]: the cells kernel reads it from there.
-    launch_cells(g, sorted_keys, bits, head_scan_.as<std::uint32_t>() + 1, refs, cell_begin_.as<std::uint32_t>(),
-                 cell_ids_.as<std::uint32_t>(), regions_.as<CellRegion>(), cells_.as<std::uint32_t>(), stream_);
+    const bool per_reference = options.sweep == CellSweep::PerReference;
+    if (per_reference) {
+      // Its rows read their cells from the keys: lanes and the cell count only.
+      launch_gather_lanes(packed_.as<float>(), sorted_keys, sorted_ids, refs, bits, lanes_.as<float>(),
+                          cells_.as<std::uint32_t>(), stream_);
+    } else {
+      launch_gather_cells(packed_.as<float>(), sorted_keys, sorted_ids, refs, bits, lanes_.as<float>(),
+                          positions_.as<std::uint32_t>(), head_.as<std::uint32_t>(), stream_);
+      scan(head_.as<std::uint32_t>(), head_scan_.as<std::uint32_t>(), refs);
+      // The scan is written to out[1..refs]: the cells kernel reads it from there.
+      launch_cells(g, sorted_keys, bits, head_scan_.as<std::uint32_t>() + 1, refs, cell_begin_.as<std::uint32_t>(),
+                   cell_ids_.as<std::uint32_t>(), regions_.as<CellRegion>(), cells_.as<std::uint32_t>(), stream_);
+    }
     record(kSorted);
 
     // Count, scan.
@@ -242,13 +245,11 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     const CellLanes s{{lanes, lanes + stride, lanes + 2 * stride},
                       {lanes + 3 * stride, lanes + 4 * stride, lanes + 5 * stride},
                       sorted_ids,
-                      positions_.as<std::uint32_t>()};
+                      per_reference ? sorted_keys : positions_.as<std::uint32_t>()};
     std::uint64_t* counts = counts_.as<std::uint64_t>();
     const auto rows = [&](std::uint64_t* row_counts, const std::uint64_t* row_offsets, std::uint32_t* row_out) {
-      if (options.sweep == CellSweep::PerReference)
-        launch_reference_rows(g, s, bits, head_scan_.as<std::uint32_t>() + 1, cell_begin_.as<std::uint32_t>(),
-                              cell_ids_.as<std::uint32_t>(), regions_.as<CellRegion>(), refs, kept_.as<RowPairs>(),
-                              row_counts, row_offsets, row_out, stream_);
+      if (per_reference)
+        launch_reference_rows(g, s, bits, refs, kept_.as<RowPairs>(), row_counts, row_offsets, row_out, stream_);
       else
         launch_cell_rows(g, s, bits, cell_begin_.as<std::uint32_t>(), cell_ids_.as<std::uint32_t>(),
                          regions_.as<CellRegion>(), cells_.as<std::uint32_t>(), max_cells,
@@ -268,7 +269,7 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     if (options.max_pairs && total > options.max_pairs) throw_too_many_pairs(total, options.max_pairs);
 
     // Fill.
-    size_pairs(total);
+    size_pairs(total, n);
     std::uint32_t* out = pair_out_.as<std::uint32_t>();
     const std::uint64_t* offsets = offsets_.as<std::uint64_t>();
     rows(nullptr, offsets, out);
@@ -278,7 +279,7 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
 
     // Order by (a, b).
     if (options.sorted && total > 1) {
-      info.allocations += sort_pairs_by_ab(out, total, n, pair_keys_, pair_keys_alt_, temp_, stream_);
+      info.allocations += sort_pairs_by_ab(options.pair_order, out, total, n, pair_keys_, pair_keys_alt_, temp_, stream_);
     }
     record(kOrdered);
     info.pairs = total;
@@ -291,24 +292,32 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
   void size_uploads(std::uint32_t n) { reserve(boxes_, std::size_t{6} * n * sizeof(float)); }
   void size_objects(std::uint32_t n) {
     reserve(packed_, std::size_t{6} * n * sizeof(float));
-    for (DeviceBuffer* d : {&ref_count_, &is_large_, &ref_offset_, &large_offset_}) reserve(*d, (std::size_t{n} + 1) * 4);
+    reserve(is_large_, (std::size_t{n} + 1) * 4);
+    for (DeviceBuffer* d : {&ref_count_, &ref_offset_}) reserve(*d, (std::size_t{n} + 1) * 8);
   }
   void size_references(std::uint32_t refs, std::uint32_t large, std::uint32_t max_cells, std::uint64_t slots) {
-    for (DeviceBuffer* d : {&keys_, &keys_alt_, &ids_, &ids_alt_, &positions_, &head_, &head_scan_})
-      reserve(*d, (std::size_t{refs} + 1) * 4);
+    for (DeviceBuffer* d : {&keys_, &keys_alt_, &ids_, &ids_alt_}) reserve(*d, (std::size_t{refs} + 1) * 4);
     reserve(large_list_, (std::size_t{large} + 1) * 4);
     reserve(lanes_, std::size_t{6} * (refs + 1) * sizeof(float));
-    if (options.sweep == CellSweep::PerReference) reserve(kept_, (std::size_t{refs} + 1) * sizeof(RowPairs));
+    reserve(cells_, 4);
+    for (DeviceBuffer* d : {&counts_, &offsets_}) reserve(*d, (slots + 1) * 8);
+    if (options.sweep == CellSweep::PerReference) {
+      reserve(kept_, (std::size_t{refs} + 1) * sizeof(RowPairs));
+      return;
+    }
+    // The block per cell's cell table.
+    for (DeviceBuffer* d : {&positions_, &head_, &head_scan_}) reserve(*d, (std::size_t{refs} + 1) * 4);
     reserve(cell_begin_, (std::size_t{max_cells} + 2) * 4);
     for (DeviceBuffer* d : {&cell_ids_, &big_cells_}) reserve(*d, (std::size_t{max_cells} + 1) * 4);
     reserve(regions_, (std::size_t{max_cells} + 1) * sizeof(CellRegion));
-    reserve(cells_, 4);
-    for (DeviceBuffer* d : {&counts_, &offsets_}) reserve(*d, (slots + 1) * 8);
   }
-  void size_pairs(std::uint64_t total) {
+  void size_pairs(std::uint64_t total, std::uint32_t n) {
     reserve(pair_out_, (total + 1) * 8);
-    if (options.sorted)
-      for (DeviceBuffer* d : {&pair_keys_, &pair_keys_alt_}) reserve(*d, total * 8);
+    if (options.sorted) {
+      const PairOrderBytes bytes = pair_order_bytes(options.pair_order, total, n);
+      reserve(pair_keys_, bytes.keys);
+      reserve(pair_keys_alt_, bytes.scratch);
+    }
   }
 
   // out[0] = 0, out[1 + i] = in[0] + ... + in[i] (n + 1 entries).
@@ -349,7 +358,7 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     t.frame_ms = between(kUploaded, kOrdered);
     std::size_t held = 0;
     for (const DeviceBuffer* d :
-         {&boxes_, &packed_, &kept_, &acc_, &planes_, &ref_count_, &is_large_, &ref_offset_, &large_offset_, &keys_,
+         {&boxes_, &packed_, &kept_, &acc_, &planes_, &ref_count_, &is_large_, &ref_offset_, &keys_,
           &keys_alt_, &ids_, &ids_alt_, &large_list_, &lanes_, &positions_, &head_, &head_scan_, &cell_begin_,
           &cell_ids_, &big_cells_, &regions_, &cells_, &counts_, &offsets_, &pair_out_, &pair_keys_, &pair_keys_alt_,
           &temp_})
@@ -363,7 +372,7 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
   cudaStream_t stream_ = nullptr;
   cudaEvent_t events_[kStages] = {};
   std::uint64_t* pinned_ = nullptr;
-  DeviceBuffer boxes_, packed_, kept_, acc_, planes_, ref_count_, is_large_, ref_offset_, large_offset_, keys_,
+  DeviceBuffer boxes_, packed_, kept_, acc_, planes_, ref_count_, is_large_, ref_offset_, keys_,
       keys_alt_, ids_, ids_alt_, large_list_, lanes_, positions_, head_, head_scan_, cell_begin_, cell_ids_, big_cells_,
       regions_, cells_, counts_, offsets_, pair_out_, pair_keys_, pair_keys_alt_, temp_;
 };

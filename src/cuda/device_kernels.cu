@@ -3,6 +3,7 @@
 
 #include "cuda/device_primitives.cuh"
 #include "cuda/device_support.cuh"
+#include "hbp/cuda/frame_broadphase.hpp"
 
 namespace hbp::cuda {
 namespace {
@@ -89,24 +90,28 @@ __global__ void rows_to_lanes_kernel(const float* rows, std::int64_t row_stride,
   for (int l = 0; l < 6; ++l) lanes[static_cast<std::size_t>(l) * n + i] = rows[i * row_stride + l * column_stride];
 }
 
-__global__ void reference_count_kernel(GridView g, BoxLanesView b, std::uint32_t n, std::uint32_t* count,
+// count[i]: box i's references in the low word, 1 in the high word when it
+// is large, so one scan gives both offsets (references stay below 2^31:
+// kMaxRefsPerBox per box of at most kMaxFrameObjects, no carry).
+__global__ void reference_count_kernel(GridView g, BoxLanesView b, std::uint32_t n, std::uint64_t* count,
                                        std::uint32_t* is_large) {
   const std::uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= n) return;
   const std::uint32_t c = reference_count(g, b, i);
-  count[i] = c;
+  count[i] = c == 0 ? std::uint64_t{1} << 32 : c;
   is_large[i] = c == 0;
 }
 
 __global__ void emit_kernel(GridView g, BoxLanesView b, std::uint32_t n, int bits, const std::uint32_t* is_large,
-                            const std::uint32_t* ref_offset, const std::uint32_t* large_offset, std::uint32_t* keys,
-                            std::uint32_t* ids, std::uint32_t* large_list) {
+                            const std::uint64_t* offset, std::uint32_t* keys, std::uint32_t* ids,
+                            std::uint32_t* large_list) {
   const std::uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= n) return;
+  const std::uint64_t o = offset[i];
   if (is_large[i])
-    large_list[large_offset[i]] = i;
+    large_list[o >> 32] = i;
   else
-    emit_references(g, b, i, bits, keys, ids, ref_offset[i]);
+    emit_references(g, b, i, bits, keys, ids, o & 0xffffffffu);
 }
 
 __global__ void gather_kernel(BoxLanesView b, const std::uint64_t* keys, const std::uint32_t* ids,
@@ -157,17 +162,30 @@ __global__ void cells_kernel(GridView g, const std::uint32_t* keys, int bits, co
   }
 }
 
+__global__ void gather_lanes_kernel(const float* packed, const std::uint32_t* keys, const std::uint32_t* ids,
+                                    std::uint32_t refs, int bits, float* lanes, std::uint32_t* cells) {
+  const std::uint32_t r = blockIdx.x * blockDim.x + threadIdx.x;
+  const bool head = r < refs && (r == 0 || (keys[r] >> bits) != (keys[r - 1] >> bits));
+  const unsigned heads = __ballot_sync(0xffffffffu, head);
+  if ((threadIdx.x & 31u) == 0 && heads) atomicAdd(cells, static_cast<std::uint32_t>(__popc(heads)));
+  if (r >= refs) return;
+  const float2* box = reinterpret_cast<const float2*>(packed + std::size_t{6} * ids[r]);
+  const float2 v0 = box[0], v1 = box[1], v2 = box[2];
+  const float v[6] = {v0.x, v0.y, v1.x, v1.y, v2.x, v2.y};
+  for (int l = 0; l < 6; ++l) lanes[static_cast<std::size_t>(l) * refs + r] = v[l];
+}
+
 // The rows with a thread per reference (CellSweep::PerReference): row r of
 // its cell read straight from the sorted lanes. Neighbouring threads sweep
 // neighbouring rows, so their candidates come from the same cache lines, and
 // no block is tied to a cell: a dense cell's rows spread over every SM and a
-// small cell leaves no lane idle. cell_of[r] is 1 + the index of r's cell.
+// small cell leaves no lane idle. s.position holds the whole keys, so the
+// row's stop key (its cell, the position of its max x) also ends it where
+// the next cell begins: every later cell's keys are larger.
 // Counting (no `out`), a row also keeps its first kInlinePairs pairs in
 // kept[r]; filling, a row that had no more copies them instead of sweeping
 // again (most rows of a sparse scene).
-__global__ void reference_rows_kernel(GridView g, CellLanes s, int bits, const std::uint32_t* cell_of,
-                                      const std::uint32_t* cell_begin, const std::uint32_t* cell_ids,
-                                      const CellRegion* regions, std::uint32_t refs, RowPairs* kept,
+__global__ void reference_rows_kernel(GridView g, CellLanes s, int bits, std::uint32_t refs, RowPairs* kept,
                                       std::uint64_t* counts, const std::uint64_t* offsets, std::uint32_t* out) {
   const std::uint32_t r = blockIdx.x * blockDim.x + threadIdx.x;
   if (r >= refs) return;
@@ -179,17 +197,16 @@ __global__ void reference_rows_kernel(GridView g, CellLanes s, int bits, const s
       return;
     }
   }
-  const std::uint32_t c = cell_of[r] - 1;
-  const std::uint32_t end = cell_begin[c + 1];
-  const std::uint32_t stop = row_stop(g, cell_ids[c], s.hi[0][r], bits);
-  const CellRegion region = regions[c];
+  const std::uint32_t cell = s.position[r] >> bits;
+  const std::uint32_t stop = (cell << bits) | row_stop(g, cell, s.hi[0][r], bits);
+  const CellRegion region = cell_region(g, cell);
   if (!out) {
     RowPairs& keep = kept[r];
-    counts[r] = cell_row(s, r, end, region, stop, [&keep](std::uint32_t k, std::uint32_t a, std::uint32_t b) {
+    counts[r] = cell_row(s, r, refs, region, stop, [&keep](std::uint32_t k, std::uint32_t a, std::uint32_t b) {
       if (k < kInlinePairs) keep.pair[k] = a < b ? make_uint2(a, b) : make_uint2(b, a);
     });
   } else {
-    cell_row(s, r, end, region, stop, [row](std::uint32_t k, std::uint32_t a, std::uint32_t b) {
+    cell_row(s, r, refs, region, stop, [row](std::uint32_t k, std::uint32_t a, std::uint32_t b) {
       row[k] = a < b ? make_uint2(a, b) : make_uint2(b, a);
     });
   }
@@ -370,6 +387,39 @@ __global__ void unpack_kernel(const std::uint64_t* keys, std::uint64_t count, in
   }
 }
 
+// PairOrder::Buckets. Pairs of one a come in runs (a row's pairs share
+// its own id when it is the smaller), so the lanes holding the same a take
+// one atomic between them: a histogram entry per object, then a scatter
+// that counts each bucket down from its end.
+__global__ void bucket_count_kernel(const uint2* pairs, std::uint64_t count, unsigned long long* per_object) {
+  const std::uint64_t p = std::uint64_t{blockIdx.x} * blockDim.x + threadIdx.x;
+  const unsigned active = __ballot_sync(0xffffffffu, p < count);
+  if (p >= count) return;
+  const std::uint32_t a = pairs[p].x;
+  const unsigned same = __match_any_sync(active, a);
+  if ((threadIdx.x & 31u) == static_cast<unsigned>(__ffs(same) - 1))
+    atomicAdd(per_object + a, static_cast<unsigned long long>(__popc(same)));
+}
+
+// Each pair to its bucket as the key b << 32 | a: its bytes are the pair's
+// (a, b), and within a bucket (one a) key order is b's order.
+__global__ void bucket_scatter_kernel(const uint2* pairs, std::uint64_t count, const std::uint64_t* starts,
+                                      unsigned long long* left, std::uint64_t* keys) {
+  const std::uint64_t p = std::uint64_t{blockIdx.x} * blockDim.x + threadIdx.x;
+  const unsigned active = __ballot_sync(0xffffffffu, p < count);
+  if (p >= count) return;
+  const uint2 pair = pairs[p];
+  const unsigned same = __match_any_sync(active, pair.x);
+  const int leader = __ffs(same) - 1;
+  const unsigned lane = threadIdx.x & 31u;
+  unsigned long long end = 0;
+  if (static_cast<int>(lane) == leader)
+    end = atomicAdd(left + pair.x, static_cast<unsigned long long>(-static_cast<long long>(__popc(same))));
+  end = __shfl_sync(same, end, leader);
+  const std::uint64_t rank = static_cast<std::uint64_t>(__popc(same & ((1u << lane) - 1u)));
+  keys[starts[pair.x] + end - 1 - rank] = (std::uint64_t{pair.y} << 32) | pair.x;
+}
+
 unsigned grid_for(std::uint64_t n) { return static_cast<unsigned>((n + kThreads - 1) / kThreads); }
 
 __global__ void centre_sums_kernel(BoxLanesView b, std::uint32_t n, double* sums) {
@@ -424,7 +474,7 @@ void launch_rows_to_lanes(const float* rows, std::int64_t row_stride, std::int64
   check_cuda(cudaGetLastError(), "rows to lanes kernel");
 }
 
-void launch_reference_count(const GridView& g, const BoxLanesView& b, std::uint32_t n, std::uint32_t* count,
+void launch_reference_count(const GridView& g, const BoxLanesView& b, std::uint32_t n, std::uint64_t* count,
                             std::uint32_t* is_large, cudaStream_t s) {
   if (!n) return;
   reference_count_kernel<<<grid_for(n), kThreads, 0, s>>>(g, b, n, count, is_large);
@@ -432,11 +482,10 @@ void launch_reference_count(const GridView& g, const BoxLanesView& b, std::uint3
 }
 
 void launch_emit(const GridView& g, const BoxLanesView& b, std::uint32_t n, int bits, const std::uint32_t* is_large,
-                 const std::uint32_t* ref_offset, const std::uint32_t* large_offset, std::uint32_t* keys,
-                 std::uint32_t* ids, std::uint32_t* large_list, cudaStream_t s) {
+                 const std::uint64_t* offset, std::uint32_t* keys, std::uint32_t* ids, std::uint32_t* large_list,
+                 cudaStream_t s) {
   if (!n) return;
-  emit_kernel<<<grid_for(n), kThreads, 0, s>>>(g, b, n, bits, is_large, ref_offset, large_offset, keys, ids,
-                                               large_list);
+  emit_kernel<<<grid_for(n), kThreads, 0, s>>>(g, b, n, bits, is_large, offset, keys, ids, large_list);
   check_cuda(cudaGetLastError(), "emit kernel");
 }
 
@@ -452,6 +501,13 @@ void launch_gather_cells(const float* packed, const std::uint32_t* keys, const s
   if (!refs) return;
   gather_cells_kernel<<<grid_for(refs), kThreads, 0, s>>>(packed, keys, ids, refs, bits, lanes, positions, head);
   check_cuda(cudaGetLastError(), "gather cells kernel");
+}
+
+void launch_gather_lanes(const float* packed, const std::uint32_t* keys, const std::uint32_t* ids, std::uint32_t refs,
+                         int bits, float* lanes, std::uint32_t* cells, cudaStream_t s) {
+  if (!refs) return;
+  gather_lanes_kernel<<<grid_for(refs), kThreads, 0, s>>>(packed, keys, ids, refs, bits, lanes, cells);
+  check_cuda(cudaGetLastError(), "gather lanes kernel");
 }
 
 void launch_cells(const GridView& g, const std::uint32_t* keys, int bits, const std::uint32_t* head_scan,
@@ -477,13 +533,10 @@ void launch_cell_rows(const GridView& g, const CellLanes& sorted, int bits, cons
   check_cuda(cudaGetLastError(), "big cell rows kernel");
 }
 
-void launch_reference_rows(const GridView& g, const CellLanes& sorted, int bits, const std::uint32_t* cell_of,
-                           const std::uint32_t* cell_begin, const std::uint32_t* cell_ids, const CellRegion* regions,
-                           std::uint32_t refs, RowPairs* kept, std::uint64_t* counts, const std::uint64_t* offsets,
-                           std::uint32_t* out, cudaStream_t s) {
+void launch_reference_rows(const GridView& g, const CellLanes& sorted, int bits, std::uint32_t refs, RowPairs* kept,
+                           std::uint64_t* counts, const std::uint64_t* offsets, std::uint32_t* out, cudaStream_t s) {
   if (!refs) return;
-  reference_rows_kernel<<<grid_for(refs), kThreads, 0, s>>>(g, sorted, bits, cell_of, cell_begin, cell_ids, regions,
-                                                            refs, kept, counts, offsets, out);
+  reference_rows_kernel<<<grid_for(refs), kThreads, 0, s>>>(g, sorted, bits, refs, kept, counts, offsets, out);
   check_cuda(cudaGetLastError(), "reference rows kernel");
 }
 
@@ -546,15 +599,47 @@ void launch_unpack_pairs(const std::uint64_t* keys, std::uint64_t count, int id_
   check_cuda(cudaGetLastError(), "unpack kernel");
 }
 
-int sort_pairs_by_ab(std::uint32_t* pairs, std::uint64_t count, std::uint32_t objects, DeviceBuffer& keys,
-                     DeviceBuffer& keys_alt, DeviceBuffer& temp, cudaStream_t s) {
-  int id_bits = 1;
-  while ((std::uint64_t{1} << id_bits) < objects) ++id_bits;
-  int allocations = int(keys.reserve(count * 8)) + int(keys_alt.reserve(count * 8));
-  launch_pack_pairs(pairs, count, id_bits, keys.as<std::uint64_t>(), s);
-  std::uint64_t* sorted = nullptr;
-  allocations += sort_keys(keys.as<std::uint64_t>(), keys_alt.as<std::uint64_t>(), count, 2 * id_bits, temp, &sorted, s);
-  launch_unpack_pairs(sorted, count, id_bits, pairs, s);
+namespace {
+int id_bits_of(std::uint32_t objects) {
+  int bits = 1;
+  while ((std::uint64_t{1} << bits) < objects) ++bits;
+  return bits;
+}
+}  // namespace
+
+PairOrderBytes pair_order_bytes(PairOrder order, std::uint64_t count, std::uint32_t objects) {
+  // Radix: keys and the sort's alternate. Buckets: the scattered keys, then
+  // per object its count and bucket start (objects + 1 starts).
+  if (order == PairOrder::Radix) return {count * 8, count * 8};
+  return {count * 8, (2 * std::size_t{objects} + 1) * 8};
+}
+
+int sort_pairs_by_ab(PairOrder order, std::uint32_t* pairs, std::uint64_t count, std::uint32_t objects,
+                     DeviceBuffer& keys, DeviceBuffer& scratch, DeviceBuffer& temp, cudaStream_t s) {
+  if (count < 2) return 0;
+  const PairOrderBytes bytes = pair_order_bytes(order, count, objects);
+  int allocations = int(keys.reserve(bytes.keys)) + int(scratch.reserve(bytes.scratch));
+  if (order == PairOrder::Radix) {
+    const int id_bits = id_bits_of(objects);
+    launch_pack_pairs(pairs, count, id_bits, keys.as<std::uint64_t>(), s);
+    std::uint64_t* sorted = nullptr;
+    allocations +=
+        sort_keys(keys.as<std::uint64_t>(), scratch.as<std::uint64_t>(), count, 2 * id_bits, temp, &sorted, s);
+    launch_unpack_pairs(sorted, count, id_bits, pairs, s);
+    return allocations;
+  }
+  unsigned long long* per_object = scratch.as<unsigned long long>();
+  std::uint64_t* starts = scratch.as<std::uint64_t>() + objects;
+  const uint2* in = reinterpret_cast<const uint2*>(pairs);
+  check_cuda(cudaMemsetAsync(per_object, 0, std::size_t{objects} * 8, s), "bucket counts");
+  bucket_count_kernel<<<grid_for(count), kThreads, 0, s>>>(in, count, per_object);
+  check_cuda(cudaGetLastError(), "bucket count kernel");
+  allocations += inclusive_sum(reinterpret_cast<const std::uint64_t*>(per_object), starts, objects, temp, s);
+  bucket_scatter_kernel<<<grid_for(count), kThreads, 0, s>>>(in, count, starts, per_object, keys.as<std::uint64_t>());
+  check_cuda(cudaGetLastError(), "bucket scatter kernel");
+  // Keys are unique, so the unstable segmented sort gives the one order.
+  allocations += segmented_sort_keys(keys.as<std::uint64_t>(), reinterpret_cast<std::uint64_t*>(pairs), count,
+                                     objects, starts, temp, s);
   return allocations;
 }
 

@@ -38,13 +38,16 @@ void launch_bounds(const BoxLanesView& b, std::uint32_t n, std::uint32_t* acc, c
 // Rows of an (n, 6) array (element strides) into six lanes of n floats.
 void launch_rows_to_lanes(const float* rows, std::int64_t row_stride, std::int64_t column_stride, std::uint32_t n,
                           float* lanes, cudaStream_t s);
-void launch_reference_count(const GridView& g, const BoxLanesView& b, std::uint32_t n, std::uint32_t* count,
+// count[i]: box i's references in the low word, 1 in the high word when it
+// is large (one scan gives both offsets); is_large[i] the flag.
+void launch_reference_count(const GridView& g, const BoxLanesView& b, std::uint32_t n, std::uint64_t* count,
                             std::uint32_t* is_large, cudaStream_t s);
-// ref_offset / large_offset: exclusive offsets (n + 1 entries).
-// Keys of position_bits `bits` (frame_bodies.hpp).
+// offset: the exclusive scan of count (n + 1 entries): the reference slot in
+// the low word, the large-list slot in the high word. Keys of position_bits
+// `bits` (frame_bodies.hpp).
 void launch_emit(const GridView& g, const BoxLanesView& b, std::uint32_t n, int bits, const std::uint32_t* is_large,
-                 const std::uint32_t* ref_offset, const std::uint32_t* large_offset, std::uint32_t* keys,
-                 std::uint32_t* ids, std::uint32_t* large_list, cudaStream_t s);
+                 const std::uint64_t* offset, std::uint32_t* keys, std::uint32_t* ids, std::uint32_t* large_list,
+                 cudaStream_t s);
 // Sorted lanes from the sorted ids (64-bit keys, the high word a group such
 // as the axis sweep's); head[r] = 1 where the high word changes.
 void launch_gather(const BoxLanesView& b, const std::uint64_t* keys, const std::uint32_t* ids, std::uint32_t refs,
@@ -53,6 +56,10 @@ void launch_gather(const BoxLanesView& b, const std::uint64_t* keys, const std::
 // ids and the boxes packed by launch_bounds; head[r] = 1 where a cell starts.
 void launch_gather_cells(const float* packed, const std::uint32_t* keys, const std::uint32_t* ids, std::uint32_t refs,
                          int bits, float* lanes, std::uint32_t* positions, std::uint32_t* head, cudaStream_t s);
+// The gather of the per-reference sweep: sorted lanes only (its rows find
+// their cell from the keys); *cells (zeroed before) gains the cell starts.
+void launch_gather_lanes(const float* packed, const std::uint32_t* keys, const std::uint32_t* ids, std::uint32_t refs,
+                         int bits, float* lanes, std::uint32_t* cells, cudaStream_t s);
 // From the inclusive scan of head: cell_begin (cells + 1), cell ids,
 // regions, *cells.
 void launch_cells(const GridView& g, const std::uint32_t* keys, int bits, const std::uint32_t* head_scan,
@@ -67,8 +74,10 @@ void launch_cell_rows(const GridView& g, const CellLanes& sorted, int bits, cons
                       const std::uint32_t* cell_ids, const CellRegion* regions, const std::uint32_t* cells,
                       std::uint32_t blocks, std::uint32_t* big_cells, std::uint64_t* counts,
                       const std::uint64_t* offsets, std::uint32_t* out, cudaStream_t s);
-// The same rows with a thread per reference (refs threads); cell_of[r] is 1
-// + the index of reference r's cell (the inclusive scan of the cell heads).
+// The same rows with a thread per reference (refs threads), reading
+// sorted.position as the whole sorted keys (cell above `bits` bits of
+// position): a row's stop key ends it at its cell's end too, so it needs no
+// cell table.
 // The counting launch keeps each row's first kInlinePairs pairs in kept[r]
 // (refs entries); the filling launch, given the same kept, copies them for
 // the rows that had no more instead of sweeping those rows again.
@@ -77,9 +86,7 @@ struct RowPairs {
   uint2 pair[kInlinePairs];
 };
 static_assert(sizeof(RowPairs) == 8 * kInlinePairs);
-void launch_reference_rows(const GridView& g, const CellLanes& sorted, int bits, const std::uint32_t* cell_of,
-                           const std::uint32_t* cell_begin, const std::uint32_t* cell_ids, const CellRegion* regions,
-                           std::uint32_t refs, RowPairs* kept, std::uint64_t* counts, const std::uint64_t* offsets,
+void launch_reference_rows(const GridView& g, const CellLanes& sorted, int bits, std::uint32_t refs, RowPairs* kept, std::uint64_t* counts, const std::uint64_t* offsets,
                            std::uint32_t* out, cudaStream_t s);
 // One cell of `size` boxes sorted by exact min x (the "cuda" cell engine),
 // swept by one block with sweep_row; counts and pairs as above.
@@ -111,11 +118,18 @@ void launch_pack_pairs(const std::uint32_t* pairs, std::uint64_t count, int id_b
                        cudaStream_t s);
 void launch_unpack_pairs(const std::uint64_t* keys, std::uint64_t count, int id_bits, std::uint32_t* pairs,
                          cudaStream_t s);
-// Orders `count` pairs of ids below `objects` (interleaved a, b words) in
-// place by (a, b): packed into keys, radix-sorted over the bits ids use
-// (keys_alt and temp as the sort's room), unpacked. Returns how many of the
-// three buffers it had to allocate.
-int sort_pairs_by_ab(std::uint32_t* pairs, std::uint64_t count, std::uint32_t objects, DeviceBuffer& keys,
-                     DeviceBuffer& keys_alt, DeviceBuffer& temp, cudaStream_t s);
+// Orders `count` canonical pairs of ids below `objects` (interleaved a, b
+// words) in place by (a, b), as `order` says: Radix packs them into keys,
+// radix-sorts over the bits ids use and unpacks; Buckets counts pairs per
+// a, scans, scatters each pair into its a's bucket and sorts the buckets by
+// b. `keys` and `scratch` are kept buffers of at least pair_order_bytes;
+// returns how many of keys, scratch and temp it had to allocate.
+enum class PairOrder;  // hbp/cuda/frame_broadphase.hpp
+struct PairOrderBytes {
+  std::size_t keys = 0, scratch = 0;
+};
+PairOrderBytes pair_order_bytes(PairOrder order, std::uint64_t count, std::uint32_t objects);
+int sort_pairs_by_ab(PairOrder order, std::uint32_t* pairs, std::uint64_t count, std::uint32_t objects,
+                     DeviceBuffer& keys, DeviceBuffer& scratch, DeviceBuffer& temp, cudaStream_t s);
 
 }  // namespace hbp::cuda

@@ -3,6 +3,7 @@
 
 #include <cub/device/device_radix_sort.cuh>
 #include <cub/device/device_scan.cuh>
+#include <cub/device/device_segmented_sort.cuh>
 
 namespace hbp::cuda {
 
@@ -48,6 +49,19 @@ bool sort_keys(std::uint64_t* keys, std::uint64_t* keys_alt, std::uint64_t n, in
     check_cuda(cub::DeviceRadixSort::SortKeys(temp.as<void>(), bytes, k, n, 0, end_bit, s), "sort keys");
   }
   *out = k.Current();
+  return grew;
+}
+
+bool segmented_sort_keys(const std::uint64_t* in, std::uint64_t* out, std::uint64_t n, std::uint64_t segments,
+                         const std::uint64_t* starts, DeviceBuffer& temp, cudaStream_t s) {
+  if (!n) return false;
+  const auto items = static_cast<std::int64_t>(n), count = static_cast<std::int64_t>(segments);
+  std::size_t bytes = 0;
+  check_cuda(cub::DeviceSegmentedSort::SortKeys(nullptr, bytes, in, out, items, count, starts, starts + 1, s),
+             "segmented sort size");
+  const bool grew = temp.reserve(bytes, false);
+  check_cuda(cub::DeviceSegmentedSort::SortKeys(temp.as<void>(), bytes, in, out, items, count, starts, starts + 1, s),
+             "segmented sort");
   return grew;
 }
 

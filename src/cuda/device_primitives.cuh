@@ -23,6 +23,10 @@ bool sort_pairs(std::uint32_t* keys, std::uint32_t* keys_alt, std::uint32_t* ids
 // (keys or keys_alt).
 bool sort_keys(std::uint64_t* keys, std::uint64_t* keys_alt, std::uint64_t n, int end_bit, DeviceBuffer& temp,
                std::uint64_t** out, cudaStream_t s);
+// Sorts each of `segments` segments of 64-bit keys, segment i being
+// [starts[i], starts[i + 1]) of `in`, into the same places of `out`.
+bool segmented_sort_keys(const std::uint64_t* in, std::uint64_t* out, std::uint64_t n, std::uint64_t segments,
+                         const std::uint64_t* starts, DeviceBuffer& temp, cudaStream_t s);
 // out[0] = 0, out[1 + i] = in[0] + ... + in[i] (n + 1 entries).
 bool inclusive_sum(const std::uint32_t* in, std::uint32_t* out, std::uint64_t n, DeviceBuffer& temp, cudaStream_t s);
 bool inclusive_sum(const std::uint64_t* in, std::uint64_t* out, std::uint64_t n, DeviceBuffer& temp, cudaStream_t s);

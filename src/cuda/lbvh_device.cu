@@ -180,7 +180,7 @@ class DeviceLbvh final : public Lbvh::Impl {
     record(kFilled);
     std::uint32_t* out = pairs_.as<std::uint32_t>();
     if (options.sorted && total > 1)
-      info.allocations += sort_pairs_by_ab(out, total, n, pair_keys_, pair_keys_alt_, temp_, stream_);
+      info.allocations += sort_pairs_by_ab(options.pair_order, out, total, n, pair_keys_, pair_keys_alt_, temp_, stream_);
     record(kOrdered);
     pairs.resize(total);
     if (total)

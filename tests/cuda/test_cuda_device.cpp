@@ -104,6 +104,28 @@ TEST(CudaDevice, AdversarialScenes) {
   expect_device_matches({BoxArray{}}, "empty", true);
 }
 
+// Both pair orders give the oracle's list: buckets from one to thousands of
+// partners (the one-point scene: every object in one bucket per smaller id).
+TEST(CudaDevice, PairOrdersGiveOneList) {
+  REQUIRE_DEVICE();
+  std::vector<BoxArray> scenes;
+  for (ScenarioKind kind : kKinds) scenes.push_back(cuda_test::scenario_frames(kind, 6000, 1)[0]);
+  scenes.push_back(cuda_test::all_on_one_point(3000));
+  scenes.push_back(cuda_test::spanning_world(16, 2000));
+  for (cuda::PairOrder order : {cuda::PairOrder::Buckets, cuda::PairOrder::Radix}) {
+    cuda::FrameOptions o;
+    o.launcher = cuda::Launcher::Device;
+    o.pair_order = order;
+    cuda::FrameBroadPhase device(o);
+    cuda::Lbvh lbvh(o);
+    for (std::size_t s = 0; s < scenes.size(); ++s) {
+      const std::vector<Pair> expected = cuda_test::all_pairs(scenes[s]);
+      ASSERT_EQ(device.update(lanes_of(scenes[s])), expected) << "scene " << s << " order " << int(order);
+      ASSERT_EQ(lbvh.update(lanes_of(scenes[s])), expected) << "scene " << s << " order " << int(order);
+    }
+  }
+}
+
 TEST(CudaDevice, PairExplosionAgainstMaxPairs) {
   REQUIRE_DEVICE();
   const BoxArray boxes = cuda_test::all_on_one_point(4000);  // 7,998,000 pairs

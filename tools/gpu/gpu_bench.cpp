@@ -44,6 +44,7 @@ struct Args {
   unsigned threads = std::max(1u, std::thread::hardware_concurrency());
   std::uint32_t boxes_per_cell = hbp::cuda::FrameOptions{}.boxes_per_cell;
   hbp::cuda::CellSweep sweep = hbp::cuda::FrameOptions{}.sweep;
+  hbp::cuda::PairOrder pair_order = hbp::cuda::FrameOptions{}.pair_order;
   double sustain_s = 0;  // --sustain S: device-entry frames back to back for S seconds
   std::string json;
 };
@@ -54,7 +55,7 @@ struct Args {
                "                     [--n N] [--frames F]\n"
                "                     [--check-every K] [--launcher device|host] [--unsorted] [--no-reserve] [--threads T]\n"
                "                     [--boxes-per-cell B] [--sweep per-reference|block-per-cell] [--sustain SECONDS]\n"
-               "                     [--json FILE]\n");
+               "                     [--pair-order buckets|radix] [--json FILE]\n");
   std::exit(2);
 }
 
@@ -84,6 +85,12 @@ Args parse(int argc, char** argv) {
       const std::string sweep = value();
       if (sweep == "per-reference") a.sweep = hbp::cuda::CellSweep::PerReference;
       else if (sweep == "block-per-cell") a.sweep = hbp::cuda::CellSweep::BlockPerCell;
+      else usage();
+    }
+    else if (k == "--pair-order") {
+      const std::string order = value();
+      if (order == "buckets") a.pair_order = hbp::cuda::PairOrder::Buckets;
+      else if (order == "radix") a.pair_order = hbp::cuda::PairOrder::Radix;
       else usage();
     }
     else if (k == "--sustain") a.sustain_s = std::stod(value());
@@ -196,6 +203,7 @@ int main(int argc, char** argv) {
     o.sorted = args.sorted;
     o.boxes_per_cell = args.boxes_per_cell;
     o.sweep = args.sweep;
+    o.pair_order = args.pair_order;
     o.threads = args.threads;
     o.launcher = args.host ? hbp::cuda::Launcher::Host : hbp::cuda::Launcher::Device;
     hbp::cuda::FrameBroadPhase frame(o);
@@ -275,6 +283,7 @@ int main(int argc, char** argv) {
     str("kind", args.kind);
     str("order", args.sorted ? "sorted by (a, b)" : "frame order");
     str("sweep", args.sweep == hbp::cuda::CellSweep::PerReference ? "per-reference" : "block-per-cell");
+    str("pair_order", args.pair_order == hbp::cuda::PairOrder::Buckets ? "buckets" : "radix");
     num("objects", args.n);
     num("frames", args.frames);
     num("host_threads", args.threads);

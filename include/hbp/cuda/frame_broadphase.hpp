@@ -38,6 +38,18 @@ enum class CellSweep {
   BlockPerCell,
 };
 
+// How the device orders a frame's pairs by (a, b) (FrameOptions::sorted).
+// Both give the one sorted list; the host launcher sorts its own way.
+enum class PairOrder {
+  // Counting sort by a into per-object buckets (a histogram, a scan and a
+  // scatter, each pass over the pairs once), then each bucket sorted by b
+  // (CUB's segmented sort: a bucket is the object's few partners).
+  Buckets,
+  // One radix sort of the pairs as keys a << id_bits | b over the bits
+  // the ids use (2 x 20 bits at a million objects: five passes).
+  Radix,
+};
+
 struct FrameOptions {
   Launcher launcher = Launcher::Host;
   unsigned threads = 1;            // Host: CPU threads running the blocks (>= 1)
@@ -45,6 +57,7 @@ struct FrameOptions {
   std::uint64_t max_pairs = 0;     // 0: unlimited; else CapacityExceeded beyond
   std::uint32_t boxes_per_cell = 16;  // the grid's target occupancy (>= 1)
   CellSweep sweep = CellSweep::PerReference;  // Device: how the rows run
+  PairOrder pair_order = PairOrder::Buckets;  // Device, sorted: how the pairs are ordered
 };
 
 // Boxes as six float lanes (min x/y/z, max x/y/z) of n objects: host memory
