@@ -142,9 +142,8 @@ def main():
         if c.get("engine") != "sw":
             continue
         kind, n = scene_of(c["name"])
-        g = next((r for r in runs if r.get("system") == "frame" and r.get("order", "").startswith("sorted")
-                  and r.get("sweep", "per-reference") == "per-reference"
-                  and r.get("kind") == kind and r.get("objects") == n), None)
+        # The scene's own run (its name is the scene's: default options).
+        g = next((r for r in runs if r["name"] == f"{kind}-{n}" and r.get("system") == "frame"), None)
         if not g or not g.get("median_frame_ms"):
             continue
         common = min(len(c["pairs_per_frame"]), len(g.get("pairs_per_frame", [])))
@@ -177,7 +176,16 @@ def main():
         "cpu_runs": cpu_runs,
         "comparisons": comparisons,
     }
+    # hbp bench gpu of the carried main build, when it ran.
+    hbp_bench_path = os.path.join(logs, "hbp-bench-gpu.json")
+    hbp_bench = read_json(hbp_bench_path) if os.path.exists(hbp_bench_path) else {}
+    if hbp_bench and "error" not in hbp_bench:
+        report["hbp_bench_gpu"] = {k: hbp_bench.get(k) for k in ("device", "objects", "frames", "frame_ms", "cpu",
+                                                                 "cpu_over_gpu", "frames_mismatched", "exact")}
+    elif os.path.exists(os.path.join(logs, "hbp-bench-gpu.log")):
+        report["hbp_bench_gpu"] = {"error": open(os.path.join(logs, "hbp-bench-gpu.log")).read().strip()[-500:]}
     ok = build_ok and a.tests_rc == 0 and bool(runs)
+    ok = ok and report.get("hbp_bench_gpu", {"exact": True}).get("exact") is True
     ok = ok and all(r.get("exit_code") == 0 and r.get("exact") for r in runs)
     ok = ok and report["engine_tests"]["exit_code"] in (None, 0)
     ok = ok and all(c["pair_counts_equal"] for c in comparisons)
@@ -224,7 +232,8 @@ def main():
            f"- gpu-labelled tests (tools/gpu build): exit {a.tests_rc}; frame: {report['gpu_tests']['summary']}; "
            f"peers: {report['gpu_tests']['peers_summary']}",
            f"- device tests of the main build (the `cuda` cell engine too): {report['engine_tests']['summary']}", ""]
-    cols = [("objects", "objects", "{:.0f}"), ("order", "order", "{}"), ("sweep", "sweep", "{}"), ("reserve", "reserve_ms", "{:.1f}"),
+    cols = [("objects", "objects", "{:.0f}"), ("order", "order", "{}"), ("pair order", "pair_order", "{}"),
+            ("sweep", "sweep", "{}"), ("reserve", "reserve_ms", "{:.1f}"),
             ("first frame", "first_frame", "{}"), ("first", "first_frame_ms", "{:.3f}"),
             ("median", "median_frame_ms", "{:.3f}"), ("p99", "p99_frame_ms", "{:.3f}"),
             ("worst", "worst_frame_ms", "{:.3f}"), ("upload", "median_upload_ms", "{:.3f}"),
@@ -291,6 +300,15 @@ def main():
             md.append(f"| Table 5: {name}, {n:,} objects | {ms} | {ms / p['frame_ms']:.0f} |")
         if "energy_per_frame_j" in p:
             md += ["", f"Energy per steady frame: {p['energy_per_frame_j'] * 1000:.3f} mJ ({p['energy_basis']})."]
+    if "hbp_bench_gpu" in report:
+        h = report["hbp_bench_gpu"]
+        if "error" in h:
+            md += ["", f"`hbp bench gpu` (main build): failed: {h['error']}"]
+        else:
+            md += ["", f"`hbp bench gpu --kind paper --n 1024000` (main build, {h.get('device')}): GPU frame median "
+                   f"{fmt((h.get('frame_ms') or {}).get('median'))} ms, our CPU engine "
+                   f"{fmt(((h.get('cpu') or {}).get('frame_ms') or {}).get('median'))} ms (x{fmt(h.get('cpu_over_gpu'), '{:.1f}')}); "
+                   f"frames mismatched {h.get('frames_mismatched')}; exact {h.get('exact')}."]
     md += ["", f"Overall: {'OK' if ok else 'NOT OK'}", ""]
     with open(os.path.join(out, "gpu-report.md"), "w") as f:
         f.write("\n".join(md))

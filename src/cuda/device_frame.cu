@@ -59,7 +59,8 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     require_device();
     check_cuda(cudaStreamCreateWithFlags(&own_stream_, cudaStreamNonBlocking), "cudaStreamCreate");
     for (auto& e : events_) check_cuda(cudaEventCreate(&e), "cudaEventCreate");
-    check_cuda(cudaMallocHost(&pinned_, kBoundsWords * sizeof(std::uint32_t)), "cudaMallocHost");
+    check_cuda(cudaMallocHost(&pinned_, (kScalars + 4) * sizeof(std::uint64_t)), "cudaMallocHost");
+    scalars_ = pinned_ + kScalars;
   }
   ~DeviceFrame() override {
     for (auto& e : events_) cudaEventDestroy(e);
@@ -161,7 +162,9 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     const std::uint32_t n = in.n;
     const BoxLanesView b{{in.lo[0], in.lo[1], in.lo[2]}, {in.hi[0], in.hi[1], in.hi[2]}};
 
-    // Bounds, extents and validation.
+    // Bounds, extents and validation, read back with the reference count
+    // below when the grid comes from the last frame (GridPlan::
+    // update_from_last), else waited for here.
     reserve(acc_, kBoundsWords * sizeof(std::uint32_t));
     std::uint32_t* words = reinterpret_cast<std::uint32_t*>(pinned_);
     const std::uint32_t init[8] = {~0u, ~0u, ~0u, 0, 0, 0, n, 0};
@@ -175,18 +178,11 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     check_cuda(cudaMemcpyAsync(words, acc_.as<std::uint32_t>(), kBoundsWords * sizeof(std::uint32_t),
                                cudaMemcpyDeviceToHost, stream_),
                "bounds read-back");
-    sync();
-    std::uint32_t acc[7];
-    std::memcpy(acc, words, sizeof acc);
-    std::memcpy(&extents_, words + kBoundsExtents, sizeof extents_);
-    if (acc[6] < n) report_defect(b, acc[6]);
-    Bounds bounds{{0, 0, 0}, {0, 0, 0}};
-    if (n)
-      for (int k = 0; k < 3; ++k) {
-        bounds.lo[k] = from_ordered(acc[k]);
-        bounds.hi[k] = from_ordered(acc[3 + k]);
-      }
-    info.replanned = grid_.update(bounds, extents_, n, options.boxes_per_cell);
+    const bool lagged = grid_.update_from_last(n, options.boxes_per_cell, info.replanned);
+    if (!lagged) {
+      sync();
+      info.replanned = grid_.update(take_bounds(b, n), extents_, n, options.boxes_per_cell);
+    }
     reserve(planes_, 3 * kMaxAxisCells * sizeof(float));
     if (info.replanned && !grid_.planes().empty())
       check_cuda(cudaMemcpyAsync(planes_.as<float>(), grid_.planes().data(), grid_.planes().size() * sizeof(float),
@@ -199,11 +195,12 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     // References: count, scan, emit.
     launch_reference_count(g, b, n, ref_count_.as<std::uint64_t>(), is_large_.as<std::uint32_t>(), stream_);
     scan(ref_count_.as<std::uint64_t>(), ref_offset_.as<std::uint64_t>(), n);
-    check_cuda(cudaMemcpyAsync(pinned_, ref_offset_.as<std::uint64_t>() + n, 8, cudaMemcpyDeviceToHost, stream_),
+    check_cuda(cudaMemcpyAsync(scalars_, ref_offset_.as<std::uint64_t>() + n, 8, cudaMemcpyDeviceToHost, stream_),
                "references");
     sync();
-    const auto refs = static_cast<std::uint32_t>(pinned_[0] & 0xffffffffu);
-    const auto large = static_cast<std::uint32_t>(pinned_[0] >> 32);
+    if (lagged) take_bounds(b, n);
+    const auto refs = static_cast<std::uint32_t>(scalars_[0] & 0xffffffffu);
+    const auto large = static_cast<std::uint32_t>(scalars_[0] >> 32);
     info.references = refs;
     info.large = large;
     const std::uint32_t chunk = large_chunk(n, large);
@@ -246,36 +243,58 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
                       {lanes + 3 * stride, lanes + 4 * stride, lanes + 5 * stride},
                       sorted_ids,
                       per_reference ? sorted_keys : positions_.as<std::uint32_t>()};
-    std::uint64_t* counts = counts_.as<std::uint64_t>();
-    const auto rows = [&](std::uint64_t* row_counts, const std::uint64_t* row_offsets, std::uint32_t* row_out) {
-      if (per_reference)
-        launch_reference_rows(g, s, bits, refs, kept_.as<RowPairs>(), row_counts, row_offsets, row_out, stream_);
-      else
-        launch_cell_rows(g, s, bits, cell_begin_.as<std::uint32_t>(), cell_ids_.as<std::uint32_t>(),
-                         regions_.as<CellRegion>(), cells_.as<std::uint32_t>(), max_cells,
-                         big_cells_.as<std::uint32_t>(), row_counts, row_offsets, row_out, stream_);
-    };
-    rows(counts, nullptr, nullptr);
-    launch_large_rows(b, n, is_large_.as<std::uint32_t>(), large_list_.as<std::uint32_t>(), large, chunk,
-                      counts + refs, nullptr, nullptr, stream_);
-    scan(counts, offsets_.as<std::uint64_t>(), slots);
-    check_cuda(cudaMemcpyAsync(pinned_, offsets_.as<std::uint64_t>() + slots, 8, cudaMemcpyDeviceToHost, stream_),
-               "pair count");
-    check_cuda(cudaMemcpyAsync(pinned_ + 1, cells_.as<std::uint32_t>(), 4, cudaMemcpyDeviceToHost, stream_), "cells");
-    sync();
-    const std::uint64_t total = pinned_[0];
-    info.cells = static_cast<std::uint32_t>(pinned_[1] & 0xffffffffu);
-    record(kCounted);
-    if (options.max_pairs && total > options.max_pairs) throw_too_many_pairs(total, options.max_pairs);
+    std::uint64_t total = 0;
+    std::uint32_t* out = nullptr;
+    if (appending()) {
+      // Counted and written in one pass (launch_append_rows), into room for
+      // the last frame's pairs; a frame with more grows it and runs again.
+      reserve(pair_out_, (last_total_ + 1) * 8);
+      const auto append = [&] {
+        out = pair_out_.as<std::uint32_t>();
+        launch_append_rows(g, s, bits, refs, b, n, is_large_.as<std::uint32_t>(), large_list_.as<std::uint32_t>(),
+                           large, chunk, total_.as<unsigned long long>(), pair_out_.capacity() / 8, out, stream_);
+        read_counts(total_.as<std::uint64_t>());
+        return scalars_[0];
+      };
+      total = append();
+      record(kCounted);
+      if (options.max_pairs && total > options.max_pairs) throw_too_many_pairs(total, options.max_pairs);
+      if (total > pair_out_.capacity() / 8) {
+        reserve(pair_out_, (total + 1) * 8);
+        append();
+      }
+      record(kFilled);
+    } else {
+      std::uint64_t* counts = counts_.as<std::uint64_t>();
+      const auto rows = [&](std::uint64_t* row_counts, const std::uint64_t* row_offsets, std::uint32_t* row_out) {
+        if (per_reference)
+          launch_reference_rows(g, s, bits, refs, kept_.as<RowPairs>(), row_counts, row_offsets, row_out, stream_);
+        else
+          launch_cell_rows(g, s, bits, cell_begin_.as<std::uint32_t>(), cell_ids_.as<std::uint32_t>(),
+                           regions_.as<CellRegion>(), cells_.as<std::uint32_t>(), max_cells,
+                           big_cells_.as<std::uint32_t>(), row_counts, row_offsets, row_out, stream_);
+      };
+      rows(counts, nullptr, nullptr);
+      launch_large_rows(b, n, is_large_.as<std::uint32_t>(), large_list_.as<std::uint32_t>(), large, chunk,
+                        counts + refs, nullptr, nullptr, stream_);
+      scan(counts, offsets_.as<std::uint64_t>(), slots);
+      read_counts(offsets_.as<std::uint64_t>() + slots);
+      total = scalars_[0];
+      record(kCounted);
+      if (options.max_pairs && total > options.max_pairs) throw_too_many_pairs(total, options.max_pairs);
 
-    // Fill.
-    size_pairs(total, n);
-    std::uint32_t* out = pair_out_.as<std::uint32_t>();
-    const std::uint64_t* offsets = offsets_.as<std::uint64_t>();
-    rows(nullptr, offsets, out);
-    launch_large_rows(b, n, is_large_.as<std::uint32_t>(), large_list_.as<std::uint32_t>(), large, chunk, nullptr,
-                      offsets + refs, out, stream_);
-    record(kFilled);
+      // Fill.
+      reserve(pair_out_, (total + 1) * 8);
+      out = pair_out_.as<std::uint32_t>();
+      const std::uint64_t* offsets = offsets_.as<std::uint64_t>();
+      rows(nullptr, offsets, out);
+      launch_large_rows(b, n, is_large_.as<std::uint32_t>(), large_list_.as<std::uint32_t>(), large, chunk, nullptr,
+                        offsets + refs, out, stream_);
+      record(kFilled);
+    }
+    info.cells = static_cast<std::uint32_t>(scalars_[1] & 0xffffffffu);
+    last_total_ = total;
+    size_order(total, n);
 
     // Order by (a, b).
     if (options.sorted && total > 1) {
@@ -300,6 +319,10 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     reserve(large_list_, (std::size_t{large} + 1) * 4);
     reserve(lanes_, std::size_t{6} * (refs + 1) * sizeof(float));
     reserve(cells_, 4);
+    if (appending()) {
+      reserve(total_, 8);
+      return;
+    }
     for (DeviceBuffer* d : {&counts_, &offsets_}) reserve(*d, (slots + 1) * 8);
     if (options.sweep == CellSweep::PerReference) {
       reserve(kept_, (std::size_t{refs} + 1) * sizeof(RowPairs));
@@ -313,6 +336,10 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
   }
   void size_pairs(std::uint64_t total, std::uint32_t n) {
     reserve(pair_out_, (total + 1) * 8);
+    last_total_ = total;
+    size_order(total, n);
+  }
+  void size_order(std::uint64_t total, std::uint32_t n) {
     if (options.sorted) {
       const PairOrderBytes bytes = pair_order_bytes(options.pair_order, total, n);
       reserve(pair_keys_, bytes.keys);
@@ -320,10 +347,43 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     }
   }
 
+  // Sorted frames swept a thread per reference count and write their pairs
+  // in one pass (launch_append_rows); the pair order makes their list the
+  // sorted one. Frame order (deterministic) and the block per cell count,
+  // scan and fill.
+  bool appending() const { return options.sorted && options.sweep == CellSweep::PerReference; }
+
+  // The frame's pair total (at `total`, device) and cell count into
+  // scalars_[0] and [1], waited for.
+  void read_counts(const std::uint64_t* total) {
+    check_cuda(cudaMemcpyAsync(scalars_, total, 8, cudaMemcpyDeviceToHost, stream_), "pair count");
+    check_cuda(cudaMemcpyAsync(scalars_ + 1, cells_.as<std::uint32_t>(), 4, cudaMemcpyDeviceToHost, stream_), "cells");
+    sync();
+  }
+
   // out[0] = 0, out[1 + i] = in[0] + ... + in[i] (n + 1 entries).
   template <class T>
   void scan(const T* in, T* out, std::uint64_t n) {
     if (hbp::cuda::inclusive_sum(in, out, n, temp_, stream_)) ++info.allocations;
+  }
+
+  // The bounds pass's words, read back: the first defective box named
+  // (InvalidInput), else the bounds, the extents into extents_, and both
+  // remembered for the next frame's grid.
+  Bounds take_bounds(const BoxLanesView& b, std::uint32_t n) {
+    const std::uint32_t* words = reinterpret_cast<const std::uint32_t*>(pinned_);
+    std::uint32_t acc[7];
+    std::memcpy(acc, words, sizeof acc);
+    std::memcpy(&extents_, words + kBoundsExtents, sizeof extents_);
+    if (acc[6] < n) report_defect(b, acc[6]);
+    Bounds bounds{{0, 0, 0}, {0, 0, 0}};
+    if (n)
+      for (int k = 0; k < 3; ++k) {
+        bounds.lo[k] = from_ordered(acc[k]);
+        bounds.hi[k] = from_ordered(acc[3 + k]);
+      }
+    grid_.remember(bounds, extents_, n);
+    return bounds;
   }
 
   [[noreturn]] void report_defect(const BoxLanesView& b, std::uint32_t i) {
@@ -360,7 +420,7 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     for (const DeviceBuffer* d :
          {&boxes_, &packed_, &kept_, &acc_, &planes_, &ref_count_, &is_large_, &ref_offset_, &keys_,
           &keys_alt_, &ids_, &ids_alt_, &large_list_, &lanes_, &positions_, &head_, &head_scan_, &cell_begin_,
-          &cell_ids_, &big_cells_, &regions_, &cells_, &counts_, &offsets_, &pair_out_, &pair_keys_, &pair_keys_alt_,
+          &cell_ids_, &big_cells_, &regions_, &cells_, &total_, &counts_, &offsets_, &pair_out_, &pair_keys_, &pair_keys_alt_,
           &temp_})
       held += d->capacity();
     info.buffer_bytes = held;
@@ -368,13 +428,19 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
 
   GridPlan grid_;
   ExtentHistogram extents_{};
+  std::uint64_t last_total_ = 0;  // the last frame's pairs: the room a sorted frame starts with
   cudaStream_t own_stream_ = nullptr;
   cudaStream_t stream_ = nullptr;
   cudaEvent_t events_[kStages] = {};
+  // Page-locked read-back room: the bounds words, then from kScalars the
+  // per-frame counts (apart, so a count read back never lands on bounds
+  // not yet taken).
+  static constexpr std::size_t kScalars = (kBoundsWords + 1) / 2;
   std::uint64_t* pinned_ = nullptr;
+  std::uint64_t* scalars_ = nullptr;
   DeviceBuffer boxes_, packed_, kept_, acc_, planes_, ref_count_, is_large_, ref_offset_, keys_,
       keys_alt_, ids_, ids_alt_, large_list_, lanes_, positions_, head_, head_scan_, cell_begin_, cell_ids_, big_cells_,
-      regions_, cells_, counts_, offsets_, pair_out_, pair_keys_, pair_keys_alt_, temp_;
+      regions_, cells_, total_, counts_, offsets_, pair_out_, pair_keys_, pair_keys_alt_, temp_;
 };
 
 }  // namespace

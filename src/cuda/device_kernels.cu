@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: MIT
 #include "cuda/device_kernels.cuh"
 
+#include <cub/block/block_scan.cuh>
+
 #include "cuda/device_primitives.cuh"
 #include "cuda/device_support.cuh"
 #include "hbp/cuda/frame_broadphase.hpp"
@@ -212,6 +214,47 @@ __global__ void reference_rows_kernel(GridView g, CellLanes s, int bits, std::ui
   }
 }
 
+// Sorted frames (the pair order pass gives the one list, so the list's
+// own order may vary): each thread counts its row's pairs, the block sums
+// them and takes its room in `out` with one atomic on `total`, and the rows
+// are swept again writing, their candidates still in cache. No per-row
+// count array, scan or read-back sits between counting and writing. Rows
+// whose room would pass `capacity` write nothing; *total still counts
+// every pair, so the caller sees the frame did not fit and runs it again
+// in a larger buffer. Every thread of the block calls it.
+template <class Write>
+__device__ void append_block_rows(std::uint32_t count, unsigned long long* total, std::uint64_t capacity,
+                                  Write&& write) {
+  using Scan = cub::BlockScan<std::uint32_t, kThreads>;
+  __shared__ typename Scan::TempStorage scan;
+  __shared__ unsigned long long base;
+  std::uint32_t offset = 0, block_total = 0;
+  Scan(scan).ExclusiveSum(count, offset, block_total);
+  if (threadIdx.x == 0) base = block_total ? atomicAdd(total, static_cast<unsigned long long>(block_total)) : 0;
+  __syncthreads();
+  if (count && base + offset + count <= capacity) write(base + offset);
+}
+
+__global__ void __launch_bounds__(kThreads)
+    append_reference_rows_kernel(GridView g, CellLanes s, int bits, std::uint32_t refs, unsigned long long* total,
+                                 std::uint64_t capacity, uint2* out) {
+  const std::uint32_t r = blockIdx.x * blockDim.x + threadIdx.x;
+  std::uint32_t stop = 0, count = 0;
+  CellRegion region{};
+  if (r < refs) {
+    const std::uint32_t cell = s.position[r] >> bits;
+    stop = (cell << bits) | row_stop(g, cell, s.hi[0][r], bits);
+    region = cell_region(g, cell);
+    count = cell_row(s, r, refs, region, stop, [](std::uint32_t, std::uint32_t, std::uint32_t) {});
+  }
+  append_block_rows(count, total, capacity, [&](std::uint64_t at) {
+    uint2* row = out + at;
+    cell_row(s, r, refs, region, stop, [row](std::uint32_t k, std::uint32_t a, std::uint32_t b) {
+      row[k] = a < b ? make_uint2(a, b) : make_uint2(b, a);
+    });
+  });
+}
+
 // A cell's boxes in shared memory: the accelerator's buffer memories.
 template <std::uint32_t kBoxes>
 struct CellBuffer {
@@ -368,6 +411,26 @@ __global__ void large_rows_kernel(BoxLanesView b, std::uint32_t n, const std::ui
       row[2 * k + 1] = a < bb ? bb : a;
     });
   }
+}
+
+__global__ void __launch_bounds__(kThreads)
+    append_large_rows_kernel(BoxLanesView b, std::uint32_t n, const std::uint32_t* is_large,
+                             const std::uint32_t* large_list, std::uint32_t large, std::uint32_t chunk,
+                             std::uint32_t chunks, unsigned long long* total, std::uint64_t capacity, uint2* out) {
+  const std::uint64_t q = std::uint64_t{blockIdx.x} * blockDim.x + threadIdx.x;
+  std::uint32_t l = 0, j0 = 0, j1 = 0, count = 0;
+  if (q < std::uint64_t{large} * chunks) {
+    l = large_list[q / chunks];
+    j0 = static_cast<std::uint32_t>(q % chunks) * chunk;
+    j1 = n - j0 < chunk ? n : j0 + chunk;
+    count = large_row(b, is_large, l, j0, j1, [](std::uint32_t, std::uint32_t, std::uint32_t) {});
+  }
+  append_block_rows(count, total, capacity, [&](std::uint64_t at) {
+    uint2* row = out + at;
+    large_row(b, is_large, l, j0, j1, [row](std::uint32_t k, std::uint32_t a, std::uint32_t bb) {
+      row[k] = a < bb ? make_uint2(a, bb) : make_uint2(bb, a);
+    });
+  });
 }
 
 __global__ void pack_kernel(const std::uint32_t* pairs, std::uint64_t count, int id_bits, std::uint64_t* keys) {
@@ -538,6 +601,25 @@ void launch_reference_rows(const GridView& g, const CellLanes& sorted, int bits,
   if (!refs) return;
   reference_rows_kernel<<<grid_for(refs), kThreads, 0, s>>>(g, sorted, bits, refs, kept, counts, offsets, out);
   check_cuda(cudaGetLastError(), "reference rows kernel");
+}
+
+void launch_append_rows(const GridView& g, const CellLanes& sorted, int bits, std::uint32_t refs,
+                        const BoxLanesView& b, std::uint32_t n, const std::uint32_t* is_large,
+                        const std::uint32_t* large_list, std::uint32_t large, std::uint32_t chunk,
+                        unsigned long long* total, std::uint64_t capacity, std::uint32_t* out, cudaStream_t s) {
+  check_cuda(cudaMemsetAsync(total, 0, sizeof *total, s), "pair total");
+  uint2* pairs = reinterpret_cast<uint2*>(out);
+  if (refs) {
+    append_reference_rows_kernel<<<grid_for(refs), kThreads, 0, s>>>(g, sorted, bits, refs, total, capacity, pairs);
+    check_cuda(cudaGetLastError(), "append reference rows kernel");
+  }
+  const std::uint32_t chunks = (n + chunk - 1) / chunk;
+  const std::uint64_t slots = std::uint64_t{large} * chunks;
+  if (slots) {
+    append_large_rows_kernel<<<grid_for(slots), kThreads, 0, s>>>(b, n, is_large, large_list, large, chunk, chunks,
+                                                                  total, capacity, pairs);
+    check_cuda(cudaGetLastError(), "append large rows kernel");
+  }
 }
 
 void launch_sorted_cell_rows(const SortedLanes& sorted, std::uint32_t size, const CellRegion& region,

@@ -88,6 +88,16 @@ struct RowPairs {
 static_assert(sizeof(RowPairs) == 8 * kInlinePairs);
 void launch_reference_rows(const GridView& g, const CellLanes& sorted, int bits, std::uint32_t refs, RowPairs* kept, std::uint64_t* counts, const std::uint64_t* offsets,
                            std::uint32_t* out, cudaStream_t s);
+// A sorted frame's rows and large pass in one launch each, counting and
+// writing (no per-row counts): pairs appended to `out` in blocks reserved
+// with atomics on *total (zeroed here), so their order varies between runs;
+// the pair order pass makes it the sorted list. *total counts every pair;
+// past `capacity` pairs nothing more is written (the caller runs it again
+// with room for *total).
+void launch_append_rows(const GridView& g, const CellLanes& sorted, int bits, std::uint32_t refs,
+                        const BoxLanesView& b, std::uint32_t n, const std::uint32_t* is_large,
+                        const std::uint32_t* large_list, std::uint32_t large, std::uint32_t chunk,
+                        unsigned long long* total, std::uint64_t capacity, std::uint32_t* out, cudaStream_t s);
 // One cell of `size` boxes sorted by exact min x (the "cuda" cell engine),
 // swept by one block with sweep_row; counts and pairs as above.
 void launch_sorted_cell_rows(const SortedLanes& sorted, std::uint32_t size, const CellRegion& region,

@@ -53,6 +53,19 @@ bool GridPlan::update(const Bounds& b, const ExtentHistogram& extents, std::uint
   return true;
 }
 
+bool GridPlan::update_from_last(std::uint32_t n, std::uint32_t boxes_per_cell, bool& replanned) {
+  if (!has_last_ || n != last_n_) return false;
+  replanned = update(last_bounds_, last_extents_, n, boxes_per_cell);
+  return true;
+}
+
+void GridPlan::remember(const Bounds& bounds, const ExtentHistogram& extents, std::uint32_t n) {
+  last_bounds_ = bounds;
+  last_extents_ = extents;
+  last_n_ = n;
+  has_last_ = true;
+}
+
 void GridPlan::plan(const Bounds& b, const std::uint32_t floor_bin[3], std::uint32_t n,
                     std::uint32_t boxes_per_cell) {
   const double target = std::clamp(static_cast<double>(n) / boxes_per_cell, 1.0, static_cast<double>(kMaxCells));

@@ -31,6 +31,16 @@ class GridPlan {
   // factor of two. Returns whether it planned. Deterministic in (bounds,
   // extents, n).
   bool update(const Bounds& bounds, const ExtentHistogram& extents, std::uint32_t n, std::uint32_t boxes_per_cell);
+  // A frame of as many objects as the last one takes its grid from the last
+  // frame's bounds and extents (remember), so the device need not wait for
+  // its own before cutting cells: update() on those, `replanned` its result.
+  // False (nothing done) for a first frame or a changed count: the caller
+  // then calls update() with the frame's own. A grid one frame late is
+  // still correct (the outer cells are unbounded); both launchers follow
+  // this rule, so their frame-order lists stay identical.
+  bool update_from_last(std::uint32_t n, std::uint32_t boxes_per_cell, bool& replanned);
+  // The frame's own bounds and extents, for the next frame (valid boxes only).
+  void remember(const Bounds& bounds, const ExtentHistogram& extents, std::uint32_t n);
   // The planes of axis k start at plane_offset(k) in planes().
   std::uint32_t plane_offset(int k) const;
   const std::vector<float>& planes() const { return planes_; }
@@ -47,6 +57,10 @@ class GridPlan {
   std::uint32_t planned_n_ = 0;
   std::uint32_t planned_floor_bin_[3] = {0, 0, 0};
   bool valid_ = false;
+  Bounds last_bounds_{};
+  ExtentHistogram last_extents_{};
+  std::uint32_t last_n_ = 0;
+  bool has_last_ = false;
 };
 
 }  // namespace hbp::cuda

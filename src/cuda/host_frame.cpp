@@ -37,6 +37,10 @@ class HostFrame final : public FrameBroadPhase::Impl {
     auto t = Clock::now();
     const auto t0 = t;
 
+    // The grid from the last frame's bounds when it had as many objects
+    // (GridPlan::update_from_last), as the device plans it.
+    const bool lagged = grid_.update_from_last(n, options.boxes_per_cell, info.replanned);
+
     // Bounds, extents and validation: per-thread slices, combined in slice
     // order.
     Bounds bounds{{0, 0, 0}, {0, 0, 0}};
@@ -76,7 +80,8 @@ class HostFrame final : public FrameBroadPhase::Impl {
         }
       }
     }
-    info.replanned = grid_.update(bounds, extents, n, options.boxes_per_cell);
+    if (!lagged) info.replanned = grid_.update(bounds, extents, n, options.boxes_per_cell);
+    grid_.remember(bounds, extents, n);
     const GridView g = grid_.view(grid_.planes().data());
     for (int k = 0; k < 3; ++k) info.grid[k] = g.dims[k];
     info.times.bounds_ms = ms_since(t);

@@ -99,8 +99,8 @@ struct StageTimes {
   double bounds_ms = 0;   // bounds, validation
   double refs_ms = 0;     // count and emit cell references
   double sort_ms = 0;     // sort references by (cell, min x), gather, cells
-  double count_ms = 0;    // per-lane pair counts, scan
-  double fill_ms = 0;     // pair list
+  double count_ms = 0;    // per-lane pair counts, scan (Device, sorted, PerReference: counted and written in one pass)
+  double fill_ms = 0;     // pair list (Device, sorted, PerReference: that pass again when the pairs outgrew its room)
   double order_ms = 0;    // sort pairs by (a, b) (FrameOptions::sorted)
   double download_ms = 0; // pairs device -> host (update() only)
   double frame_ms = 0;    // bounds .. order: the frame without transfers
