@@ -80,7 +80,7 @@ def prepare(main_build, carry):
     os.makedirs(os.path.join(dest, "site"))
     commands = ninja_lines(main_build, "commands", TARGET)
     compiles = [shlex.split(c) for c in commands if " -c " in c and "/python/src/" in c]
-    if not compiles or not any(c.endswith(".so") or "-shared" in c for c in commands[-1:]):
+    if not compiles or " -shared " not in commands[-1]:
         sys.exit(f"gpu_python_module: no {TARGET} in {main_build} (configure the main build with Python on)")
 
     # Sources and definitions: the main build's own compile lines.
@@ -124,7 +124,8 @@ def prepare(main_build, carry):
     headers = []
     for path in read:
         packages = owners.get(path, set())
-        if path.split("/")[3] != "pybind11" and (not packages or all(SYSTEM_HEADER_PACKAGES.match(p) for p in packages)):
+        system = not packages or all(SYSTEM_HEADER_PACKAGES.match(p) for p in packages)
+        if system and path.split("/")[3] != "pybind11":
             continue
         relative = os.path.relpath(path, "/usr/include")
         top = relative.split("/")[0]
@@ -137,7 +138,8 @@ def prepare(main_build, carry):
         (shutil.copytree if os.path.isdir(src) else shutil.copy2)(src, target)
         headers.append(top)
     if "pybind11" not in headers:
-        sys.exit("gpu_python_module: the module's objects read no /usr/include/pybind11")
+        sys.exit(f"gpu_python_module: no /usr/include/pybind11 in the dependencies of {TARGET}'s objects "
+                 f"(build {TARGET} first)")
 
     # pytest for an interpreter that has none (appended to sys.path there,
     # after the interpreter's own packages).
@@ -202,8 +204,8 @@ def build(carry, build_dir, status_path):
     tried = [p for p in (sysconfig.get_paths().get("include"), sysconfig.get_config_var("INCLUDEPY")) if p]
     python_include = next((p for p in tried if os.path.exists(os.path.join(p, "Python.h"))), None)
     if not python_include:
-        return finish(f"no Python.h for Python {status['python']} ({sys.executable}) in {', '.join(sorted(set(tried)))}: "
-                      "the interpreter's development headers are not installed")
+        return finish(f"no Python.h for Python {status['python']} ({sys.executable}) in "
+                      f"{', '.join(sorted(set(tried)))}: the interpreter's development headers are not installed")
     status["python_include"] = python_include
 
     # pybind11: the newest of the carried one (Debian's), the interpreter's

@@ -257,6 +257,8 @@ def main():
     else:
         md.append(f"- Python module: not built (python {python.get('python', '?')}): {python.get('reason')}"
                   + ("" if python["ok"] is None else " — **NOT OK**"))
+        if python["ok"] is not None:
+            md += [f"  - `{l}`" for l in python.get("build_log_tail", []) if l.strip()]
     md.append("")
     cols = [("objects", "objects", "{:.0f}"), ("order", "order", "{}"), ("sweep", "sweep", "{}"), ("reserve", "reserve_ms", "{:.1f}"),
             ("first frame", "first_frame", "{}"), ("first", "first_frame_ms", "{:.3f}"),
