@@ -2,7 +2,8 @@
 # SPDX-License-Identifier: MIT
 """gpu-report.json and gpu-report.md from the raw results of scripts/gpu-check.
 
-Inputs (in OUT/logs): env.txt, tests.log, engine-tests.log, bench-NAME.json
+Inputs (in OUT/logs): env.txt, tests.log, engine-tests.log, python-build.json
+(scripts/gpu_python_module.py), python-tests.log (pytest), bench-NAME.json
 (hbp-gpu-bench), bench-NAME.rc, power-NAME.csv (nvidia-smi samples),
 cpu-NAME.json (`hbp run --json` of the carried main build). Standard library
 only: the device machine has no Debian packages.
@@ -70,6 +71,7 @@ def main():
     ap.add_argument("build_s", type=int)
     ap.add_argument("tests_rc", type=int)
     ap.add_argument("engine_tests_rc")
+    ap.add_argument("--python-tests-rc", default="none")
     ap.add_argument("--runs", nargs="*", default=[])
     ap.add_argument("--cpu-runs", nargs="*", default=[])
     a = ap.parse_args()
@@ -94,6 +96,24 @@ def main():
         totals = [l.strip() for l in text if re.match(r"^\[  (PASSED|FAILED|SKIPPED) +\] \d+ tests?", l)]
         failed = [l.split("]")[1].strip() for l in text if re.match(r"^\[  FAILED  \] \w+\.\w+", l)]
         return "; ".join(totals + (["failed: " + ", ".join(sorted(set(failed)))] if failed else [])) or "no summary"
+
+    # The Python module built there and its pytest run (python-build.json
+    # from scripts/gpu_python_module.py, python-tests.log).
+    python = {"built": False, "reason": "no python-build.json: the build did not finish (see python-build.log)"}
+    python.update(read_json(os.path.join(logs, "python-build.json")))
+    python.pop("error", None)
+    if not python["built"] and os.path.exists(os.path.join(logs, "python-build.log")):
+        python["build_log_tail"] = open(os.path.join(logs, "python-build.log")).read().splitlines()[-5:]
+    python["tests_exit_code"] = None if a.python_tests_rc == "none" else int(a.python_tests_rc)
+    python["tests_summary"], python["tests_not_passed"] = "not run", []
+    if os.path.exists(os.path.join(logs, "python-tests.log")):
+        text = open(os.path.join(logs, "python-tests.log")).read().splitlines()
+        summary = [l.strip("= ") for l in text if re.search(r"\d+ (passed|failed|skipped|errors?)\b.* in [\d.]+s", l)]
+        python["tests_summary"] = summary[-1] if summary else "no summary"
+        python["tests_not_passed"] = [l for l in text if re.match(r"^(FAILED|ERROR|SKIPPED) ", l)]
+    # Counted like the other tests once carried: not built or failing is not OK.
+    python["ok"] = (None if python.get("carried") is False
+                    else python["built"] and python["tests_exit_code"] == 0)
 
     runs = []
     for name in a.runs:
@@ -172,6 +192,7 @@ def main():
                       "peers_summary": test_summary("tests-peers.log"), "required_device": not dry},
         "engine_tests": ({"exit_code": int(a.engine_tests_rc), "summary": test_summary("engine-tests.log")}
                          if a.engine_tests_rc != "none" else {"exit_code": None, "summary": "not run"}),
+        "python_module": python,
         "runs": runs,
         "cpu_runs": cpu_runs,
         "comparisons": comparisons,
@@ -189,6 +210,7 @@ def main():
     ok = ok and all(r.get("exit_code") == 0 and r.get("exact") for r in runs)
     ok = ok and report["engine_tests"]["exit_code"] in (None, 0)
     ok = ok and all(c["pair_counts_equal"] for c in comparisons)
+    ok = ok and python["ok"] in (None, True)
     report["ok"] = ok
     if not dry and paper and paper.get("exact") and paper.get("median_frame_ms"):
         block = {"frame_ms": paper["median_frame_ms"], "first_frame_ms": paper["first_frame_ms"],
@@ -231,7 +253,21 @@ def main():
            f"- build: {'ok' if build_ok else 'FAILED'} ({a.build_s} s from the start)",
            f"- gpu-labelled tests (tools/gpu build): exit {a.tests_rc}; frame: {report['gpu_tests']['summary']}; "
            f"peers: {report['gpu_tests']['peers_summary']}",
-           f"- device tests of the main build (the `cuda` cell engine too): {report['engine_tests']['summary']}", ""]
+           f"- device tests of the main build (the `cuda` cell engine too): {report['engine_tests']['summary']}"]
+    if python["built"]:
+        p11 = python.get("pybind11", {})
+        md.append(f"- Python module (python {python.get('python')}, pybind11 {p11.get('version')} from "
+                  f"{p11.get('from')}; built in {python.get('seconds')} s): test_cuda_arrays.py, test_find_pairs.py: "
+                  f"exit {fmt(python['tests_exit_code'], '{}')}; {python['tests_summary']}"
+                  + ("" if python["ok"] else " — **NOT OK**"))
+        md += [f"  - `{l}`" for l in python["tests_not_passed"]]
+        md += [f"  - first tried, did not compile: {f}" for f in python.get("pybind11_failures", [])]
+    else:
+        md.append(f"- Python module: not built (python {python.get('python', '?')}): {python.get('reason')}"
+                  + ("" if python["ok"] is None else " — **NOT OK**"))
+        if python["ok"] is not None:
+            md += [f"  - `{l}`" for l in python.get("build_log_tail", []) if l.strip()]
+    md.append("")
     cols = [("objects", "objects", "{:.0f}"), ("order", "order", "{}"), ("pair order", "pair_order", "{}"),
             ("sweep", "sweep", "{}"), ("reserve", "reserve_ms", "{:.1f}"),
             ("first frame", "first_frame", "{}"), ("first", "first_frame_ms", "{:.3f}"),

@@ -4,15 +4,29 @@ __cuda_array_interface__ (CuPy arrays, PyTorch CUDA tensors) are read in
 device memory and the pairs come back as a CudaPairs left there. The
 interface is checked before any device work, so its errors are tested here
 with stand-in objects; the device runs need a GPU and CuPy or PyTorch and
-skip otherwise."""
+skip otherwise, unless HBP_REQUIRE_GPU=1 (scripts/gpu-check on a GPU
+machine), which makes each such skip a failure, as in test_cuda_device."""
+import os
+
 import numpy as np
 import pytest
 
 import hybrid_broadphase as hbp
 from hbp_reference import brute_pairs
 
+# On the GPU machine a missing device, CUDA room or array library must not
+# pass as a skip.
+REQUIRE_GPU = os.environ.get("HBP_REQUIRE_GPU") == "1"
+
+
+def skip_unless_required(reason, allow_module_level=False):
+    if REQUIRE_GPU:
+        pytest.fail(f"HBP_REQUIRE_GPU=1 but {reason}", pytrace=False)
+    pytest.skip(reason, allow_module_level=allow_module_level)
+
+
 if not hasattr(hbp, "CudaPairs"):
-    pytest.skip("built without the CUDA room (HBP_CUDA)", allow_module_level=True)
+    skip_unless_required("built without the CUDA room (HBP_CUDA)", allow_module_level=True)
 
 
 def device_present():
@@ -74,7 +88,7 @@ def test_without_a_device_a_valid_interface_says_so():
 
 def test_numpy_boxes_on_the_device_equal_brute_force():
     if not device_present():
-        pytest.skip("no CUDA device")
+        skip_unless_required("no CUDA device")
     boxes = random_boxes(np.random.default_rng(60), 3000)
     got = hbp.find_pairs(boxes, engine="cuda")
     assert len(got) > 100
@@ -84,8 +98,11 @@ def test_numpy_boxes_on_the_device_equal_brute_force():
 @pytest.mark.parametrize("library", ["cupy", "torch"])
 def test_device_arrays_stay_on_the_device(library):
     if not device_present():
-        pytest.skip("no CUDA device")
-    lib = pytest.importorskip(library)
+        skip_unless_required("no CUDA device")
+    try:
+        lib = __import__(library)
+    except ImportError as e:
+        skip_unless_required(f"{library} cannot be imported ({e})")
     boxes = random_boxes(np.random.default_rng(61), 3000)
     want = brute_pairs(boxes)
     for order in ("C", "F"):
