@@ -268,7 +268,7 @@ def main():
         if python["ok"] is not None:
             md += [f"  - `{l}`" for l in python.get("build_log_tail", []) if l.strip()]
     md.append("")
-    cols = [("objects", "objects", "{:.0f}"), ("order", "order", "{}"), ("pair order", "pair_order", "{}"),
+    cols = [("objects", "objects", "{:.0f}"), ("order", "order", "{}"), ("pair order", "pair_order", "{}"), ("pair write", "pair_write", "{}"),
             ("sweep", "sweep", "{}"), ("reserve", "reserve_ms", "{:.1f}"),
             ("first frame", "first_frame", "{}"), ("first", "first_frame_ms", "{:.3f}"),
             ("median", "median_frame_ms", "{:.3f}"), ("p99", "p99_frame_ms", "{:.3f}"),

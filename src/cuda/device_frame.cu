@@ -347,11 +347,9 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     }
   }
 
-  // Sorted frames swept a thread per reference count and write their pairs
-  // in one pass (launch_append_rows); the pair order makes their list the
-  // sorted one. Frame order (deterministic) and the block per cell count,
-  // scan and fill.
-  bool appending() const { return options.sorted && options.sweep == CellSweep::PerReference; }
+  // PairWrite::Append (sorted, per reference: the constructor checks):
+  // counted and written in one pass (launch_append_rows).
+  bool appending() const { return options.pair_write == PairWrite::Append; }
 
   // The frame's pair total (at `total`, device) and cell count into
   // scalars_[0] and [1], waited for.

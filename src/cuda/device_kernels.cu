@@ -181,9 +181,8 @@ __global__ void gather_lanes_kernel(const float* packed, const std::uint32_t* ke
 // its cell read straight from the sorted lanes. Neighbouring threads sweep
 // neighbouring rows, so their candidates come from the same cache lines, and
 // no block is tied to a cell: a dense cell's rows spread over every SM and a
-// small cell leaves no lane idle. s.position holds the whole keys, so the
-// row's stop key (its cell, the position of its max x) also ends it where
-// the next cell begins: every later cell's keys are larger.
+// small cell leaves no lane idle. s.position holds the whole keys
+// (reference_row).
 // Counting (no `out`), a row also keeps its first kInlinePairs pairs in
 // kept[r]; filling, a row that had no more copies them instead of sweeping
 // again (most rows of a sparse scene).
@@ -199,16 +198,13 @@ __global__ void reference_rows_kernel(GridView g, CellLanes s, int bits, std::ui
       return;
     }
   }
-  const std::uint32_t cell = s.position[r] >> bits;
-  const std::uint32_t stop = (cell << bits) | row_stop(g, cell, s.hi[0][r], bits);
-  const CellRegion region = cell_region(g, cell);
   if (!out) {
     RowPairs& keep = kept[r];
-    counts[r] = cell_row(s, r, refs, region, stop, [&keep](std::uint32_t k, std::uint32_t a, std::uint32_t b) {
+    counts[r] = reference_row(g, s, bits, r, refs, [&keep](std::uint32_t k, std::uint32_t a, std::uint32_t b) {
       if (k < kInlinePairs) keep.pair[k] = a < b ? make_uint2(a, b) : make_uint2(b, a);
     });
   } else {
-    cell_row(s, r, refs, region, stop, [row](std::uint32_t k, std::uint32_t a, std::uint32_t b) {
+    reference_row(g, s, bits, r, refs, [row](std::uint32_t k, std::uint32_t a, std::uint32_t b) {
       row[k] = a < b ? make_uint2(a, b) : make_uint2(b, a);
     });
   }
@@ -239,17 +235,11 @@ __global__ void __launch_bounds__(kThreads)
     append_reference_rows_kernel(GridView g, CellLanes s, int bits, std::uint32_t refs, unsigned long long* total,
                                  std::uint64_t capacity, uint2* out) {
   const std::uint32_t r = blockIdx.x * blockDim.x + threadIdx.x;
-  std::uint32_t stop = 0, count = 0;
-  CellRegion region{};
-  if (r < refs) {
-    const std::uint32_t cell = s.position[r] >> bits;
-    stop = (cell << bits) | row_stop(g, cell, s.hi[0][r], bits);
-    region = cell_region(g, cell);
-    count = cell_row(s, r, refs, region, stop, [](std::uint32_t, std::uint32_t, std::uint32_t) {});
-  }
+  const std::uint32_t count =
+      r < refs ? reference_row(g, s, bits, r, refs, [](std::uint32_t, std::uint32_t, std::uint32_t) {}) : 0;
   append_block_rows(count, total, capacity, [&](std::uint64_t at) {
     uint2* row = out + at;
-    cell_row(s, r, refs, region, stop, [row](std::uint32_t k, std::uint32_t a, std::uint32_t b) {
+    reference_row(g, s, bits, r, refs, [row](std::uint32_t k, std::uint32_t a, std::uint32_t b) {
       row[k] = a < b ? make_uint2(a, b) : make_uint2(b, a);
     });
   });

@@ -226,6 +226,20 @@ HBP_HOST_DEVICE inline std::uint32_t row_stop(const GridView& g, std::uint32_t c
   return slab_position(max_x, lo, hi, bits);
 }
 
+// Row r of the sweep with a thread per reference, over the frame's sorted
+// keys in s.position (cell id above `bits` bits of position): its cell from
+// its own key, and one stop key (its cell, the position of its max x) that
+// also ends the row where the next cell begins, since every later cell's
+// keys are larger. So a row needs no cell table: refs is the end of all
+// references. Returns cell_row's count, emit as there.
+template <class Emit>
+HBP_HOST_DEVICE inline std::uint32_t reference_row(const GridView& g, const CellLanes& s, int bits, std::uint32_t r,
+                                                   std::uint32_t refs, Emit&& emit) {
+  const std::uint32_t cell = s.position[r] >> bits;
+  const std::uint32_t stop = (cell << bits) | row_stop(g, cell, s.hi[0][r], bits);
+  return cell_row(s, r, refs, cell_region(g, cell), stop, static_cast<Emit&&>(emit));
+}
+
 // The sweep of one lane (the accelerator's row): reference r against the
 // references after it in its cell [r + 1, end), sorted by min x, until one
 // starts past r's max x. A pair is kept when the boxes overlap (closed

@@ -45,6 +45,9 @@ void throw_too_many_pairs(std::uint64_t total, std::uint64_t max_pairs) {
 FrameBroadPhase::FrameBroadPhase(const FrameOptions& options) {
   if (options.threads == 0) throw InvalidInput("FrameOptions::threads must be >= 1");
   if (options.boxes_per_cell == 0) throw InvalidInput("FrameOptions::boxes_per_cell must be >= 1");
+  if (options.pair_write == PairWrite::Append && (!options.sorted || options.sweep != CellSweep::PerReference))
+    throw InvalidInput("FrameOptions::pair_write Append needs sorted pairs and CellSweep::PerReference "
+                       "(appended pairs come in no fixed order)");
   impl_ = options.launcher == Launcher::Device ? make_device_frame(options) : make_host_frame(options);
 }
 FrameBroadPhase::~FrameBroadPhase() = default;

@@ -114,28 +114,21 @@ class HostFrame final : public FrameBroadPhase::Impl {
     });
     info.times.refs_ms = ms_since(t);
 
-    // Sort by key (cell, position of min x), gather the sorted lanes and
-    // positions, find the cells.
+    // Sort by key (cell, position of min x), gather the sorted lanes; the
+    // keys go with them whole (reference_row reads each row's cell from its
+    // key), and the cells are counted.
     radix_sort(keys_, key_scratch_, &ids_, &id_scratch_, key_bits(grid_.cells()));
     for (auto* lane : {&s_lo_[0], &s_lo_[1], &s_lo_[2], &s_hi_[0], &s_hi_[1], &s_hi_[2]}) grow(*lane, refs);
     grow(positions_, refs);
-    const std::uint32_t position_mask = static_cast<std::uint32_t>((std::uint64_t{1} << bits) - 1);
     for_blocks(threads, refs, [&](std::uint64_t r) {
       for (int k = 0; k < 3; ++k) {
         s_lo_[k][r] = b.lo[k][ids_[r]];
         s_hi_[k][r] = b.hi[k][ids_[r]];
       }
-      positions_[r] = static_cast<std::uint32_t>(keys_[r]) & position_mask;
+      positions_[r] = static_cast<std::uint32_t>(keys_[r]);
     });
-    cell_begin_.clear();
-    cell_of_.clear();
-    for (std::uint32_t r = 0; r < refs; ++r)
-      if (r == 0 || (keys_[r] >> bits) != (keys_[r - 1] >> bits)) {
-        cell_begin_.push_back(r);
-        cell_of_.push_back(static_cast<std::uint32_t>(keys_[r] >> bits));
-      }
-    const auto cells = static_cast<std::uint32_t>(cell_begin_.size());
-    cell_begin_.push_back(refs);
+    std::uint32_t cells = 0;
+    for (std::uint32_t r = 0; r < refs; ++r) cells += r == 0 || (keys_[r] >> bits) != (keys_[r - 1] >> bits);
     info.cells = cells;
     info.times.sort_ms = ms_since(t);
 
@@ -149,10 +142,8 @@ class HostFrame final : public FrameBroadPhase::Impl {
     const std::uint64_t slots = std::uint64_t{refs} + std::uint64_t{large} * chunks;
     grow(pair_offset_, slots + 1);
     auto noop = [](std::uint32_t, std::uint32_t, std::uint32_t) {};
-    for_blocks(threads, cells, [&](std::uint64_t c) {
-      const CellRegion region = cell_region(g, cell_of_[c]);
-      for (std::uint32_t r = cell_begin_[c]; r < cell_begin_[c + 1]; ++r)
-        pair_offset_[r] = cell_row(s, r, cell_begin_[c + 1], region, row_stop(g, cell_of_[c], s.hi[0][r], bits), noop);
+    for_blocks(threads, refs, [&](std::uint64_t r) {
+      pair_offset_[r] = reference_row(g, s, bits, static_cast<std::uint32_t>(r), refs, noop);
     });
     for_blocks(threads, std::uint64_t{large} * chunks, [&](std::uint64_t q) {
       const std::uint32_t j0 = static_cast<std::uint32_t>(q % chunks) * chunk;
@@ -167,13 +158,10 @@ class HostFrame final : public FrameBroadPhase::Impl {
     // Fill: the same rows, each writing from its offset.
     grow(pairs, total);
     Pair* out = pairs.data();
-    for_blocks(threads, cells, [&](std::uint64_t c) {
-      const CellRegion region = cell_region(g, cell_of_[c]);
-      for (std::uint32_t r = cell_begin_[c]; r < cell_begin_[c + 1]; ++r) {
-        Pair* row = out + pair_offset_[r];
-        cell_row(s, r, cell_begin_[c + 1], region, row_stop(g, cell_of_[c], s.hi[0][r], bits),
-                 [row](std::uint32_t k, std::uint32_t a, std::uint32_t bb) { row[k] = make_pair(a, bb); });
-      }
+    for_blocks(threads, refs, [&](std::uint64_t r) {
+      Pair* row = out + pair_offset_[r];
+      reference_row(g, s, bits, static_cast<std::uint32_t>(r), refs,
+                    [row](std::uint32_t k, std::uint32_t a, std::uint32_t bb) { row[k] = make_pair(a, bb); });
     });
     for_blocks(threads, std::uint64_t{large} * chunks, [&](std::uint64_t q) {
       const std::uint32_t j0 = static_cast<std::uint32_t>(q % chunks) * chunk;
@@ -235,7 +223,7 @@ class HostFrame final : public FrameBroadPhase::Impl {
     std::uint64_t sum = 0;
     auto add = [&](const auto& v) { sum += v.capacity() * sizeof(v[0]); };
     add(ref_count_), add(is_large_), add(ref_offset_), add(large_), add(keys_), add(key_scratch_), add(ids_);
-    add(id_scratch_), add(cell_begin_), add(cell_of_), add(positions_), add(pair_offset_), add(pair_keys_), add(pair_key_scratch_);
+    add(id_scratch_), add(positions_), add(pair_offset_), add(pair_keys_), add(pair_key_scratch_);
     add(pairs);
     for (int k = 0; k < 3; ++k) add(s_lo_[k]), add(s_hi_[k]);
     return sum;
@@ -244,7 +232,7 @@ class HostFrame final : public FrameBroadPhase::Impl {
   static constexpr std::uint32_t kSlices = 64;
   GridPlan grid_;
   std::vector<ExtentHistogram> slice_extents_ = std::vector<ExtentHistogram>(kSlices + 1);  // + the total
-  std::vector<std::uint32_t> ref_count_, ref_offset_, large_, ids_, id_scratch_, cell_begin_, cell_of_, positions_;
+  std::vector<std::uint32_t> ref_count_, ref_offset_, large_, ids_, id_scratch_, positions_;
   std::vector<std::uint8_t> is_large_;
   std::vector<std::uint64_t> keys_, key_scratch_, pair_offset_, pair_keys_, pair_key_scratch_;
   std::vector<float> s_lo_[3], s_hi_[3];

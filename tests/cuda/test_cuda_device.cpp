@@ -45,30 +45,41 @@ const ScenarioKind kKinds[] = {ScenarioKind::Paper, ScenarioKind::Clustered, Sce
                                ScenarioKind::Degenerate};
 
 cuda::FrameBroadPhase frame(cuda::Launcher launcher, bool sorted = true, std::uint64_t max_pairs = 0,
-                            cuda::CellSweep sweep = cuda::CellSweep::PerReference) {
+                            cuda::CellSweep sweep = cuda::CellSweep::PerReference,
+                            cuda::PairOrder order = cuda::PairOrder::Radix,
+                            cuda::PairWrite write = cuda::PairWrite::Offsets) {
   cuda::FrameOptions o;
   o.launcher = launcher;
   o.threads = std::max(2u, std::thread::hardware_concurrency());  // the CPU launcher is the reference
   o.sorted = sorted;
   o.max_pairs = max_pairs;
   o.sweep = sweep;
+  o.pair_order = order;
+  o.pair_write = write;
   return cuda::FrameBroadPhase(o);
 }
 
 // Both device sweeps (a thread per reference, a block per cell) give the CPU
-// launcher's list, in its order, every frame.
+// launcher's list, in its order, every frame; sorted, so do the pairs
+// appended in one pass and ordered through buckets.
 void expect_device_matches(const std::vector<BoxArray>& frames, const std::string& what, bool oracle) {
   for (bool sorted : {true, false}) {
     auto host = frame(cuda::Launcher::Host, sorted);
     auto per_reference = frame(cuda::Launcher::Device, sorted, 0, cuda::CellSweep::PerReference);
     auto block_per_cell = frame(cuda::Launcher::Device, sorted, 0, cuda::CellSweep::BlockPerCell);
+    auto appended = frame(cuda::Launcher::Device, true, 0, cuda::CellSweep::PerReference, cuda::PairOrder::Buckets,
+                          cuda::PairWrite::Append);
+    std::vector<cuda::FrameBroadPhase*> devices{&per_reference, &block_per_cell};
+    if (sorted) devices.push_back(&appended);
     for (std::size_t f = 0; f < frames.size(); ++f) {
       const std::vector<Pair> expected = host.update(lanes_of(frames[f]));
       if (oracle && sorted) {
         ASSERT_EQ(expected, cuda_test::all_pairs(frames[f])) << what << " frame " << f;
       }
-      for (cuda::FrameBroadPhase* device : {&per_reference, &block_per_cell}) {
-        const char* sweep = device == &per_reference ? "per reference" : "block per cell";
+      for (cuda::FrameBroadPhase* device : devices) {
+        const char* sweep = device == &per_reference    ? "per reference"
+                            : device == &block_per_cell ? "block per cell"
+                                                        : "appended, buckets";
         ASSERT_EQ(device->update(lanes_of(frames[f])), expected)
             << what << " frame " << f << " sorted " << sorted << " sweep " << sweep;
         EXPECT_EQ(device->info().cells, host.info().cells);
@@ -104,26 +115,37 @@ TEST(CudaDevice, AdversarialScenes) {
   expect_device_matches({BoxArray{}}, "empty", true);
 }
 
-// Both pair orders give the oracle's list: buckets from one to thousands of
-// partners (the one-point scene: every object in one bucket per smaller id).
-TEST(CudaDevice, PairOrdersGiveOneList) {
+// Every pair order and write gives the oracle's list: buckets from one to
+// thousands of partners (the one-point scene: one bucket per smaller id),
+// appended pairs outgrowing the last frame's room (each scene larger than
+// the one before) and a large pass appending too.
+TEST(CudaDevice, PairOrdersAndWritesGiveOneList) {
   REQUIRE_DEVICE();
   std::vector<BoxArray> scenes;
   for (ScenarioKind kind : kKinds) scenes.push_back(cuda_test::scenario_frames(kind, 6000, 1)[0]);
   scenes.push_back(cuda_test::all_on_one_point(3000));
   scenes.push_back(cuda_test::spanning_world(16, 2000));
-  for (cuda::PairOrder order : {cuda::PairOrder::Buckets, cuda::PairOrder::Radix}) {
-    cuda::FrameOptions o;
-    o.launcher = cuda::Launcher::Device;
-    o.pair_order = order;
-    cuda::FrameBroadPhase device(o);
-    cuda::Lbvh lbvh(o);
-    for (std::size_t s = 0; s < scenes.size(); ++s) {
-      const std::vector<Pair> expected = cuda_test::all_pairs(scenes[s]);
-      ASSERT_EQ(device.update(lanes_of(scenes[s])), expected) << "scene " << s << " order " << int(order);
-      ASSERT_EQ(lbvh.update(lanes_of(scenes[s])), expected) << "scene " << s << " order " << int(order);
+  scenes.push_back(BoxArray{});
+  for (cuda::PairOrder order : {cuda::PairOrder::Radix, cuda::PairOrder::Buckets})
+    for (cuda::PairWrite write : {cuda::PairWrite::Offsets, cuda::PairWrite::Append}) {
+      cuda::FrameOptions o;
+      o.launcher = cuda::Launcher::Device;
+      o.pair_order = order;
+      o.pair_write = write;
+      cuda::FrameBroadPhase device(o);
+      cuda::Lbvh lbvh(o);
+      for (std::size_t s = 0; s < scenes.size(); ++s) {
+        const std::vector<Pair> expected = cuda_test::all_pairs(scenes[s]);
+        ASSERT_EQ(device.update(lanes_of(scenes[s])), expected)
+            << "scene " << s << " order " << int(order) << " write " << int(write);
+        EXPECT_EQ(device.info().pairs, expected.size());
+        ASSERT_EQ(lbvh.update(lanes_of(scenes[s])), expected) << "scene " << s << " order " << int(order);
+      }
+      o.max_pairs = 1000;
+      cuda::FrameBroadPhase limited(o);
+      EXPECT_THROW(limited.update(lanes_of(cuda_test::all_on_one_point(100))), CapacityExceeded);  // 4,950 pairs
+      EXPECT_EQ(limited.update(lanes_of(cuda_test::all_on_one_point(45))).size(), 990u);
     }
-  }
 }
 
 TEST(CudaDevice, PairExplosionAgainstMaxPairs) {

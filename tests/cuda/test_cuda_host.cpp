@@ -225,6 +225,32 @@ TEST(CudaHostFrame, DeviceEntriesNeedTheDeviceLauncher) {
   EXPECT_TRUE(f.pairs().empty());
 }
 
+// Appended pairs come in no fixed order: only a sorted frame swept a
+// thread per reference may take them; any other is refused naming why.
+TEST(CudaHostFrame, AppendedPairsNeedASortedPerReferenceFrame) {
+  for (const bool sorted : {false, true})
+    for (const cuda::CellSweep sweep : {cuda::CellSweep::PerReference, cuda::CellSweep::BlockPerCell}) {
+      cuda::FrameOptions o;
+      o.sorted = sorted;
+      o.sweep = sweep;
+      o.pair_write = cuda::PairWrite::Append;
+      if (sorted && sweep == cuda::CellSweep::PerReference) {
+        cuda::FrameBroadPhase f(o);  // the host launcher counts and fills either way
+        const BoxArray boxes = cuda_test::scenario_frames(ScenarioKind::Clustered, 2000, 1)[0];
+        EXPECT_EQ(f.update(lanes_of(boxes)), cuda_test::all_pairs(boxes));
+        continue;
+      }
+      try {
+        cuda::FrameBroadPhase f(o);
+        FAIL() << "sorted " << sorted << " sweep " << int(sweep) << ": no error";
+      } catch (const InvalidInput& e) {
+        EXPECT_NE(std::string(e.what()).find("pair_write Append needs sorted pairs and CellSweep::PerReference"),
+                  std::string::npos)
+            << e.what();
+      }
+    }
+}
+
 TEST(CudaHostFrame, DeviceLauncherWithoutADeviceSaysSo) {
   if (cuda::device_available()) GTEST_SKIP() << "a CUDA device is present: " << cuda::device_name();
   cuda::FrameOptions o;

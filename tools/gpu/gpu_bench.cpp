@@ -45,6 +45,7 @@ struct Args {
   std::uint32_t boxes_per_cell = hbp::cuda::FrameOptions{}.boxes_per_cell;
   hbp::cuda::CellSweep sweep = hbp::cuda::FrameOptions{}.sweep;
   hbp::cuda::PairOrder pair_order = hbp::cuda::FrameOptions{}.pair_order;
+  hbp::cuda::PairWrite pair_write = hbp::cuda::FrameOptions{}.pair_write;
   double sustain_s = 0;  // --sustain S: device-entry frames back to back for S seconds
   std::string json;
 };
@@ -55,7 +56,7 @@ struct Args {
                "                     [--n N] [--frames F]\n"
                "                     [--check-every K] [--launcher device|host] [--unsorted] [--no-reserve] [--threads T]\n"
                "                     [--boxes-per-cell B] [--sweep per-reference|block-per-cell] [--sustain SECONDS]\n"
-               "                     [--pair-order buckets|radix] [--json FILE]\n");
+               "                     [--pair-order radix|buckets] [--pair-write offsets|append] [--json FILE]\n");
   std::exit(2);
 }
 
@@ -91,6 +92,12 @@ Args parse(int argc, char** argv) {
       const std::string order = value();
       if (order == "buckets") a.pair_order = hbp::cuda::PairOrder::Buckets;
       else if (order == "radix") a.pair_order = hbp::cuda::PairOrder::Radix;
+      else usage();
+    }
+    else if (k == "--pair-write") {
+      const std::string write = value();
+      if (write == "offsets") a.pair_write = hbp::cuda::PairWrite::Offsets;
+      else if (write == "append") a.pair_write = hbp::cuda::PairWrite::Append;
       else usage();
     }
     else if (k == "--sustain") a.sustain_s = std::stod(value());
@@ -204,6 +211,7 @@ int main(int argc, char** argv) {
     o.boxes_per_cell = args.boxes_per_cell;
     o.sweep = args.sweep;
     o.pair_order = args.pair_order;
+    o.pair_write = args.pair_write;
     o.threads = args.threads;
     o.launcher = args.host ? hbp::cuda::Launcher::Host : hbp::cuda::Launcher::Device;
     hbp::cuda::FrameBroadPhase frame(o);
@@ -284,6 +292,7 @@ int main(int argc, char** argv) {
     str("order", args.sorted ? "sorted by (a, b)" : "frame order");
     str("sweep", args.sweep == hbp::cuda::CellSweep::PerReference ? "per-reference" : "block-per-cell");
     str("pair_order", args.pair_order == hbp::cuda::PairOrder::Buckets ? "buckets" : "radix");
+    str("pair_write", args.pair_write == hbp::cuda::PairWrite::Append ? "append" : "offsets");
     num("objects", args.n);
     num("frames", args.frames);
     num("host_threads", args.threads);

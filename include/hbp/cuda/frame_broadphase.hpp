@@ -41,13 +41,28 @@ enum class CellSweep {
 // How the device orders a frame's pairs by (a, b) (FrameOptions::sorted).
 // Both give the one sorted list; the host launcher sorts its own way.
 enum class PairOrder {
-  // Counting sort by a into per-object buckets (a histogram, a scan and a
-  // scatter, each pass over the pairs once), then each bucket sorted by b
-  // (CUB's segmented sort: a bucket is the object's few partners).
-  Buckets,
   // One radix sort of the pairs as keys a << id_bits | b over the bits
   // the ids use (2 x 20 bits at a million objects: five passes).
   Radix,
+  // Counting sort by a into per-object buckets (a histogram, a scan and a
+  // scatter, each one pass over the pairs), then each bucket sorted by b
+  // (CUB's segmented sort: a bucket holds one object's later partners).
+  Buckets,
+};
+
+// How the device writes a frame's pairs (the host launcher always counts,
+// scans and fills).
+enum class PairWrite {
+  // Every row counted, the counts scanned, the rows swept again writing at
+  // their offsets: the frame's own order, the same on every launcher, run
+  // and thread count.
+  Offsets,
+  // Sorted frames with CellSweep::PerReference only: each row counted and
+  // written in one pass, a block taking its room with one atomic (the
+  // rows run again in a larger buffer when the pairs outgrow the last
+  // frame's room). The list's own order varies; the pair order makes it
+  // the sorted one.
+  Append,
 };
 
 struct FrameOptions {
@@ -57,7 +72,8 @@ struct FrameOptions {
   std::uint64_t max_pairs = 0;     // 0: unlimited; else CapacityExceeded beyond
   std::uint32_t boxes_per_cell = 16;  // the grid's target occupancy (>= 1)
   CellSweep sweep = CellSweep::PerReference;  // Device: how the rows run
-  PairOrder pair_order = PairOrder::Buckets;  // Device, sorted: how the pairs are ordered
+  PairOrder pair_order = PairOrder::Radix;    // Device, sorted: how the pairs are ordered
+  PairWrite pair_write = PairWrite::Offsets;  // Device: how the pairs are written
 };
 
 // Boxes as six float lanes (min x/y/z, max x/y/z) of n objects: host memory
@@ -99,8 +115,8 @@ struct StageTimes {
   double bounds_ms = 0;   // bounds, validation
   double refs_ms = 0;     // count and emit cell references
   double sort_ms = 0;     // sort references by (cell, min x), gather, cells
-  double count_ms = 0;    // per-lane pair counts, scan (Device, sorted, PerReference: counted and written in one pass)
-  double fill_ms = 0;     // pair list (Device, sorted, PerReference: that pass again when the pairs outgrew its room)
+  double count_ms = 0;    // per-lane pair counts, scan (PairWrite::Append: counted and written in one pass)
+  double fill_ms = 0;     // pair list (PairWrite::Append: that pass again when the pairs outgrew its room)
   double order_ms = 0;    // sort pairs by (a, b) (FrameOptions::sorted)
   double download_ms = 0; // pairs device -> host (update() only)
   double frame_ms = 0;    // bounds .. order: the frame without transfers
