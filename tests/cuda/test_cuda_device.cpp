@@ -59,6 +59,16 @@ cuda::FrameBroadPhase frame(cuda::Launcher launcher, bool sorted = true, std::ui
   return cuda::FrameBroadPhase(o);
 }
 
+// One frame of every scenario kind (n objects), `on_one_point` objects on
+// one point, and `spanning` of 2,000 boxes spanning the world.
+std::vector<BoxArray> scenes_of_every_kind(std::uint32_t n, std::uint32_t on_one_point, std::uint32_t spanning) {
+  std::vector<BoxArray> scenes;
+  for (ScenarioKind kind : kKinds) scenes.push_back(cuda_test::scenario_frames(kind, n, 1)[0]);
+  scenes.push_back(cuda_test::all_on_one_point(on_one_point));
+  scenes.push_back(cuda_test::spanning_world(spanning, 2000));
+  return scenes;
+}
+
 // Both device sweeps (a thread per reference, a block per cell) give the CPU
 // launcher's list, in its order, every frame; sorted, so do the pairs
 // appended in one pass and ordered through buckets.
@@ -121,10 +131,7 @@ TEST(CudaDevice, AdversarialScenes) {
 // the one before) and a large pass appending too.
 TEST(CudaDevice, PairOrdersAndWritesGiveOneList) {
   REQUIRE_DEVICE();
-  std::vector<BoxArray> scenes;
-  for (ScenarioKind kind : kKinds) scenes.push_back(cuda_test::scenario_frames(kind, 6000, 1)[0]);
-  scenes.push_back(cuda_test::all_on_one_point(3000));
-  scenes.push_back(cuda_test::spanning_world(16, 2000));
+  std::vector<BoxArray> scenes = scenes_of_every_kind(6000, 3000, 16);
   scenes.push_back(BoxArray{});
   for (cuda::PairOrder order : {cuda::PairOrder::Radix, cuda::PairOrder::Buckets})
     for (cuda::PairWrite write : {cuda::PairWrite::Offsets, cuda::PairWrite::Append}) {
@@ -238,10 +245,7 @@ TEST(CudaDevice, ReserveProvisionsTheFirstFrame) {
 
 TEST(CudaDevice, AxisSweepPeerMatchesTheOracle) {
   REQUIRE_DEVICE();
-  std::vector<BoxArray> scenes;
-  for (ScenarioKind kind : kKinds) scenes.push_back(cuda_test::scenario_frames(kind, 4000, 1)[0]);
-  scenes.push_back(cuda_test::all_on_one_point(2000));
-  scenes.push_back(cuda_test::spanning_world(300, 2000));
+  const std::vector<BoxArray> scenes = scenes_of_every_kind(4000, 2000, 300);
   cuda::FrameOptions o;
   o.launcher = cuda::Launcher::Device;
   cuda::AxisSweep sweep(o);
