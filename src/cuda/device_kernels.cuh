@@ -86,8 +86,8 @@ struct RowPairs {
   uint2 pair[kInlinePairs];
 };
 static_assert(sizeof(RowPairs) == 8 * kInlinePairs);
-void launch_reference_rows(const GridView& g, const CellLanes& sorted, int bits, std::uint32_t refs, RowPairs* kept, std::uint64_t* counts, const std::uint64_t* offsets,
-                           std::uint32_t* out, cudaStream_t s);
+void launch_reference_rows(const GridView& g, const CellLanes& sorted, int bits, std::uint32_t refs, RowPairs* kept,
+                           std::uint64_t* counts, const std::uint64_t* offsets, std::uint32_t* out, cudaStream_t s);
 // A sorted frame's rows and large pass in one launch each, counting and
 // writing (no per-row counts): pairs appended to `out` in blocks reserved
 // with atomics on *total (zeroed here), so their order varies between runs;
