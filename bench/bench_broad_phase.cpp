@@ -115,6 +115,19 @@ void in_turn(bool a_first, A&& a, B&& b) {
 
 double worst(const std::vector<double>& v) { return v.empty() ? 0 : *std::max_element(v.begin(), v.end()); }
 
+// Two sides' per-frame times as counters: <a>_median_ms, <b>_median_ms and
+// `ratio` = median(a) / median(b); with worst, <a>_worst_ms and <b>_worst_ms.
+void side_counters(benchmark::State& state, const std::string& a, const std::vector<double>& a_ms, const std::string& b,
+                   const std::vector<double>& b_ms, const std::string& ratio, bool with_worst) {
+  state.counters[a + "_median_ms"] = median(a_ms);
+  state.counters[b + "_median_ms"] = median(b_ms);
+  state.counters[ratio] = median(a_ms) / median(b_ms);
+  if (with_worst) {
+    state.counters[a + "_worst_ms"] = worst(a_ms);
+    state.counters[b + "_worst_ms"] = worst(b_ms);
+  }
+}
+
 void to_aabbs(const BoxArray& b, std::vector<Aabb>& out) {
   out.resize(b.size());
   for (std::size_t i = 0; i < b.size(); ++i) out[i] = b.get(i);
@@ -236,11 +249,7 @@ void MostlyStatic(benchmark::State& state) {
   state.counters["update_median_ms"] = median(update_ms);
   state.counters["move_median_ms"] = median(move_ms);
   state.counters["update_thread_cpu_median_ms"] = median(update_cpu_ms);
-  state.counters["ours_median_ms"] = median(ours_ms);
-  state.counters["ours_worst_ms"] = worst(ours_ms);
-  state.counters["dbvt_median_ms"] = median(dbvt_ms);
-  state.counters["dbvt_worst_ms"] = worst(dbvt_ms);
-  state.counters["speedup_vs_dbvt"] = median(dbvt_ms) / median(ours_ms);
+  side_counters(state, "dbvt", dbvt_ms, "ours", ours_ms, "speedup_vs_dbvt", true);
   state.counters["pairs"] = static_cast<double>(pairs);
   // No destroyProxy: with the pair cache's linear removal that costs minutes
   // at 10^6 proxies; the broad phase's destructor frees its trees and cache.
@@ -289,16 +298,9 @@ void AllMoving(benchmark::State& state) {
   };
   run_frame(false);
   for (auto _ : state) state.SetIterationTime(run_frame(true) / 1000.0);
-  state.counters["ours_median_ms"] = median(ours_ms);
-  state.counters["ours_worst_ms"] = worst(ours_ms);
-  state.counters["whole_frame_median_ms"] = median(whole_ms);
-  state.counters["whole_frame_worst_ms"] = worst(whole_ms);
-  state.counters["ours_over_whole_frame"] = median(ours_ms) / median(whole_ms);
-  if (threads == 1) {  // the calling thread does all the work: its CPU time is all of it
-    state.counters["ours_cpu_median_ms"] = median(ours_cpu_ms);
-    state.counters["whole_frame_cpu_median_ms"] = median(whole_cpu_ms);
-    state.counters["ours_cpu_over_whole_frame"] = median(ours_cpu_ms) / median(whole_cpu_ms);
-  }
+  side_counters(state, "ours", ours_ms, "whole_frame", whole_ms, "ours_over_whole_frame", true);
+  if (threads == 1)  // the calling thread does all the work: its CPU time is all of it
+    side_counters(state, "ours_cpu", ours_cpu_ms, "whole_frame_cpu", whole_cpu_ms, "ours_cpu_over_whole_frame", false);
   state.counters["pairs"] = static_cast<double>(pairs);
 }
 
@@ -366,17 +368,12 @@ void DoublePrecision(benchmark::State& state) {
   };
   run_frame(false);
   for (auto _ : state) state.SetIterationTime(run_frame(true) / 1000.0);
-  state.counters["float_update_median_ms"] = median(float_update);
-  state.counters["double_update_median_ms"] = median(double_update);
-  state.counters["double_over_float_update"] = median(double_update) / median(float_update);
-  state.counters["float_move_update_median_ms"] = median(float_frame);
-  state.counters["double_move_update_median_ms"] = median(double_frame);
-  state.counters["double_over_float_move_update"] = median(double_frame) / median(float_frame);
-  if (threads == 1) {  // the calling thread does all the work: its CPU time is all of it
-    state.counters["float_update_cpu_median_ms"] = median(float_cpu);
-    state.counters["double_update_cpu_median_ms"] = median(double_cpu);
-    state.counters["double_over_float_update_cpu"] = median(double_cpu) / median(float_cpu);
-  }
+  side_counters(state, "double_update", double_update, "float_update", float_update, "double_over_float_update", false);
+  side_counters(state, "double_move_update", double_frame, "float_move_update", float_frame,
+                "double_over_float_move_update", false);
+  if (threads == 1)  // the calling thread does all the work: its CPU time is all of it
+    side_counters(state, "double_update_cpu", double_cpu, "float_update_cpu", float_cpu, "double_over_float_update_cpu",
+                  false);
   state.counters["pairs"] = static_cast<double>(pairs);
 }
 
@@ -456,11 +453,7 @@ void SleepingWorld(benchmark::State& state) {
   };
   for (int w = 0; w < 3; ++w) run_frame(false);
   for (auto _ : state) state.SetIterationTime(run_frame(true) / 1000.0);
-  state.counters["slept_median_ms"] = median(slept_ms);
-  state.counters["slept_worst_ms"] = worst(slept_ms);
-  state.counters["built_median_ms"] = median(built_ms);
-  state.counters["built_worst_ms"] = worst(built_ms);
-  state.counters["slept_over_built"] = median(slept_ms) / median(built_ms);
+  side_counters(state, "slept", slept_ms, "built", built_ms, "slept_over_built", true);
   state.counters["pairs"] = static_cast<double>(pairs);
 }
 
