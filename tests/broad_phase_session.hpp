@@ -7,7 +7,7 @@
 // pair of live objects, at least one moving, overlapping, layers colliding,
 // filter accepting), created/removed as the set differences with the
 // previous frame, the stats' counts, and each object's handle, kind, box and
-// layer. Shared by the sleeping and the snapshot tests.
+// layer. Shared by the broad-phase, sleeping and snapshot tests.
 #include <gtest/gtest.h>
 
 #include <algorithm>
