@@ -50,6 +50,15 @@ static inline unsigned seed_and_count(int argc, char** argv, unsigned default_co
   return argc > 2 ? (unsigned)atoi(argv[2]) : default_count;
 }
 
+/* *bp: a broad phase with the default options but `threads`. */
+static inline int create_with_threads(uint32_t threads, hbp_broad_phase** bp) {
+  hbp_options o;
+  hbp_options_init(&o);
+  o.threads = threads;
+  CHECK(hbp_create(&o, bp) == HBP_OK, "%s", hbp_last_error());
+  return 0;
+}
+
 /* A box on a 0.5 grid, min 0.5 * [0, cells), size 0.5 * [0, sizes) per axis:
    touching faces are frequent, and exact in float; zero-size boxes too. */
 static inline hbp_box grid_box(unsigned cells, unsigned sizes) {

@@ -50,11 +50,8 @@ static hbp_pair want[MAX_LIVE * MAX_LIVE / 2];
 static int run(unsigned frames, uint32_t threads) {
   static const float margins[4] = {0.0f, 0.0f, 0.25f, 1.5f};
   hbp_broad_phase* bp;
-  hbp_options o;
   unsigned frame;
-  hbp_options_init(&o);
-  o.threads = threads;
-  CHECK(hbp_create(&o, &bp) == HBP_OK, "%s", hbp_last_error());
+  if (create_with_threads(threads, &bp)) return 1;
   n_live = 0;
   for (frame = 0; frame < frames; ++frame) {
     size_t i, j, n = 0, count;

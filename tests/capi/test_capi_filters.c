@@ -120,11 +120,8 @@ static int check_frame(hbp_broad_phase* bp, unsigned frame) {
 
 static int run(unsigned frames, uint32_t threads) {
   hbp_broad_phase* bp;
-  hbp_options o;
   unsigned frame, a, b;
-  hbp_options_init(&o);
-  o.threads = threads;
-  CHECK(hbp_create(&o, &bp) == HBP_OK, "%s", hbp_last_error());
+  if (create_with_threads(threads, &bp)) return 1;
   n_live = 0;
   for (a = 0; a < 3; ++a)
     for (b = 0; b < 3; ++b) collides[a][b] = 1;

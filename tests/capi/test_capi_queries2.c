@@ -121,11 +121,8 @@ static int check_queries(hbp_broad_phase* bp, unsigned step) {
 
 static int run(unsigned steps, uint32_t threads) {
   hbp_broad_phase* bp;
-  hbp_options o;
   unsigned step;
-  hbp_options_init(&o);
-  o.threads = threads;
-  CHECK(hbp_create(&o, &bp) == HBP_OK, "%s", hbp_last_error());
+  if (create_with_threads(threads, &bp)) return 1;
   live = 0;
   for (step = 0; step < steps; ++step) {
     unsigned r = rnd_below(8), i;
