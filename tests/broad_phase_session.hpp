@@ -51,6 +51,17 @@ struct Reference {
 
   Reference() { std::fill(std::begin(mask), std::end(mask), 0xFFFFFFFFu); }
 
+  // BroadPhase::set_collides: layers a and b (either order) collide or not.
+  void set_collides(std::uint32_t a, std::uint32_t b, bool c) {
+    if (c) {
+      mask[a] |= 1u << b;
+      mask[b] |= 1u << a;
+    } else {
+      mask[a] &= ~(1u << b);
+      mask[b] &= ~(1u << a);
+    }
+  }
+
   std::vector<Pair> pairs() const {
     std::vector<std::pair<Handle, const RefObject*>> v;
     for (const auto& [h, o] : objects) v.emplace_back(h, &o);
@@ -190,13 +201,7 @@ struct Session {
 
   void set_collides(std::uint32_t a, std::uint32_t b, bool c) {
     for (BroadPhase* s : systems) s->set_collides(a, b, c);
-    if (c) {
-      ref.mask[a] |= 1u << b;
-      ref.mask[b] |= 1u << a;
-    } else {
-      ref.mask[a] &= ~(1u << b);
-      ref.mask[b] &= ~(1u << a);
-    }
+    ref.set_collides(a, b, c);
   }
 
   void set_filter(BroadPhase::PairFilter f) {

@@ -249,13 +249,7 @@ struct Session {
 
   void set_collides(std::uint32_t a, std::uint32_t b, bool c) {
     for (BroadPhase* s : systems) s->set_collides(a, b, c);
-    if (c) {
-      ref.mask[a] |= 1u << b;
-      ref.mask[b] |= 1u << a;
-    } else {
-      ref.mask[a] &= ~(1u << b);
-      ref.mask[b] &= ~(1u << a);
-    }
+    ref.set_collides(a, b, c);
   }
 
   void set_filter(BroadPhase::PairFilter f) {
