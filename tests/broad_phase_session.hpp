@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "hbp/broad_phase.hpp"
+#include "pair_sets.hpp"
 
 namespace hbp::test {
 
@@ -30,12 +31,6 @@ inline bool same_box(const Aabb& a, const Aabb& b) {
   for (int k = 0; k < 3; ++k)
     if (a.min[k] != b.min[k] || a.max[k] != b.max[k]) return false;
   return true;
-}
-
-inline std::vector<Pair> minus(const std::vector<Pair>& a, const std::vector<Pair>& b) {
-  std::vector<Pair> out;
-  std::set_difference(a.begin(), a.end(), b.begin(), b.end(), std::back_inserter(out));
-  return out;
 }
 
 struct Reference {

@@ -20,6 +20,7 @@
 
 #include "hbp/broad_phase.hpp"
 #include "hbp/error.hpp"
+#include "pair_sets.hpp"
 
 namespace {
 
@@ -27,6 +28,7 @@ using hbp::Aabb;
 using hbp::BroadPhase;
 using hbp::Handle;
 using hbp::Pair;
+using hbp::test::minus;
 
 struct Object {
   Aabb stored;
@@ -79,12 +81,6 @@ struct Reference {
     return out;
   }
 };
-
-std::vector<Pair> minus(const std::vector<Pair>& a, const std::vector<Pair>& b) {
-  std::vector<Pair> out;
-  std::set_difference(a.begin(), a.end(), b.begin(), b.end(), std::back_inserter(out));
-  return out;
-}
 
 void step(std::vector<BroadPhase*> bps, Reference& ref, std::mt19937& rng, int world, std::size_t target,
           bool with_statics) {

@@ -23,6 +23,7 @@
 #include "hbp/error.hpp"
 #include "pipeline/box_cast.hpp"
 #include "pipeline/ray_segment.hpp"
+#include "pair_sets.hpp"
 
 namespace {
 
@@ -31,6 +32,7 @@ using hbp::BroadPhase;
 using hbp::Filter;
 using hbp::Handle;
 using hbp::Pair;
+using hbp::test::minus;
 using hbp::QueryFilter;
 using Vec3f = BroadPhase::Vec3f;
 
@@ -89,12 +91,6 @@ struct Reference {
     return out;
   }
 };
-
-std::vector<Pair> minus(const std::vector<Pair>& a, const std::vector<Pair>& b) {
-  std::vector<Pair> out;
-  std::set_difference(a.begin(), a.end(), b.begin(), b.end(), std::back_inserter(out));
-  return out;
-}
 
 Aabb grid_box(std::mt19937& rng, int world) {
   std::uniform_int_distribution<int> pos(0, world * 2), size(0, 5);
