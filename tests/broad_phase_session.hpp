@@ -16,6 +16,7 @@
 #include <set>
 #include <vector>
 
+#include "grid_boxes.hpp"
 #include "hbp/broad_phase.hpp"
 #include "pair_sets.hpp"
 
@@ -75,29 +76,6 @@ struct Reference {
     return out;
   }
 };
-
-// Boxes on a half-metre grid in a small world: many overlaps and exactly
-// touching faces.
-inline Aabb random_box(std::mt19937& rng, float world) {
-  std::uniform_int_distribution<int> pos(0, static_cast<int>(world * 2));
-  std::uniform_int_distribution<int> size(0, 6);
-  Aabb b;
-  for (int k = 0; k < 3; ++k) {
-    b.min[k] = 0.5f * static_cast<float>(pos(rng));
-    b.max[k] = b.min[k] + 0.5f * static_cast<float>(size(rng));
-  }
-  return b;
-}
-
-inline Aabb nudged(std::mt19937& rng, Aabb b) {
-  std::uniform_int_distribution<int> step(-2, 2);
-  for (int k = 0; k < 3; ++k) {
-    const float d = 0.5f * static_cast<float>(step(rng));
-    b.min[k] += d;
-    b.max[k] += d;
-  }
-  return b;
-}
 
 // One randomized session: every edit goes to each system and the reference.
 // Copyable: a copy continues with the same random stream, so two copies

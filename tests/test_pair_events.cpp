@@ -11,8 +11,8 @@
 #include <vector>
 
 #include "hbp/pair.hpp"
-#include "pipeline/pair_events.hpp"
 #include "pair_sets.hpp"
+#include "pipeline/pair_events.hpp"
 
 namespace {
 
