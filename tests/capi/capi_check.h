@@ -59,6 +59,13 @@ static inline int create_with_threads(uint32_t threads, hbp_broad_phase** bp) {
   return 0;
 }
 
+/* run(count, 1) then run(count, 2): 0 and "ok" when both pass, else 1. */
+static inline int run_1_and_2_threads(int (*run)(unsigned, uint32_t), unsigned count) {
+  if (run(count, 1) || run(count, 2)) return 1;
+  printf("ok\n");
+  return 0;
+}
+
 /* A box on a 0.5 grid, min 0.5 * [0, cells), size 0.5 * [0, sizes) per axis:
    touching faces are frequent, and exact in float; zero-size boxes too. */
 static inline hbp_box grid_box(unsigned cells, unsigned sizes) {

@@ -124,8 +124,5 @@ static int run(unsigned frames, uint32_t threads) {
 }
 
 int main(int argc, char** argv) {
-  const unsigned frames = seed_and_count(argc, argv, 1500u);
-  if (run(frames, 1) || run(frames, 2)) return 1;
-  printf("ok\n");
-  return 0;
+  return run_1_and_2_threads(run, seed_and_count(argc, argv, 1500u));
 }

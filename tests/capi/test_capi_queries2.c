@@ -189,7 +189,5 @@ static int check_errors(void) {
 int main(int argc, char** argv) {
   const unsigned steps = seed_and_count(argc, argv, 2000u);
   if (check_errors()) return 1;
-  if (run(steps, 1) || run(steps, 2)) return 1;
-  printf("ok\n");
-  return 0;
+  return run_1_and_2_threads(run, steps);
 }
