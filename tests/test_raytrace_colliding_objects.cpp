@@ -23,11 +23,7 @@ struct Case {
 };
 
 void expect_matches_brute_force(const Case& c) {
-  ScenarioParams sp;
-  sp.kind = c.kind;
-  sp.n = c.n;
-  sp.seed = 11;
-  test::ScenarioHierarchy w(sp, {.cell_limit = c.cell_limit});
+  test::ScenarioHierarchy w({.kind = c.kind, .n = c.n, .seed = 11}, {.cell_limit = c.cell_limit});
   for (std::uint32_t f = 0; f <= c.frames; ++f) {
     w.frame(f);
     const CollidingObjects got = colliding_objects(w.h, w.scenario.shapes());

@@ -96,11 +96,7 @@ struct Case {
 };
 
 Agreement run_case(const Case& c) {
-  ScenarioParams sp;
-  sp.kind = c.kind;
-  sp.n = c.n;
-  sp.seed = 7;
-  test::ScenarioHierarchy w(sp, {.cell_limit = c.cell_limit});
+  test::ScenarioHierarchy w({.kind = c.kind, .n = c.n, .seed = 7}, {.cell_limit = c.cell_limit});
   for (std::uint32_t f = 0; f <= c.frames; ++f) w.frame(f);
   std::vector<ShapeGeometry> geometry;
   prepare_shapes(w.scenario.shapes(), geometry);
