@@ -87,9 +87,46 @@ using hbp::BoxArray;
 using hbp::Handle;
 using hbp::Pair;
 
-// CPU time of the calling thread (all of the work when threads = 1).
+// Wall and calling-thread CPU milliseconds of one run of f (the CPU time is
+// all of f's work when it runs on the calling thread alone).
+struct Millis {
+  double wall = 0, cpu = 0;
+};
+template <class F>
+Millis time_ms(F&& f) {
+  const auto t0 = SteadyClock::now();
+  const double c0 = thread_cpu_ms();
+  f();
+  return {ms_since(t0), thread_cpu_ms() - c0};
+}
+
+// Runs a and b in turn, a first when a_first: a benchmark alternates the
+// order each frame so that neither side always gets the warm cache.
+template <class A, class B>
+void in_turn(bool a_first, A&& a, B&& b) {
+  if (a_first) {
+    a();
+    b();
+  } else {
+    b();
+    a();
+  }
+}
 
 double worst(const std::vector<double>& v) { return v.empty() ? 0 : *std::max_element(v.begin(), v.end()); }
+
+// Two sides' per-frame times as counters: <a>_median_ms, <b>_median_ms and
+// `ratio` = median(a) / median(b); with worst, <a>_worst_ms and <b>_worst_ms.
+void side_counters(benchmark::State& state, const std::string& a, const std::vector<double>& a_ms, const std::string& b,
+                   const std::vector<double>& b_ms, const std::string& ratio, bool with_worst) {
+  state.counters[a + "_median_ms"] = median(a_ms);
+  state.counters[b + "_median_ms"] = median(b_ms);
+  state.counters[ratio] = median(a_ms) / median(b_ms);
+  if (with_worst) {
+    state.counters[a + "_worst_ms"] = worst(a_ms);
+    state.counters[b + "_worst_ms"] = worst(b_ms);
+  }
+}
 
 void to_aabbs(const BoxArray& b, std::vector<Aabb>& out) {
   out.resize(b.size());
@@ -212,11 +249,7 @@ void MostlyStatic(benchmark::State& state) {
   state.counters["update_median_ms"] = median(update_ms);
   state.counters["move_median_ms"] = median(move_ms);
   state.counters["update_thread_cpu_median_ms"] = median(update_cpu_ms);
-  state.counters["ours_median_ms"] = median(ours_ms);
-  state.counters["ours_worst_ms"] = worst(ours_ms);
-  state.counters["dbvt_median_ms"] = median(dbvt_ms);
-  state.counters["dbvt_worst_ms"] = worst(dbvt_ms);
-  state.counters["speedup_vs_dbvt"] = median(dbvt_ms) / median(ours_ms);
+  side_counters(state, "dbvt", dbvt_ms, "ours", ours_ms, "speedup_vs_dbvt", true);
   state.counters["pairs"] = static_cast<double>(pairs);
   // No destroyProxy: with the pair cache's linear removal that costs minutes
   // at 10^6 proxies; the broad phase's destructor frees its trees and cache.
@@ -243,47 +276,31 @@ void AllMoving(benchmark::State& state) {
     scenario.step();
     scenario.compute_boxes(boxes);
     to_aabbs(boxes, aabbs);
-    // Alternate which runs first, so neither always gets the warm cache.
-    const bool ours_first = ours_ms.size() % 2 == 0;
-    double ours = 0, theirs = 0, ours_cpu = 0, theirs_cpu = 0;
-    for (int k = 0; k < 2; ++k) {
-      if ((k == 0) == ours_first) {
-        const auto t0 = SteadyClock::now();
-        const double c0 = thread_cpu_ms();
-        bp.move(h, aabbs);
-        bp.update();
-        ours = ms_since(t0);
-        ours_cpu = thread_cpu_ms() - c0;
-      } else {
-        const auto t0 = SteadyClock::now();
-        const double c0 = thread_cpu_ms();
-        whole.update(boxes);
-        theirs = ms_since(t0);
-        theirs_cpu = thread_cpu_ms() - c0;
-      }
-    }
+    Millis ours, theirs;
+    in_turn(
+        ours_ms.size() % 2 == 0,
+        [&] {
+          ours = time_ms([&] {
+            bp.move(h, aabbs);
+            bp.update();
+          });
+        },
+        [&] { theirs = time_ms([&] { whole.update(boxes); }); });
     if (bp.last_update().pairs != whole.pairs()) throw std::runtime_error("BroadPhase and HybridBroadPhase differ");
     if (timed) {
-      ours_ms.push_back(ours);
-      whole_ms.push_back(theirs);
-      ours_cpu_ms.push_back(ours_cpu);
-      whole_cpu_ms.push_back(theirs_cpu);
+      ours_ms.push_back(ours.wall);
+      whole_ms.push_back(theirs.wall);
+      ours_cpu_ms.push_back(ours.cpu);
+      whole_cpu_ms.push_back(theirs.cpu);
       pairs = whole.pairs().size();
     }
-    return ours;
+    return ours.wall;
   };
   run_frame(false);
   for (auto _ : state) state.SetIterationTime(run_frame(true) / 1000.0);
-  state.counters["ours_median_ms"] = median(ours_ms);
-  state.counters["ours_worst_ms"] = worst(ours_ms);
-  state.counters["whole_frame_median_ms"] = median(whole_ms);
-  state.counters["whole_frame_worst_ms"] = worst(whole_ms);
-  state.counters["ours_over_whole_frame"] = median(ours_ms) / median(whole_ms);
-  if (threads == 1) {  // the calling thread does all the work: its CPU time is all of it
-    state.counters["ours_cpu_median_ms"] = median(ours_cpu_ms);
-    state.counters["whole_frame_cpu_median_ms"] = median(whole_cpu_ms);
-    state.counters["ours_cpu_over_whole_frame"] = median(ours_cpu_ms) / median(whole_cpu_ms);
-  }
+  side_counters(state, "ours", ours_ms, "whole_frame", whole_ms, "ours_over_whole_frame", true);
+  if (threads == 1)  // the calling thread does all the work: its CPU time is all of it
+    side_counters(state, "ours_cpu", ours_cpu_ms, "whole_frame_cpu", whole_cpu_ms, "ours_cpu_over_whole_frame", false);
   state.counters["pairs"] = static_cast<double>(pairs);
 }
 
@@ -320,55 +337,43 @@ void DoublePrecision(benchmark::State& state) {
   auto run_frame = [&](bool timed) {
     scenario.step();
     next_frame();
-    const bool float_first = float_update.size() % 2 == 0;  // neither always gets the warm cache
-    double fu = 0, du = 0, ff = 0, df = 0, fc = 0, dc = 0;
-    for (int k = 0; k < 2; ++k) {
-      if ((k == 0) == float_first) {
-        const auto t0 = SteadyClock::now();
-        single.move(hs, aabbs);
-        const auto t1 = SteadyClock::now();
-        const double c1 = thread_cpu_ms();
-        single.update();
-        fc = thread_cpu_ms() - c1;
-        fu = ms_since(t1);
-        ff = ms_since(t0);
-      } else {
-        const auto t0 = SteadyClock::now();
-        dbl.move(hd, doubles);
-        const auto t1 = SteadyClock::now();
-        const double c1 = thread_cpu_ms();
-        dbl.update();
-        dc = thread_cpu_ms() - c1;
-        du = ms_since(t1);
-        df = ms_since(t0);
-      }
-    }
+    // update() alone (wall and CPU) inside move() + update() (wall).
+    Millis fu, du, ff, df;
+    in_turn(
+        float_update.size() % 2 == 0,
+        [&] {
+          ff = time_ms([&] {
+            single.move(hs, aabbs);
+            fu = time_ms([&] { single.update(); });
+          });
+        },
+        [&] {
+          df = time_ms([&] {
+            dbl.move(hd, doubles);
+            du = time_ms([&] { dbl.update(); });
+          });
+        });
     if (exact && dbl.last_update().pairs != single.last_update().pairs)
       throw std::runtime_error("double and float BroadPhase differ on float-exact boxes");
     if (timed) {
-      float_update.push_back(fu);
-      double_update.push_back(du);
-      float_frame.push_back(ff);
-      double_frame.push_back(df);
-      float_cpu.push_back(fc);
-      double_cpu.push_back(dc);
+      float_update.push_back(fu.wall);
+      double_update.push_back(du.wall);
+      float_frame.push_back(ff.wall);
+      double_frame.push_back(df.wall);
+      float_cpu.push_back(fu.cpu);
+      double_cpu.push_back(du.cpu);
       pairs = dbl.last_update().pairs.size();
     }
-    return du;
+    return du.wall;
   };
   run_frame(false);
   for (auto _ : state) state.SetIterationTime(run_frame(true) / 1000.0);
-  state.counters["float_update_median_ms"] = median(float_update);
-  state.counters["double_update_median_ms"] = median(double_update);
-  state.counters["double_over_float_update"] = median(double_update) / median(float_update);
-  state.counters["float_move_update_median_ms"] = median(float_frame);
-  state.counters["double_move_update_median_ms"] = median(double_frame);
-  state.counters["double_over_float_move_update"] = median(double_frame) / median(float_frame);
-  if (threads == 1) {  // the calling thread does all the work: its CPU time is all of it
-    state.counters["float_update_cpu_median_ms"] = median(float_cpu);
-    state.counters["double_update_cpu_median_ms"] = median(double_cpu);
-    state.counters["double_over_float_update_cpu"] = median(double_cpu) / median(float_cpu);
-  }
+  side_counters(state, "double_update", double_update, "float_update", float_update, "double_over_float_update", false);
+  side_counters(state, "double_move_update", double_frame, "float_move_update", float_frame,
+                "double_over_float_move_update", false);
+  if (threads == 1)  // the calling thread does all the work: its CPU time is all of it
+    side_counters(state, "double_update_cpu", double_cpu, "float_update_cpu", float_cpu, "double_over_float_update_cpu",
+                  false);
   state.counters["pairs"] = static_cast<double>(pairs);
 }
 
@@ -429,15 +434,15 @@ void SleepingWorld(benchmark::State& state) {
   auto run_frame = [&](bool timed) {
     scene.step();
     std::this_thread::sleep_for(std::chrono::milliseconds(5));  // the scenario's workers go idle
-    const bool slept_first = slept_ms.size() % 2 == 0;  // neither always gets the warm cache
     double t[2];
-    for (int k = 0; k < 2; ++k) {
-      hbp::BroadPhase& bp = (k == 0) == slept_first ? slept : built;
+    const auto frame_of = [&](hbp::BroadPhase& bp, double& ms) {
       const auto t0 = SteadyClock::now();
       bp.move(scene.movers, scene.moved);
       bp.update();
-      t[&bp == &slept ? 0 : 1] = ms_since(t0);
-    }
+      ms = ms_since(t0);
+    };
+    in_turn(
+        slept_ms.size() % 2 == 0, [&] { frame_of(slept, t[0]); }, [&] { frame_of(built, t[1]); });
     if (slept.last_update().pairs != built.last_update().pairs) throw std::runtime_error("slept and built differ");
     if (timed) {
       slept_ms.push_back(t[0]);
@@ -448,11 +453,7 @@ void SleepingWorld(benchmark::State& state) {
   };
   for (int w = 0; w < 3; ++w) run_frame(false);
   for (auto _ : state) state.SetIterationTime(run_frame(true) / 1000.0);
-  state.counters["slept_median_ms"] = median(slept_ms);
-  state.counters["slept_worst_ms"] = worst(slept_ms);
-  state.counters["built_median_ms"] = median(built_ms);
-  state.counters["built_worst_ms"] = worst(built_ms);
-  state.counters["slept_over_built"] = median(slept_ms) / median(built_ms);
+  side_counters(state, "slept", slept_ms, "built", built_ms, "slept_over_built", true);
   state.counters["pairs"] = static_cast<double>(pairs);
 }
 
@@ -477,19 +478,14 @@ void Snapshot(benchmark::State& state) {
   std::vector<double> snapshot_ms, restore_ms, update_ms, snapshot_cpu_ms, restore_cpu_ms;
   std::size_t bytes = 0;
   for (auto _ : state) {
-    auto t0 = SteadyClock::now();
-    double c0 = thread_cpu_ms();
-    const std::vector<std::byte> data = bp.snapshot();
-    snapshot_ms.push_back(ms_since(t0));
-    snapshot_cpu_ms.push_back(thread_cpu_ms() - c0);
-    t0 = SteadyClock::now();
-    c0 = thread_cpu_ms();
-    target.restore(data);
-    restore_ms.push_back(ms_since(t0));
-    restore_cpu_ms.push_back(thread_cpu_ms() - c0);
-    t0 = SteadyClock::now();
-    target.update();
-    update_ms.push_back(ms_since(t0));
+    std::vector<std::byte> data;
+    const Millis snap = time_ms([&] { data = bp.snapshot(); });
+    snapshot_ms.push_back(snap.wall);
+    snapshot_cpu_ms.push_back(snap.cpu);
+    const Millis restore = time_ms([&] { target.restore(data); });
+    restore_ms.push_back(restore.wall);
+    restore_cpu_ms.push_back(restore.cpu);
+    update_ms.push_back(time_ms([&] { target.update(); }).wall);
     bytes = data.size();
     state.SetIterationTime((snapshot_ms.back() + restore_ms.back()) / 1000.0);
   }
@@ -508,6 +504,20 @@ void Snapshot(benchmark::State& state) {
   state.counters["pairs"] = static_cast<double>(expect.size());
 }
 
+// The side of the paper's world of n objects.
+float paper_side(std::uint32_t n) {
+  hbp::ScenarioParams p;
+  p.n = n;
+  return static_cast<float>(p.world_side());
+}
+
+// Every box added as a static object (handle = index).
+void add_static(hbp::BroadPhase& bp, const BoxArray& boxes) {
+  std::vector<Aabb> aabbs;
+  to_aabbs(boxes, aabbs);
+  bp.add(aabbs, {.is_static = true});
+}
+
 // A paper frame loaded into both systems, for queries.
 struct QueryWorld {
   BoxArray boxes;
@@ -516,13 +526,8 @@ struct QueryWorld {
   std::vector<btBroadphaseProxy*> proxies;
   float side = 0;
 
-  explicit QueryWorld(std::uint32_t n) : boxes(paper_frame(n, 0)) {
-    hbp::ScenarioParams p;
-    p.n = n;
-    side = static_cast<float>(p.world_side());
-    std::vector<Aabb> aabbs;
-    to_aabbs(boxes, aabbs);
-    bp.add(aabbs, {.is_static = true});
+  explicit QueryWorld(std::uint32_t n) : boxes(paper_frame(n, 0)), side(paper_side(n)) {
+    add_static(bp, boxes);
     proxies.resize(n);
     for (std::uint32_t i = 0; i < n; ++i)
       proxies[i] = dbvt.createProxy(hbp::baselines::bullet_min(boxes, i), hbp::baselines::bullet_max(boxes, i),
@@ -561,14 +566,62 @@ struct RayCollect : btBroadphaseRayCallback {
 constexpr int kQueries = 20000;
 constexpr int kChecked = 100;  // brute-force checked per run
 
-// The query benchmarks' world of n objects, built once and kept between runs.
-QueryWorld& query_world(std::uint32_t n) {
-  static QueryWorld* world = nullptr;
+// A query benchmark's world of n objects, built once and kept between runs
+// (and iterations) of the benchmarks that use that kind of world.
+template <class World>
+World& kept_world(std::uint32_t n) {
+  static World* world = nullptr;
   if (!world || world->boxes.size() != n) {
     delete world;
-    world = new QueryWorld(n);
+    world = new World(n);
   }
   return *world;
+}
+
+// Random rays inside the world: unit direction, origins uniform in the world.
+struct Ray {
+  float o[3], d[3];
+};
+std::vector<Ray> random_rays(float side, std::uint64_t seed) {
+  hbp::Random rng(seed);
+  std::vector<Ray> rays(kQueries);
+  for (Ray& r : rays) {
+    float len = 0;
+    do {
+      for (int k = 0; k < 3; ++k) r.d[k] = static_cast<float>(rng.uniform(-1, 1));
+      len = std::sqrt(r.d[0] * r.d[0] + r.d[1] * r.d[1] + r.d[2] * r.d[2]);
+    } while (len < 0.1f || len > 1);
+    for (int k = 0; k < 3; ++k) {
+      r.d[k] /= len;
+      r.o[k] = static_cast<float>(rng.uniform(0, side));
+    }
+  }
+  return rays;
+}
+
+// A ray's ends for Bullet: origin and origin + length * direction.
+btVector3 bullet_from(const Ray& r) { return btVector3(r.o[0], r.o[1], r.o[2]); }
+btVector3 bullet_to(const Ray& r, float length) {
+  return bullet_from(r) + length * btVector3(r.d[0], r.d[1], r.d[2]);
+}
+
+// Every box of `boxes` that hits(min, max, t) accepts, as (t, object index)
+// sorted: the brute-force answer of a ray or a cast, in the query's order.
+template <class Hits>
+std::vector<std::pair<float, Handle>> scan_hits(const BoxArray& boxes, const Hits& hits) {
+  std::vector<std::pair<float, Handle>> want;
+  for (std::uint32_t k = 0; k < boxes.size(); ++k) {
+    const Aabb b = boxes.get(k);
+    float t;
+    if (hits(b.min, b.max, t)) want.emplace_back(t, k);
+  }
+  std::sort(want.begin(), want.end());
+  return want;
+}
+std::vector<Handle> handles_of(const std::vector<std::pair<float, Handle>>& hits) {
+  std::vector<Handle> h;
+  for (const auto& x : hits) h.push_back(x.second);
+  return h;
 }
 
 // Wall and calling-thread CPU seconds of one run of f.
@@ -577,10 +630,8 @@ struct Seconds {
 };
 template <class F>
 Seconds time_run(F&& f) {
-  const auto t0 = SteadyClock::now();
-  const double c0 = thread_cpu_ms();
-  f();
-  return {ms_since(t0) / 1000, (thread_cpu_ms() - c0) / 1000};
+  const Millis ms = time_ms(std::forward<F>(f));
+  return {ms.wall / 1000, ms.cpu / 1000};
 }
 
 // ours_<what>_per_s, dbvt_<what>_per_s and the same per CPU second.
@@ -593,7 +644,7 @@ void rate_counters(benchmark::State& state, const std::string& what, Seconds our
 
 void BoxQueries(benchmark::State& state) {
   const auto n = static_cast<std::uint32_t>(state.range(0));
-  QueryWorld& w = query_world(n);
+  QueryWorld& w = kept_world<QueryWorld>(n);
   // Boxes of the objects' sizes: object boxes moved to random places.
   hbp::Random rng(3);
   std::vector<Aabb> queries(kQueries);
@@ -643,24 +694,9 @@ void BoxQueries(benchmark::State& state) {
 
 void RayQueries(benchmark::State& state) {
   const auto n = static_cast<std::uint32_t>(state.range(0));
-  QueryWorld& w = query_world(n);
+  QueryWorld& w = kept_world<QueryWorld>(n);
   // Random rays of 500 m inside the world: unit direction, max_t = 500.
-  hbp::Random rng(4);
-  struct Ray {
-    float o[3], d[3];
-  };
-  std::vector<Ray> rays(kQueries);
-  for (Ray& r : rays) {
-    float len = 0;
-    do {
-      for (int k = 0; k < 3; ++k) r.d[k] = static_cast<float>(rng.uniform(-1, 1));
-      len = std::sqrt(r.d[0] * r.d[0] + r.d[1] * r.d[1] + r.d[2] * r.d[2]);
-    } while (len < 0.1f || len > 1);
-    for (int k = 0; k < 3; ++k) {
-      r.d[k] /= len;
-      r.o[k] = static_cast<float>(rng.uniform(0, w.side));
-    }
-  }
+  const std::vector<Ray> rays = random_rays(w.side, 4);
   constexpr float kLength = 500;
   std::uint64_t hits = 0;
   Seconds ours, dbvt;
@@ -671,10 +707,8 @@ void RayQueries(benchmark::State& state) {
     });
     dbvt = time_run([&] {
       for (const Ray& r : rays) {
-        const btVector3 from(r.o[0], r.o[1], r.o[2]);
-        const btVector3 to = from + kLength * btVector3(r.d[0], r.d[1], r.d[2]);
-        RayCollect c(from, to);
-        w.dbvt.rayTest(from, to, c);
+        RayCollect c(bullet_from(r), bullet_to(r, kLength));
+        w.dbvt.rayTest(bullet_from(r), bullet_to(r, kLength), c);
       }
     });
     state.SetIterationTime(ours.wall);
@@ -684,21 +718,13 @@ void RayQueries(benchmark::State& state) {
   for (int i = 0; i < kChecked; ++i) {
     const Ray& r = rays[static_cast<std::size_t>(i)];
     const hbp::detail::RaySegment seg(r.o, r.d, kLength);
-    std::vector<std::pair<float, Handle>> want;
-    for (std::uint32_t k = 0; k < n; ++k) {
-      const Aabb b = w.boxes.get(k);
-      float t;
-      if (seg.hits(b.min, b.max, t)) want.emplace_back(t, k);
-    }
-    std::sort(want.begin(), want.end());
-    std::vector<Handle> want_h;
-    for (const auto& x : want) want_h.push_back(x.second);
+    std::vector<Handle> want_h = handles_of(scan_hits(w.boxes, [&](const float* lo, const float* hi, float& t) {
+      return seg.hits(lo, hi, t);
+    }));
     if (w.bp.query_ray(r.o, r.d, kLength) != want_h)
       throw std::runtime_error("ray " + std::to_string(i) + " differs from brute force");
-    const btVector3 from(r.o[0], r.o[1], r.o[2]);
-    const btVector3 to = from + kLength * btVector3(r.d[0], r.d[1], r.d[2]);
-    RayCollect c(from, to);
-    w.dbvt.rayTest(from, to, c);
+    RayCollect c(bullet_from(r), bullet_to(r, kLength));
+    w.dbvt.rayTest(bullet_from(r), bullet_to(r, kLength), c);
     std::sort(c.ids.begin(), c.ids.end());
     std::sort(want_h.begin(), want_h.end());
     for (Handle h : want_h) dbvt_missed += std::binary_search(c.ids.begin(), c.ids.end(), h) ? 0 : 1;
@@ -748,45 +774,10 @@ struct CastWorld {
   BulletQueryWorld bullet;
   float side = 0;
 
-  explicit CastWorld(std::uint32_t n) : boxes(paper_frame(n, 0)), bullet(boxes) {
-    hbp::ScenarioParams p;
-    p.n = n;
-    side = static_cast<float>(p.world_side());
-    std::vector<Aabb> aabbs;
-    to_aabbs(boxes, aabbs);
-    bp.add(aabbs, {.is_static = true});
+  explicit CastWorld(std::uint32_t n) : boxes(paper_frame(n, 0)), bullet(boxes), side(paper_side(n)) {
+    add_static(bp, boxes);
   }
 };
-
-CastWorld& cast_world(std::uint32_t n) {
-  static CastWorld* world = nullptr;
-  if (!world || world->boxes.size() != n) {
-    delete world;
-    world = new CastWorld(n);
-  }
-  return *world;
-}
-
-struct Ray {
-  float o[3], d[3];
-};
-// Random rays inside the world: unit direction (RayQueries' rays).
-std::vector<Ray> random_rays(float side, std::uint64_t seed) {
-  hbp::Random rng(seed);
-  std::vector<Ray> rays(kQueries);
-  for (Ray& r : rays) {
-    float len = 0;
-    do {
-      for (int k = 0; k < 3; ++k) r.d[k] = static_cast<float>(rng.uniform(-1, 1));
-      len = std::sqrt(r.d[0] * r.d[0] + r.d[1] * r.d[1] + r.d[2] * r.d[2]);
-    } while (len < 0.1f || len > 1);
-    for (int k = 0; k < 3; ++k) {
-      r.d[k] /= len;
-      r.o[k] = static_cast<float>(rng.uniform(0, side));
-    }
-  }
-  return rays;
-}
 
 // The median run of several (by CPU time, the wall time of that run with it).
 Seconds median_run(std::vector<Seconds> runs) {
@@ -807,7 +798,7 @@ void bullet_rate_counters(benchmark::State& state, const std::string& what, cons
 
 void ClosestRays(benchmark::State& state) {
   const auto n = static_cast<std::uint32_t>(state.range(0));
-  CastWorld& w = cast_world(n);
+  CastWorld& w = kept_world<CastWorld>(n);
   BulletQueryWorld& bw = w.bullet;
   const std::vector<Ray> rays = random_rays(w.side, 4);
   constexpr float kLength = 500;
@@ -824,10 +815,8 @@ void ClosestRays(benchmark::State& state) {
     const Seconds bullet = time_run([&] {
       bullet_found = 0;
       for (const Ray& r : rays) {
-        const btVector3 from(r.o[0], r.o[1], r.o[2]);
-        const btVector3 to = from + kLength * btVector3(r.d[0], r.d[1], r.d[2]);
-        btCollisionWorld::ClosestRayResultCallback c(from, to);
-        bw.world.rayTest(from, to, c);
+        btCollisionWorld::ClosestRayResultCallback c(bullet_from(r), bullet_to(r, kLength));
+        bw.world.rayTest(bullet_from(r), bullet_to(r, kLength), c);
         bullet_found += c.hasHit();
       }
     });
@@ -864,10 +853,8 @@ void ClosestRays(benchmark::State& state) {
     const std::optional<hbp::RayHit> got = w.bp.raycast_closest({r.o[0], r.o[1], r.o[2]}, {r.d[0], r.d[1], r.d[2]}, kLength);
     if (got.has_value() != (best.second != hbp::kInvalidHandle) || (got && (got->handle != best.second || got->t != best.first)))
       throw std::runtime_error("closest ray " + std::to_string(i) + " differs from brute force");
-    const btVector3 from(r.o[0], r.o[1], r.o[2]);
-    const btVector3 to = from + kLength * btVector3(r.d[0], r.d[1], r.d[2]);
-    btCollisionWorld::ClosestRayResultCallback c(from, to);
-    bw.world.rayTest(from, to, c);
+    btCollisionWorld::ClosestRayResultCallback c(bullet_from(r), bullet_to(r, kLength));
+    bw.world.rayTest(bullet_from(r), bullet_to(r, kLength), c);
     same_as_bullet += c.hasHit() ? (got && static_cast<Handle>(c.m_collisionObject->getUserIndex()) == got->handle) : !got;
     starts_inside += got && got->t == 0;
   }
@@ -885,7 +872,7 @@ void ClosestRays(benchmark::State& state) {
 
 void BoxCasts(benchmark::State& state) {
   const auto n = static_cast<std::uint32_t>(state.range(0));
-  CastWorld& w = cast_world(n);
+  CastWorld& w = kept_world<CastWorld>(n);
   BulletQueryWorld& bw = w.bullet;
   // Boxes of the objects' sizes at random places, cast 20 m along the rays' directions.
   constexpr float kLength = 20;
@@ -939,15 +926,8 @@ void BoxCasts(benchmark::State& state) {
   for (int i = 0; i < kChecked; ++i) {
     const auto d = displacement(static_cast<std::size_t>(i));
     const hbp::detail::BoxCast cast(boxes[static_cast<std::size_t>(i)], d.data());
-    std::vector<std::pair<float, Handle>> want;
-    for (std::uint32_t k = 0; k < n; ++k) {
-      const Aabb b = w.boxes.get(k);
-      float t;
-      if (cast.hits(b.min, b.max, t)) want.emplace_back(t, k);
-    }
-    std::sort(want.begin(), want.end());
-    std::vector<Handle> want_h;
-    for (const auto& x : want) want_h.push_back(x.second);
+    const auto want = scan_hits(w.boxes, [&](const float* lo, const float* hi, float& t) { return cast.hits(lo, hi, t); });
+    const std::vector<Handle> want_h = handles_of(want);
     if (w.bp.query_box_cast(boxes[static_cast<std::size_t>(i)], d) != want_h)
       throw std::runtime_error("box cast " + std::to_string(i) + " differs from brute force");
     const btVector3 from = centre(static_cast<std::size_t>(i));

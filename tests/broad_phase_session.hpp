@@ -7,7 +7,7 @@
 // pair of live objects, at least one moving, overlapping, layers colliding,
 // filter accepting), created/removed as the set differences with the
 // previous frame, the stats' counts, and each object's handle, kind, box and
-// layer. Shared by the sleeping and the snapshot tests.
+// layer. Shared by the broad-phase, sleeping and snapshot tests.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -16,7 +16,9 @@
 #include <set>
 #include <vector>
 
+#include "grid_boxes.hpp"
 #include "hbp/broad_phase.hpp"
+#include "pair_sets.hpp"
 
 namespace hbp::test {
 
@@ -32,12 +34,6 @@ inline bool same_box(const Aabb& a, const Aabb& b) {
   return true;
 }
 
-inline std::vector<Pair> minus(const std::vector<Pair>& a, const std::vector<Pair>& b) {
-  std::vector<Pair> out;
-  std::set_difference(a.begin(), a.end(), b.begin(), b.end(), std::back_inserter(out));
-  return out;
-}
-
 struct Reference {
   std::map<Handle, RefObject> objects;
   std::uint32_t mask[kLayerCount];
@@ -50,6 +46,17 @@ struct Reference {
   std::set<Handle> moved, static_changed;
 
   Reference() { std::fill(std::begin(mask), std::end(mask), 0xFFFFFFFFu); }
+
+  // BroadPhase::set_collides: layers a and b (either order) collide or not.
+  void set_collides(std::uint32_t a, std::uint32_t b, bool c) {
+    if (c) {
+      mask[a] |= 1u << b;
+      mask[b] |= 1u << a;
+    } else {
+      mask[a] &= ~(1u << b);
+      mask[b] &= ~(1u << a);
+    }
+  }
 
   std::vector<Pair> pairs() const {
     std::vector<std::pair<Handle, const RefObject*>> v;
@@ -69,29 +76,6 @@ struct Reference {
     return out;
   }
 };
-
-// Boxes on a half-metre grid in a small world: many overlaps and exactly
-// touching faces.
-inline Aabb random_box(std::mt19937& rng, float world) {
-  std::uniform_int_distribution<int> pos(0, static_cast<int>(world * 2));
-  std::uniform_int_distribution<int> size(0, 6);
-  Aabb b;
-  for (int k = 0; k < 3; ++k) {
-    b.min[k] = 0.5f * static_cast<float>(pos(rng));
-    b.max[k] = b.min[k] + 0.5f * static_cast<float>(size(rng));
-  }
-  return b;
-}
-
-inline Aabb nudged(std::mt19937& rng, Aabb b) {
-  std::uniform_int_distribution<int> step(-2, 2);
-  for (int k = 0; k < 3; ++k) {
-    const float d = 0.5f * static_cast<float>(step(rng));
-    b.min[k] += d;
-    b.max[k] += d;
-  }
-  return b;
-}
 
 // One randomized session: every edit goes to each system and the reference.
 // Copyable: a copy continues with the same random stream, so two copies
@@ -190,13 +174,7 @@ struct Session {
 
   void set_collides(std::uint32_t a, std::uint32_t b, bool c) {
     for (BroadPhase* s : systems) s->set_collides(a, b, c);
-    if (c) {
-      ref.mask[a] |= 1u << b;
-      ref.mask[b] |= 1u << a;
-    } else {
-      ref.mask[a] &= ~(1u << b);
-      ref.mask[b] &= ~(1u << a);
-    }
+    ref.set_collides(a, b, c);
   }
 
   void set_filter(BroadPhase::PairFilter f) {

@@ -1,10 +1,10 @@
 // SPDX-License-Identifier: MIT
-// hbp::BroadPhase against a brute-force reference written here: every live
-// pair, minus static/static pairs, minus pairs whose layers do not collide or
-// the pair filter rejects, on every frame of randomized edit sequences; events
-// as the set difference with the previous frame; queries against a scan of
-// every object. Plus stale handles, errors that change nothing, and 1 vs 2
-// threads.
+// hbp::BroadPhase against the brute-force reference of broad_phase_session.hpp:
+// every live pair, minus static/static pairs, minus pairs whose layers do not
+// collide or the pair filter rejects, on every frame of randomized edit
+// sequences; events as the set difference with the previous frame; queries
+// against a scan of every object. Plus stale handles, errors that change
+// nothing, and 1 vs 2 threads.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -17,6 +17,7 @@
 #include <span>
 #include <vector>
 
+#include "broad_phase_session.hpp"
 #include "hbp/broad_phase.hpp"
 #include "hbp/error.hpp"
 
@@ -27,54 +28,12 @@ using hbp::BroadPhase;
 using hbp::Handle;
 using hbp::Pair;
 
-struct RefObject {
-  Aabb box;
-  bool is_static;
-  std::uint8_t layer;
-};
-
-// The reference world: what the broad phase should report.
-struct Reference {
-  std::map<Handle, RefObject> objects;
-  std::uint32_t mask[32];
-  BroadPhase::PairFilter filter;
-  std::vector<Pair> previous;
-  // The objects the stats count since the last update: moving ones added or
-  // moved to another box, static ones added, moved to another box or removed.
-  std::set<Handle> moved, static_changed;
-
-  Reference() { std::fill(std::begin(mask), std::end(mask), 0xFFFFFFFFu); }
-
-  std::vector<Pair> pairs() const {
-    std::vector<std::pair<Handle, const RefObject*>> v;
-    for (const auto& [h, o] : objects) v.emplace_back(h, &o);
-    std::vector<Pair> out;
-    for (std::size_t i = 0; i < v.size(); ++i)
-      for (std::size_t j = i + 1; j < v.size(); ++j) {
-        const RefObject& a = *v[i].second;
-        const RefObject& b = *v[j].second;
-        if (a.is_static && b.is_static) continue;
-        if (!hbp::overlaps(a.box, b.box)) continue;
-        if (!((mask[a.layer] >> b.layer) & 1u)) continue;
-        const Pair p{v[i].first, v[j].first};  // map order: a < b
-        if (filter && !filter(p.a, p.b)) continue;
-        out.push_back(p);
-      }
-    return out;
-  }
-};
-
-bool same_box(const Aabb& a, const Aabb& b) {
-  for (int k = 0; k < 3; ++k)
-    if (a.min[k] != b.min[k] || a.max[k] != b.max[k]) return false;
-  return true;
-}
-
-std::vector<Pair> minus(const std::vector<Pair>& a, const std::vector<Pair>& b) {
-  std::vector<Pair> out;
-  std::set_difference(a.begin(), a.end(), b.begin(), b.end(), std::back_inserter(out));
-  return out;
-}
+using hbp::test::minus;
+using hbp::test::nudged;
+using hbp::test::random_box;
+using hbp::test::RefObject;
+using hbp::test::Reference;
+using hbp::test::same_box;
 
 // The reference slab test: the segment o + t d, 0 <= t <= max_t, against the
 // closed box; axes with d = 0 (or 1/d infinite) need o inside the slab.
@@ -136,29 +95,6 @@ struct ThreadTwins {
     ref.previous = want;
   }
 };
-
-// Boxes on a half-metre grid in a small world: many overlaps and exactly
-// touching faces.
-Aabb random_box(std::mt19937& rng, float world) {
-  std::uniform_int_distribution<int> pos(0, static_cast<int>(world * 2));
-  std::uniform_int_distribution<int> size(0, 6);
-  Aabb b;
-  for (int k = 0; k < 3; ++k) {
-    b.min[k] = 0.5f * static_cast<float>(pos(rng));
-    b.max[k] = b.min[k] + 0.5f * static_cast<float>(size(rng));
-  }
-  return b;
-}
-
-Aabb nudged(std::mt19937& rng, Aabb b) {
-  std::uniform_int_distribution<int> step(-2, 2);
-  for (int k = 0; k < 3; ++k) {
-    const float d = 0.5f * static_cast<float>(step(rng));
-    b.min[k] += d;
-    b.max[k] += d;
-  }
-  return b;
-}
 
 // Every box and ray query of a handful, against a scan of the reference.
 void check_queries(const BroadPhase& bp, const Reference& ref, std::mt19937& rng, const Aabb& probe, int count) {
@@ -313,13 +249,7 @@ struct Session {
 
   void set_collides(std::uint32_t a, std::uint32_t b, bool c) {
     for (BroadPhase* s : systems) s->set_collides(a, b, c);
-    if (c) {
-      ref.mask[a] |= 1u << b;
-      ref.mask[b] |= 1u << a;
-    } else {
-      ref.mask[a] &= ~(1u << b);
-      ref.mask[b] &= ~(1u << a);
-    }
+    ref.set_collides(a, b, c);
   }
 
   void set_filter(BroadPhase::PairFilter f) {

@@ -18,8 +18,10 @@
 #include <string>
 #include <vector>
 
+#include "grid_boxes.hpp"
 #include "hbp/broad_phase.hpp"
 #include "hbp/error.hpp"
+#include "pair_sets.hpp"
 
 namespace {
 
@@ -27,6 +29,7 @@ using hbp::Aabb;
 using hbp::BroadPhase;
 using hbp::Handle;
 using hbp::Pair;
+using hbp::test::minus;
 
 struct Object {
   Aabb stored;
@@ -53,15 +56,6 @@ bool overlap(const Aabb& a, const Aabb& b) {
 }
 bool same(const Aabb& a, const Aabb& b) { return std::memcmp(&a, &b, sizeof(Aabb)) == 0; }
 
-Aabb grid_box(std::mt19937& rng, int world) {
-  std::uniform_int_distribution<int> pos(0, world * 2), size(0, 4);
-  Aabb b;
-  for (int k = 0; k < 3; ++k) {
-    b.min[k] = 0.5f * static_cast<float>(pos(rng));
-    b.max[k] = b.min[k] + 0.5f * static_cast<float>(size(rng));
-  }
-  return b;
-}
 float random_margin(std::mt19937& rng) {
   static const float m[] = {0.0f, 0.0f, 0.25f, 0.5f, 1.5f};
   return m[rng() % 5];
@@ -80,12 +74,6 @@ struct Reference {
   }
 };
 
-std::vector<Pair> minus(const std::vector<Pair>& a, const std::vector<Pair>& b) {
-  std::vector<Pair> out;
-  std::set_difference(a.begin(), a.end(), b.begin(), b.end(), std::back_inserter(out));
-  return out;
-}
-
 void step(std::vector<BroadPhase*> bps, Reference& ref, std::mt19937& rng, int world, std::size_t target,
           bool with_statics) {
   std::vector<Handle> live;
@@ -94,7 +82,7 @@ void step(std::vector<BroadPhase*> bps, Reference& ref, std::mt19937& rng, int w
     const bool is_static = with_statics && rng() % 4 == 0;
     const float m = random_margin(rng);
     std::vector<Aabb> boxes(1 + rng() % 5);
-    for (Aabb& b : boxes) b = grid_box(rng, world);
+    for (Aabb& b : boxes) b = hbp::test::grid_box(rng, world, 4);
     std::vector<Handle> got;
     for (BroadPhase* bp : bps) got = bp->add(boxes, {.is_static = is_static, .margin = m});
     for (std::size_t i = 0; i < got.size(); ++i) {
@@ -141,7 +129,7 @@ void step(std::vector<BroadPhase*> bps, Reference& ref, std::mt19937& rng, int w
   std::vector<Aabb> given;
   for (auto& [h, o] : ref.objects) {
     if (o.is_static ? rng() % 30 != 0 : !whole && rng() % 3 != 0) continue;
-    Aabb b = grid_box(rng, world);  // a teleport now and then
+    Aabb b = hbp::test::grid_box(rng, world, 4);  // a teleport now and then
     if (rng() % 10 != 0) {          // else a step from the last given position
       const Aabb base = o.swept ? o.end : o.stored;
       for (int k = 0; k < 3; ++k) {
@@ -197,7 +185,7 @@ void check(std::vector<BroadPhase*> bps, Reference& ref, std::mt19937& rng, int 
       ASSERT_TRUE(same(bp->box(h), o.stored)) << "handle " << h;
       ASSERT_EQ(bp->margin(h), o.margin);
     }
-    const Aabb q = grid_box(rng, world);
+    const Aabb q = hbp::test::grid_box(rng, world, 4);
     std::vector<Handle> hits;
     for (const auto& [h, o] : ref.objects)
       if (overlap(o.stored, q)) hits.push_back(h);

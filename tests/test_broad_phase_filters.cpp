@@ -19,8 +19,10 @@
 #include <string>
 #include <vector>
 
+#include "grid_boxes.hpp"
 #include "hbp/broad_phase.hpp"
 #include "hbp/error.hpp"
+#include "pair_sets.hpp"
 #include "pipeline/box_cast.hpp"
 #include "pipeline/ray_segment.hpp"
 
@@ -31,6 +33,7 @@ using hbp::BroadPhase;
 using hbp::Filter;
 using hbp::Handle;
 using hbp::Pair;
+using hbp::test::minus;
 using hbp::QueryFilter;
 using Vec3f = BroadPhase::Vec3f;
 
@@ -90,22 +93,6 @@ struct Reference {
   }
 };
 
-std::vector<Pair> minus(const std::vector<Pair>& a, const std::vector<Pair>& b) {
-  std::vector<Pair> out;
-  std::set_difference(a.begin(), a.end(), b.begin(), b.end(), std::back_inserter(out));
-  return out;
-}
-
-Aabb grid_box(std::mt19937& rng, int world) {
-  std::uniform_int_distribution<int> pos(0, world * 2), size(0, 5);
-  Aabb b;
-  for (int k = 0; k < 3; ++k) {
-    b.min[k] = 0.5f * static_cast<float>(pos(rng));
-    b.max[k] = b.min[k] + 0.5f * static_cast<float>(size(rng));
-  }
-  return b;
-}
-
 // Filters from a few bits and groups, so every branch of the rule occurs;
 // the default half the time (the count of filtered objects returns to 0).
 Filter random_filter(std::mt19937& rng) {
@@ -137,7 +124,7 @@ void random_edits(std::vector<Side*> sides, Reference& ref, std::mt19937& rng, i
   if (ref.objects.size() < target || rng() % 4 == 0) {
     const bool is_static = with_statics && rng() % 3 == 0;
     std::vector<Aabb> boxes(1 + rng() % 6);
-    for (Aabb& b : boxes) b = grid_box(rng, world);
+    for (Aabb& b : boxes) b = hbp::test::grid_box(rng, world, 5);
     const hbp::AddOptions o{.is_static = is_static,
                             .layer = static_cast<std::uint8_t>(rng() % 3),
                             .filter = random_filter(rng),
@@ -221,7 +208,7 @@ void random_edits(std::vector<Side*> sides, Reference& ref, std::mt19937& rng, i
     if (o.is_static ? rng() % 40 != 0 : rng() % 3 == 0) continue;
     Aabb b = o.box;
     if (rng() % 12 == 0) {
-      b = grid_box(rng, world);
+      b = hbp::test::grid_box(rng, world, 5);
     } else {
       const int k = static_cast<int>(rng() % 3);
       const float s = 0.5f * (static_cast<float>(rng() % 3) - 1.0f);
@@ -280,7 +267,7 @@ bool passes(const QueryFilter& q, const Object& o) {
 void check_filtered_queries(const BroadPhase& bp, const Reference& ref, std::mt19937& rng, int world) {
   for (int n = 0; n < 3; ++n) {
     const QueryFilter q = random_query_filter(rng);
-    const Aabb box = grid_box(rng, world);
+    const Aabb box = hbp::test::grid_box(rng, world, 5);
     std::vector<Handle> want;
     for (const auto& [h, o] : ref.objects)
       if (passes(q, o) && overlap(o.box, box)) want.push_back(h);

@@ -16,6 +16,7 @@
 
 #include "hbp/broad_phase.hpp"
 #include "hbp/error.hpp"
+#include "pair_sets.hpp"
 
 namespace {
 
@@ -24,6 +25,7 @@ using hbp::AabbD;
 using hbp::BroadPhase;
 using hbp::Handle;
 using hbp::Pair;
+using hbp::test::minus;
 
 struct Object {
   Handle h;
@@ -43,12 +45,6 @@ std::vector<Pair> brute_pairs(const std::vector<Object>& objs, const std::vector
       out.push_back(Pair{std::min(objs[i].h, objs[j].h), std::max(objs[i].h, objs[j].h)});
     }
   std::sort(out.begin(), out.end());
-  return out;
-}
-
-std::vector<Pair> minus(const std::vector<Pair>& a, const std::vector<Pair>& b) {
-  std::vector<Pair> out;
-  std::set_difference(a.begin(), a.end(), b.begin(), b.end(), std::back_inserter(out));
   return out;
 }
 

@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "grid_boxes.hpp"
 #include "hbp/broad_phase.hpp"
 #include "hbp/error.hpp"
 #include "pipeline/box_cast.hpp"
@@ -66,20 +67,9 @@ std::vector<Hit> scan_cast(const std::map<Handle, Aabb>& objects, const Aabb& bo
   return hits;
 }
 
-// Boxes on a half-metre grid: touching faces, flat and point boxes.
-Aabb grid_box(std::mt19937& rng, int world) {
-  std::uniform_int_distribution<int> pos(0, world * 2), size(0, 6);
-  Aabb b;
-  for (int k = 0; k < 3; ++k) {
-    b.min[k] = 0.5f * static_cast<float>(pos(rng));
-    b.max[k] = b.min[k] + 0.5f * static_cast<float>(size(rng));
-  }
-  return b;
-}
-
 // Off-grid boxes too, so entry t ties are rare as well as common.
 Aabb any_box(std::mt19937& rng, int world) {
-  if (rng() % 2) return grid_box(rng, world);
+  if (rng() % 2) return hbp::test::grid_box(rng, world, 6);
   std::uniform_real_distribution<float> pos(-1.0f, static_cast<float>(world) + 1.0f), size(0.0f, 3.0f);
   Aabb b;
   for (int k = 0; k < 3; ++k) {

@@ -28,6 +28,7 @@
 #include "hbp/pair.hpp"
 #include "integrations/world/falling_shapes_world.hpp"
 #include "integrations/world/side_by_side.hpp"
+#include "pair_sets.hpp"
 
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wunused-parameter"
@@ -41,6 +42,7 @@ namespace {
 
 using hbp::Aabb;
 using hbp::Pair;
+using hbp::test::minus;
 using hbp::bullet::BroadphaseAdapter;
 
 // Objects carry an id (stable across frames) as their user pointer.
@@ -93,12 +95,6 @@ std::vector<Pair> expected_pairs(const std::vector<btBroadphaseProxy*>& proxies,
           cache.needsBroadphaseCollision(proxies[i], proxies[j]))
         out.push_back(hbp::make_pair(id_of(proxies[i]), id_of(proxies[j])));
   hbp::sort_pairs(out);
-  return out;
-}
-
-std::vector<Pair> set_minus(const std::vector<Pair>& a, const std::vector<Pair>& b) {
-  std::vector<Pair> out;
-  std::set_difference(a.begin(), a.end(), b.begin(), b.end(), std::back_inserter(out));
   return out;
 }
 
@@ -163,7 +159,7 @@ TEST(BulletBroadphase, CacheIsExactAndIncrementalUnderChurn) {
         for (const Pair& p : before)
           if (p.a == id || p.b == id) gone.push_back(p);
         EXPECT_EQ(log.sorted_removed(), gone) << "frame " << frame;
-        before = set_minus(before, gone);
+        before = minus(before, gone);
       }
       const int add = static_cast<int>(rng() % 12);
       for (int k = 0; k < add; ++k) create();
@@ -188,8 +184,8 @@ TEST(BulletBroadphase, CacheIsExactAndIncrementalUnderChurn) {
     ASSERT_TRUE(hbp::diff_pairs(expected, actual).empty())
         << "frame " << frame << ": " << hbp::diff_pairs(expected, actual).summary();
     // Incremental: exactly the appeared pairs were added, the separated ones removed.
-    EXPECT_EQ(log.sorted_added(), set_minus(actual, before)) << "frame " << frame;
-    EXPECT_EQ(log.sorted_removed(), set_minus(before, actual)) << "frame " << frame;
+    EXPECT_EQ(log.sorted_added(), minus(actual, before)) << "frame " << frame;
+    EXPECT_EQ(log.sorted_removed(), minus(before, actual)) << "frame " << frame;
     filtered_out += bp.counters().last_pairs - actual.size();
     total_changes += log.added.size() + log.removed.size();
     total_pairs += actual.size();

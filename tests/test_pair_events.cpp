@@ -11,17 +11,13 @@
 #include <vector>
 
 #include "hbp/pair.hpp"
+#include "pair_sets.hpp"
 #include "pipeline/pair_events.hpp"
 
 namespace {
 
 using hbp::Pair;
-
-std::vector<Pair> minus(const std::vector<Pair>& a, const std::vector<Pair>& b) {
-  std::vector<Pair> out;
-  std::set_difference(a.begin(), a.end(), b.begin(), b.end(), std::back_inserter(out));
-  return out;
-}
+using hbp::test::minus;
 
 // Sorted distinct pairs a < b with ids below `ids`.
 std::vector<Pair> random_pairs(std::size_t n, std::uint32_t ids, std::mt19937& rng) {

@@ -12,6 +12,7 @@
 #include "hbp/narrow/narrow_phase.hpp"
 #include "hbp/raytrace/colliding_objects.hpp"
 #include "hbp/scenario.hpp"
+#include "scenario_hierarchy.hpp"
 
 namespace hbp {
 namespace {
@@ -22,27 +23,19 @@ struct Case {
 };
 
 void expect_matches_brute_force(const Case& c) {
-  ScenarioParams sp;
-  sp.kind = c.kind;
-  sp.n = c.n;
-  sp.seed = 11;
-  Scenario scenario(sp);
-  TwoLevelHierarchy h({.cell_limit = c.cell_limit});
-  BoxArray boxes;
+  test::ScenarioHierarchy w({.kind = c.kind, .n = c.n, .seed = 11}, {.cell_limit = c.cell_limit});
   for (std::uint32_t f = 0; f <= c.frames; ++f) {
-    if (f > 0) scenario.step();
-    scenario.compute_boxes(boxes);
-    h.update(boxes);
-    const CollidingObjects got = colliding_objects(h, scenario.shapes());
+    w.frame(f);
+    const CollidingObjects got = colliding_objects(w.h, w.scenario.shapes());
 
-    const std::vector<Pair> all = brute_force_pairs(boxes);
+    const std::vector<Pair> all = brute_force_pairs(w.boxes);
     std::vector<Contact> contacts;
-    NarrowPhase({.contacts = false}).process(scenario.shapes(), all.data(), all.size(), contacts);
-    std::vector<std::uint8_t> flags(scenario.size(), 0);
+    NarrowPhase({.contacts = false}).process(w.scenario.shapes(), all.data(), all.size(), contacts);
+    std::vector<std::uint8_t> flags(w.scenario.size(), 0);
     for (const Contact& k : contacts) flags[k.a] = flags[k.b] = 1;
 
     SCOPED_TRACE("frame " + std::to_string(f));
-    ASSERT_GT(h.cell_count(), 1u);  // pairs straddle cells: de-duplication has work
+    ASSERT_GT(w.h.cell_count(), 1u);  // pairs straddle cells: de-duplication has work
     EXPECT_EQ(got.candidate_pairs, all.size());
     EXPECT_EQ(got.colliding_pairs, contacts.size());
     EXPECT_EQ(got.flags, flags);

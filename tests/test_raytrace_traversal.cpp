@@ -15,6 +15,7 @@
 #include "hbp/raytrace/traversal.hpp"
 #include "hbp/scenario.hpp"
 #include "hierarchy/cell_bvh.hpp"
+#include "scenario_hierarchy.hpp"
 
 namespace hbp {
 namespace {
@@ -95,24 +96,14 @@ struct Case {
 };
 
 Agreement run_case(const Case& c) {
-  ScenarioParams sp;
-  sp.kind = c.kind;
-  sp.n = c.n;
-  sp.seed = 7;
-  Scenario scenario(sp);
-  TwoLevelHierarchy h({.cell_limit = c.cell_limit});
-  BoxArray boxes;
-  for (std::uint32_t f = 0; f <= c.frames; ++f) {
-    if (f > 0) scenario.step();
-    scenario.compute_boxes(boxes);
-    h.update(boxes);
-  }
+  test::ScenarioHierarchy w({.kind = c.kind, .n = c.n, .seed = 7}, {.cell_limit = c.cell_limit});
+  for (std::uint32_t f = 0; f <= c.frames; ++f) w.frame(f);
   std::vector<ShapeGeometry> geometry;
-  prepare_shapes(scenario.shapes(), geometry);
+  prepare_shapes(w.scenario.shapes(), geometry);
   std::vector<BvhNode> full;
   bvh::Scratch scratch;
-  bvh::build(boxes, full, scratch);
-  const Agreement a = compare(h, geometry, random_rays(scenario, c.rays, c.n + c.frames), full);
+  bvh::build(w.boxes, full, scratch);
+  const Agreement a = compare(w.h, geometry, random_rays(w.scenario, c.rays, c.n + c.frames), full);
   EXPECT_EQ(a.closest_mismatch, 0u);
   EXPECT_EQ(a.any_mismatch, 0u);
   EXPECT_EQ(a.bvh_mismatch, 0u);

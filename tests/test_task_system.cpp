@@ -30,6 +30,7 @@
 #include "hbp/limits.hpp"
 #include "hbp/scenario.hpp"
 #include "hbp/task_system.hpp"
+#include "pair_sets.hpp"
 
 namespace {
 
@@ -39,6 +40,7 @@ using hbp::BroadPhaseOptions;
 using hbp::Handle;
 using hbp::HybridBroadPhase;
 using hbp::Pair;
+using hbp::test::minus;
 
 // What a test task system saw of the library's calls.
 struct ContractLog {
@@ -228,12 +230,6 @@ std::vector<Pair> sweep_pairs(const std::vector<Aabb>& boxes, std::vector<std::u
     }
   }
   std::sort(out.begin(), out.end());
-  return out;
-}
-
-std::vector<Pair> minus(const std::vector<Pair>& a, const std::vector<Pair>& b) {
-  std::vector<Pair> out;
-  std::set_difference(a.begin(), a.end(), b.begin(), b.end(), std::back_inserter(out));
   return out;
 }
 

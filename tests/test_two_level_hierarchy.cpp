@@ -15,6 +15,7 @@
 #include "hbp/scenario.hpp"
 #include "hbp/two_level_hierarchy.hpp"
 #include "hierarchy/cell_bvh.hpp"
+#include "scenario_hierarchy.hpp"
 
 namespace hbp {
 namespace {
@@ -189,18 +190,14 @@ TEST(CellBvh, EditRemovesAndInsertsObjects) {
 TEST(TwoLevelHierarchy, InvariantsHoldOverFramesOfThePaperScene) {
   ScenarioParams sp;
   sp.n = 6000;
-  Scenario scenario(sp);
-  TwoLevelHierarchy h({.cell_limit = 256});
-  BoxArray boxes;
+  test::ScenarioHierarchy w(sp, {.cell_limit = 256});
   std::uint64_t refitted = 0, edited = 0, rebuilt = 0;
-  for (int frame = 0; frame < 40; ++frame) {
-    if (frame > 0) scenario.step();
-    scenario.compute_boxes(boxes);
-    h.update(boxes);
-    const HierarchyStats& s = h.stats();
-    EXPECT_EQ(s.cells, h.cell_count());
+  for (std::uint32_t frame = 0; frame < 40; ++frame) {
+    w.frame(frame);
+    const HierarchyStats& s = w.h.stats();
+    EXPECT_EQ(s.cells, w.h.cell_count());
     EXPECT_EQ(s.refitted + s.edited + s.rebuilt, s.cells);
-    EXPECT_EQ(s.bvh_nodes, 2 * h.partition().stats().entries - s.cells);  // no empty cells here
+    EXPECT_EQ(s.bvh_nodes, 2 * w.h.partition().stats().entries - s.cells);  // no empty cells here
     if (frame == 0) {
       EXPECT_EQ(s.rebuilt, s.cells);
       EXPECT_TRUE(s.top_rebuilt);
@@ -209,9 +206,9 @@ TEST(TwoLevelHierarchy, InvariantsHoldOverFramesOfThePaperScene) {
       edited += s.edited;
       rebuilt += s.rebuilt;
     }
-    if (frame % 13 == 0 || frame == 39) expect_valid_hierarchy(h, boxes);
+    if (frame % 13 == 0 || frame == 39) expect_valid_hierarchy(w.h, w.boxes);
   }
-  EXPECT_GT(h.cell_count(), 20u);
+  EXPECT_GT(w.h.cell_count(), 20u);
   // Objects move ~0.4 m per frame in cells ~200 m wide: most cells keep their
   // tree (refit, or a few objects removed/inserted); few are rebuilt.
   EXPECT_GT(refitted + edited, 5 * rebuilt);
@@ -224,20 +221,16 @@ TEST(TwoLevelHierarchy, RebuildRatioControlsDegradationRebuilds) {
   sp.n = 3000;
   sp.linear_speed = 250;  // fast: trees degrade quickly
   for (float ratio : {1.0f, 1e6f}) {
-    Scenario scenario(sp);
-    TwoLevelHierarchy h({.cell_limit = 512, .rebuild_ratio = ratio});
-    BoxArray boxes;
+    test::ScenarioHierarchy w(sp, {.cell_limit = 512, .rebuild_ratio = ratio});
     std::uint64_t degraded = 0, kept = 0;
-    for (int frame = 0; frame < 15; ++frame) {
-      if (frame > 0) scenario.step();
-      scenario.compute_boxes(boxes);
-      h.update(boxes);
+    for (std::uint32_t frame = 0; frame < 15; ++frame) {
+      w.frame(frame);
       if (frame > 0) {
-        degraded += h.stats().degraded;
-        kept += h.stats().refitted + h.stats().edited;
+        degraded += w.h.stats().degraded;
+        kept += w.h.stats().refitted + w.h.stats().edited;
       }
     }
-    expect_valid_hierarchy(h, boxes);
+    expect_valid_hierarchy(w.h, w.boxes);
     if (ratio == 1.0f) {
       EXPECT_GT(degraded, 0u);
     } else {

@@ -18,6 +18,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -361,28 +362,36 @@ class PyBroadPhase {
   py::array_t<std::uint32_t> query_box(py::handle box_obj, const py::object& layers_mask,
                                        const py::object& category_mask) {
     const QueryFilter qf = query_filter_args(layers_mask, category_mask);
-    if (double_precision()) return query_box_d(box_obj, qf);
-    const BoxesView view = boxes_view(box_obj, "box", /*single=*/true);
-    std::vector<Handle> hits;
-    {
-      Exclusive lock(mutex_);
-      hits = bp_.query_box(view.boxes[0], qf);
-    }
-    return handles_array(std::move(hits));
+    if (double_precision()) return query_box_view(boxes_d_view(box_obj, "box", /*single=*/true), qf);
+    return query_box_view(boxes_view(box_obj, "box", /*single=*/true), qf);
   }
 
   // Many box queries in one call: row i's hits are handles[offsets[i]:offsets[i + 1]].
   py::tuple query_boxes(py::handle boxes_obj) {
-    if (double_precision()) return query_boxes_d(boxes_obj);
-    const BoxesView view = boxes_view(boxes_obj, "boxes");
+    if (double_precision()) return query_boxes_view(boxes_d_view(boxes_obj, "boxes"));
+    return query_boxes_view(boxes_view(boxes_obj, "boxes"));
+  }
+
+  // query_box and query_boxes of a float (BoxesView) or double (BoxesDView) batch.
+  template <class View>
+  py::array_t<std::uint32_t> query_box_view(const View& view, const QueryFilter& filter) {
+    std::vector<Handle> hits;
+    {
+      Exclusive lock(mutex_);
+      hits = bp_.query_box(view.boxes[0], filter);
+    }
+    return handles_array(std::move(hits));
+  }
+  template <class View>
+  py::tuple query_boxes_view(const View& view) {
     py::array_t<std::int64_t> offsets(static_cast<py::ssize_t>(view.boxes.size() + 1));
     std::int64_t* off = offsets.mutable_data();
-    std::vector<Handle> all;
+    std::vector<Handle> all, hits;
     {
       Exclusive lock(mutex_);
       off[0] = 0;
       for (std::size_t i = 0; i < view.boxes.size(); ++i) {
-        const std::vector<Handle> hits = bp_.query_box(view.boxes[i]);
+        bp_.query_box(view.boxes[i], hits);
         all.insert(all.end(), hits.begin(), hits.end());
         off[i + 1] = static_cast<std::int64_t>(all.size());
       }
@@ -546,15 +555,24 @@ class PyBroadPhase {
     return bp_.contains(static_cast<Handle>(v));
   }
   py::array box(const py::object& h) {
-    if (double_precision()) return box_d(h);
+    if (double_precision()) return box_array<AabbD>(h);
+    return box_array<Aabb>(h);
+  }
+  // A live object's box as 6 numbers of the broad phase's precision
+  // (Aabb: float, AabbD: double).
+  template <class Box>
+  py::array box_array(const py::object& h) {
     const Handle handle = handle_arg(h);
-    Aabb b;
+    Box b;
     {
       Exclusive lock(mutex_);
       check_live(std::span<const Handle>(&handle, 1), "handle");
-      b = bp_.box(handle);
+      if constexpr (std::is_same_v<Box, AabbD>)
+        b = bp_.box_d(handle);
+      else
+        b = bp_.box(handle);
     }
-    py::array_t<float> out(6);
+    py::array_t<std::remove_cvref_t<decltype(b.min[0])>> out(6);
     std::memcpy(out.mutable_data(), &b, sizeof b);
     return out;
   }
@@ -597,45 +615,6 @@ class PyBroadPhase {
     const std::array<double, 3> offset{a.data()[0], a.data()[1], a.data()[2]};
     Exclusive lock(mutex_);
     bp_.shift_origin_d(offset);
-  }
-
-  // The double-precision forms of query_box(es) and box.
-  py::array_t<std::uint32_t> query_box_d(py::handle box_obj, const QueryFilter& filter) {
-    const BoxesDView view = boxes_d_view(box_obj, "box", /*single=*/true);
-    std::vector<Handle> hits;
-    {
-      Exclusive lock(mutex_);
-      hits = bp_.query_box(view.boxes[0], filter);
-    }
-    return handles_array(std::move(hits));
-  }
-  py::tuple query_boxes_d(py::handle boxes_obj) {
-    const BoxesDView view = boxes_d_view(boxes_obj, "boxes");
-    py::array_t<std::int64_t> offsets(static_cast<py::ssize_t>(view.boxes.size() + 1));
-    std::int64_t* off = offsets.mutable_data();
-    std::vector<Handle> all, hits;
-    {
-      Exclusive lock(mutex_);
-      off[0] = 0;
-      for (std::size_t i = 0; i < view.boxes.size(); ++i) {
-        bp_.query_box(view.boxes[i], hits);
-        all.insert(all.end(), hits.begin(), hits.end());
-        off[i + 1] = static_cast<std::int64_t>(all.size());
-      }
-    }
-    return py::make_tuple(std::move(offsets), handles_array(std::move(all)));
-  }
-  py::array box_d(const py::object& h) {
-    const Handle handle = handle_arg(h);
-    AabbD b;
-    {
-      Exclusive lock(mutex_);
-      check_live(std::span<const Handle>(&handle, 1), "handle");
-      b = bp_.box_d(handle);
-    }
-    py::array_t<double> out(6);
-    std::memcpy(out.mutable_data(), &b, sizeof b);
-    return out;
   }
 
  private:

@@ -12,8 +12,11 @@
 #
 # Writes one report per configuration, DIR/<design>_m<m>.txt (key = value
 # lines read by `hbp hw asic`), and keeps the Yosys script, log (gzip) and
-# cell statistics and the OpenSTA script and report in DIR/logs/. Every report carries rtl_sha256, the hash of the RTL sources it
-# was made from, so a test can tell a report that no longer matches the RTL.
+# cell statistics and the OpenSTA report in DIR/logs/. Timing and power run
+# rtl/synth/sta.tcl, one script for every configuration: its values come from
+# the environment and open the report (<tag>.sta.log). Every report carries
+# rtl_sha256, the hash of the RTL sources it was made from, so a test can
+# tell a report that no longer matches the RTL.
 # --sta-only reuses the netlists of an earlier run (DIR/logs/*.netlist.v) and
 # redoes timing and power only (new activities). Default DIR:
 # docs/results/asic. Slow (minutes per m = 16 design): not part
@@ -125,23 +128,12 @@ EOF
     fi
     synth_s=$(cat "$log.seconds")
 
-    cat > "$log.sta.tcl" <<EOF
-read_liberty $wl_lib
-read_verilog $log.netlist.v
-link_design $t
-create_clock -name clk -period $period_ns [get_ports clk]
-set inputs [delete_from_list [all_inputs] [get_ports clk]]
-set_input_delay 0 -clock clk \$inputs
-set_output_delay 0 -clock clk [all_outputs]
-set_driving_cell -lib_cell BUFX2 \$inputs
-set_load 0.02 [all_outputs]
-report_checks -path_delay max -digits 3 -fields {fanout cap slew}
-report_worst_slack -digits 4
-set_power_activity -global -activity $(act ${d}_global_activity)
-set_power_activity -input -activity $(act ${d}_input_activity)
-report_power -digits 6
-EOF
-    sta -no_splash -exit "$log.sta.tcl" > "$log.sta.log" 2>&1 || { echo "asic.sh: sta failed, see $log.sta.log" >&2; exit 1; }
+    global_activity=$(act ${d}_global_activity)
+    input_activity=$(act ${d}_input_activity)
+    HBP_STA_LIBERTY="$wl_lib" HBP_STA_NETLIST="$log.netlist.v" HBP_STA_TOP="$t" \
+      HBP_STA_PERIOD_NS="$period_ns" HBP_STA_GLOBAL_ACTIVITY="$global_activity" \
+      HBP_STA_INPUT_ACTIVITY="$input_activity" \
+      sta -no_splash -exit "$here/sta.tcl" > "$log.sta.log" 2>&1 || { echo "asic.sh: sta failed, see $log.sta.log" >&2; exit 1; }
 
     area=$(awk '/Chip area for/ { print $NF }' "$log.stat" | tail -1)
     cells=$(awk '/Number of cells:/ { n = $NF } $1 == "$mem_v2" { mm = $2 } END { print n - mm }' "$log.stat")
@@ -185,8 +177,8 @@ EOF
       echo "critical_path_to = ${to:-?}"
       echo "power_total_w = $total"
       echo "power_leakage_w = $leak"
-      echo "global_activity = $(act ${d}_global_activity)"
-      echo "input_activity = $(act ${d}_input_activity)"
+      echo "global_activity = $global_activity"
+      echo "input_activity = $input_activity"
       echo "synthesis_seconds = $synth_s"
     } > "$out/$tag.txt"
     echo "$tag: $cells cells, $area um2, slack $slack ns at $period_ns ns, $total W"

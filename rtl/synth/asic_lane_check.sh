@@ -3,8 +3,9 @@
 # The flow on one float32 comparator (hbp_fcmp_le, a <= b): cells, area,
 # input-to-output delay and energy per compare with random operands
 # (activity 0.5 on every input bit), for the hand estimate from the
-# Liberty tables in docs/hardware.md ("Silicon"). Same cells, ABC script and
-# wire-load model as rtl/synth/asic.sh.
+# Liberty tables in docs/hardware.md ("Silicon"). Same cells, ABC script,
+# wire-load model and timing script (rtl/synth/sta.tcl) as rtl/synth/asic.sh;
+# the comparator has no clock port, so it is timed against a virtual clock.
 #   rtl/synth/asic_lane_check.sh [OUT]   (default docs/results/asic/fcmp_lane.txt)
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
@@ -22,20 +23,9 @@ printf 'set_driving_cell BUFX2\nset_load 0.02\n' > "$work/abc.sdc"
 yosys -q -l "$work/yosys.log" -p "read_verilog -sv $rtl/hbp_fcmp_le.sv; synth -top hbp_fcmp_le -flatten; \
   abc -liberty $lib -D 4000 -constr $work/abc.sdc; opt_clean; tee -o $work/stat stat -liberty $lib; \
   write_verilog -noattr -noexpr $work/net.v" > /dev/null
-cat > "$work/sta.tcl" <<EOF2
-read_liberty $work/wl.lib
-read_verilog $work/net.v
-link_design hbp_fcmp_le
-create_clock -name vclk -period 10
-set_input_delay 0 -clock vclk [all_inputs]
-set_output_delay 0 -clock vclk [all_outputs]
-set_driving_cell -lib_cell BUFX2 [all_inputs]
-set_load 0.02 [all_outputs]
-report_checks -path_delay max -digits 3
-set_power_activity -input -activity 0.5
-report_power -digits 6
-EOF2
-sta -no_splash -exit "$work/sta.tcl" > "$work/sta.log" 2>&1
+HBP_STA_LIBERTY="$work/wl.lib" HBP_STA_NETLIST="$work/net.v" HBP_STA_TOP=hbp_fcmp_le \
+  HBP_STA_PERIOD_NS=10 HBP_STA_INPUT_ACTIVITY=0.5 \
+  sta -no_splash -exit "$here/sta.tcl" > "$work/sta.log" 2>&1
 cells=$(awk '/Number of cells:/ { n = $NF } END { print n }' "$work/stat")
 area=$(awk '/Chip area for/ { print $NF }' "$work/stat")
 arrival=$(awk '/data arrival time/ { print $1; exit }' "$work/sta.log")

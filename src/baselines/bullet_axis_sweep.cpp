@@ -11,21 +11,10 @@
 #include "hbp/baselines/baseline.hpp"
 #include "hbp/bullet/bullet_headers.hpp"
 #include "baselines/bullet_pairs.hpp"
+#include "baselines/reported_pairs.hpp"
 
 namespace hbp::baselines {
 namespace {
-
-Aabb bounds_of(const BoxArray& boxes) {
-  Aabb w{{0, 0, 0}, {1, 1, 1}};
-  if (boxes.empty()) return w;
-  for (int k = 0; k < 3; ++k) {
-    const float* lo = boxes.min(k);
-    const float* hi = boxes.max(k);
-    w.min[k] = *std::min_element(lo, lo + boxes.size());
-    w.max[k] = *std::max_element(hi, hi + boxes.size());
-  }
-  return w;
-}
 
 class BulletAxisSweep final : public Baseline {
  public:
@@ -41,7 +30,7 @@ class BulletAxisSweep final : public Baseline {
     proxies_.clear();
     Aabb world = options_.world;
     if (!(world.min[0] <= world.max[0] && world.min[1] <= world.max[1] && world.min[2] <= world.max[2])) {
-      world = bounds_of(boxes);
+      world = box_bounds(boxes);
       for (int k = 0; k < 3; ++k) {
         const float grow = std::max(1.0f, 0.25f * (world.max[k] - world.min[k]));
         world.min[k] -= grow;

@@ -35,7 +35,7 @@ void ReportingBaseline::update(const BoxArray& boxes) {
   collide(boxes);
 }
 
-Aabb grown_bounds(const BoxArray& boxes) {
+Aabb box_bounds(const BoxArray& boxes) {
   Aabb w{{0, 0, 0}, {1, 1, 1}};
   if (boxes.empty()) return w;
   for (int k = 0; k < 3; ++k) {
@@ -43,6 +43,14 @@ Aabb grown_bounds(const BoxArray& boxes) {
     const float* hi = boxes.max(k);
     w.min[k] = *std::min_element(lo, lo + boxes.size());
     w.max[k] = *std::max_element(hi, hi + boxes.size());
+  }
+  return w;
+}
+
+Aabb grown_bounds(const BoxArray& boxes) {
+  Aabb w = box_bounds(boxes);
+  if (boxes.empty()) return w;
+  for (int k = 0; k < 3; ++k) {
     const float grow = std::max(1.0f, 0.25f * (w.max[k] - w.min[k]));
     w.min[k] -= grow;
     w.max[k] += grow;

@@ -66,6 +66,9 @@ class ReportingBaseline : public Baseline {
   std::string name_, label_;
 };
 
+// The boxes' bounds; the unit box [0, 1]^3 when there are none.
+Aabb box_bounds(const BoxArray& boxes);
+
 // The first frame's bounds grown by a quarter of their extent per side (at
 // least 1): the world a grid or tree is sized for when the user gives none.
 Aabb grown_bounds(const BoxArray& boxes);

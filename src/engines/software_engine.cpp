@@ -35,6 +35,17 @@ static_assert(SoftwareEngine::kOutputSlack == kernels::kOutputSlack);
 
 static_assert(SoftwareEngine::min_output(100) == kernels::min_output(100));
 
+namespace {
+
+// The kernels' view of a cell of n >= 2 boxes: its coordinate columns, the
+// objects' ids and owner codes, and the cell's region.
+kernels::KernelInput kernel_input(const BoxArray& cell, const std::uint32_t* ids, const std::uint32_t* owner_codes,
+                                  std::uint32_t n, const CellRegion& region) {
+  return {{cell.min(0), cell.min(1), cell.min(2)}, {cell.max(0), cell.max(1), cell.max(2)}, ids, owner_codes, n, region};
+}
+
+}  // namespace
+
 void SoftwareEngine::owner_codes(const BoxArray& cell, const CellRegion& region, std::vector<std::uint32_t>& codes) const {
   const auto n = static_cast<std::uint32_t>(cell.size());
   // Sized for an over-full cell, released once cells are small again.
@@ -50,12 +61,7 @@ std::uint32_t SoftwareEngine::emit_hits(const BoxArray& cell, const std::uint32_
                                         std::size_t& count) const {
   const auto n = static_cast<std::uint32_t>(cell.size());
   if (n < 2) return n;
-  const kernels::KernelInput in{{cell.min(0), cell.min(1), cell.min(2)},
-                                {cell.max(0), cell.max(1), cell.max(2)},
-                                ids,
-                                owner_codes,
-                                n,
-                                region};
+  const kernels::KernelInput in = kernel_input(cell, ids, owner_codes, n, region);
   const kernels::Isa isa = kernels::selected_isa();
   const kernels::Kernel k = kernel_ == Kernel::Sweep ? kernels::sweep_kernel(isa) : kernels::allpairs_kernel(isa);
   kernels::KernelOutput o{first, second, capacity, count};
@@ -74,12 +80,7 @@ std::uint64_t SoftwareEngine::count_pairs(const BoxArray& cell, const std::uint3
                                           std::uint32_t row) const {
   const auto n = static_cast<std::uint32_t>(cell.size());
   if (n < 2) return 0;
-  const kernels::KernelInput in{{cell.min(0), cell.min(1), cell.min(2)},
-                                {cell.max(0), cell.max(1), cell.max(2)},
-                                ids,
-                                owner_codes,
-                                n,
-                                region};
+  const kernels::KernelInput in = kernel_input(cell, ids, owner_codes, n, region);
   const kernels::Isa isa = kernels::selected_isa();
   return (kernel_ == Kernel::Sweep ? kernels::sweep_count_kernel(isa) : kernels::allpairs_count_kernel(isa))(in, row);
 }

@@ -236,14 +236,6 @@ void read_slots(Reader& r, BroadPhaseState& s) {
   }
 }
 
-void read_free(Reader& r, BroadPhaseState& s) {
-  const std::uint32_t n = r.get<std::uint32_t>("the free slot count");
-  r.need(4 * std::size_t{n}, "the free slots");  // before sizing anything by a count read
-  s.free_slots.resize(n);
-  r.get_words<std::uint32_t>(s.free_slots.data(), n, "the free slots");
-  r.finish();
-}
-
 // After SLOT and FREE: the free list names every free slot exactly once.
 void check_free(Reader& r, const BroadPhaseState& s) {
   const std::size_t slots = s.kind.size();
@@ -265,6 +257,16 @@ void check_free(Reader& r, const BroadPhaseState& s) {
            std::to_string(free_in_table));
   if (slots - free_in_table > kMaxObjects)
     r.fail(std::to_string(slots - free_in_table) + " live objects, more than " + std::to_string(kMaxObjects));
+}
+
+// After SLOT (read first): the free list, checked against the slot table.
+void read_free(Reader& r, BroadPhaseState& s) {
+  const std::uint32_t n = r.get<std::uint32_t>("the free slot count");
+  r.need(4 * std::size_t{n}, "the free slots");  // before sizing anything by a count read
+  s.free_slots.resize(n);
+  r.get_words<std::uint32_t>(s.free_slots.data(), n, "the free slots");
+  r.finish();
+  check_free(r, s);
 }
 
 void read_boxes(Reader& r, BroadPhaseState& s) {
@@ -536,47 +538,16 @@ BroadPhaseState read_snapshot(std::span<const std::byte> data, const char* call)
   for (int k = 0; k < kSectionCount; ++k)
     if (!found[k].seen) fail(std::string("no '") + kTags[k] + "' section");
 
-  // In dependency order: the table first, then what refers to it.
+  // Each section's reader, indexed by Section, read in that order: the
+  // dependency order (the slot table first, then what refers to it).
   BroadPhaseState s;
-  const auto reader = [&](int k) {
-    return Reader(found[k].payload, found[k].length, prefix + "section '" + kTags[k] + "': ");
-  };
-  {
-    Reader r = reader(kSlot);
-    read_slots(r, s);
-  }
-  {
-    Reader r = reader(kFree);
-    read_free(r, s);
-    check_free(r, s);
-  }
-  {
-    Reader r = reader(kBoxes);
-    read_boxes(r, s);
-  }
-  {
-    Reader r = reader(kLayers);
-    read_layers(r, s);
-  }
-  {
-    Reader r = reader(kPairs);
-    read_pairs(r, s);
-  }
-  {
-    Reader r = reader(kStats);
-    read_stats(r, s);
-  }
-  {
-    Reader r = reader(kEdits);
-    read_edits(r, s);
-  }
-  {
-    Reader r = reader(kAttributes);
-    read_attributes(r, s);
-  }
-  {
-    Reader r = reader(kDoubles);
-    read_doubles(r, s);
+  using SectionReader = void (*)(Reader&, BroadPhaseState&);
+  static constexpr SectionReader kReaders[kSectionCount] = {read_slots, read_free,  read_boxes,      read_layers,
+                                                            read_pairs, read_stats, read_edits,      read_attributes,
+                                                            read_doubles};
+  for (int k = 0; k < kSectionCount; ++k) {
+    Reader r(found[k].payload, found[k].length, prefix + "section '" + kTags[k] + "': ");
+    kReaders[k](r, s);
   }
   return s;
 }

@@ -3,24 +3,27 @@
 # library and run; its output must equal the doc's ```text block after it.
 # Inputs: HBP_DOC, HBP_C, HBP_C_FLAGS (may be empty), HBP_INCLUDE, HBP_LIBRARY,
 # HBP_WORK_DIR.
+# The body of the first block of `text` opened by `fence` (its opening line,
+# newline included) into <body_var>, and the text from the block's closing
+# fence on into <rest_var>; no such block: fails saying `missing`.
+function(fenced_block text fence missing body_var rest_var)
+  string(FIND "${text}" "${fence}" start)
+  if(start EQUAL -1)
+    message(FATAL_ERROR "${HBP_DOC}: ${missing}")
+  endif()
+  string(LENGTH "${fence}" skip)
+  math(EXPR start "${start} + ${skip}")
+  string(SUBSTRING "${text}" ${start} -1 rest)
+  string(FIND "${rest}" "```" end)
+  string(SUBSTRING "${rest}" 0 ${end} body)
+  string(SUBSTRING "${rest}" ${end} -1 rest)
+  set(${body_var} "${body}" PARENT_SCOPE)
+  set(${rest_var} "${rest}" PARENT_SCOPE)
+endfunction()
+
 file(READ ${HBP_DOC} doc)
-string(FIND "${doc}" "```c\n" start)
-if(start EQUAL -1)
-  message(FATAL_ERROR "${HBP_DOC}: no ```c block")
-endif()
-math(EXPR start "${start} + 5")
-string(SUBSTRING "${doc}" ${start} -1 rest)
-string(FIND "${rest}" "```" end)
-string(SUBSTRING "${rest}" 0 ${end} code)
-string(SUBSTRING "${rest}" ${end} -1 rest)
-string(FIND "${rest}" "```text\n" out_start)
-if(out_start EQUAL -1)
-  message(FATAL_ERROR "${HBP_DOC}: no ```text block (the example's output) after the ```c block")
-endif()
-math(EXPR out_start "${out_start} + 8")
-string(SUBSTRING "${rest}" ${out_start} -1 rest)
-string(FIND "${rest}" "```" out_end)
-string(SUBSTRING "${rest}" 0 ${out_end} expected)
+fenced_block("${doc}" "```c\n" "no ```c block" code rest)
+fenced_block("${rest}" "```text\n" "no ```text block (the example's output) after the ```c block" expected rest)
 
 file(REMOVE_RECURSE ${HBP_WORK_DIR})
 file(WRITE ${HBP_WORK_DIR}/example.c "${code}")

@@ -20,16 +20,7 @@
 #define MAX_LIVE 1200
 #define LAYERS 4
 
-/* Boxes on a 0.5 grid: touching faces are frequent, and exact in float. */
-static hbp_box random_box(void) {
-  hbp_box b;
-  int k;
-  for (k = 0; k < 3; ++k) {
-    b.min[k] = 0.5f * (float)rnd_below(60);
-    b.max[k] = b.min[k] + 0.5f * (float)rnd_below(9); /* zero-size boxes too */
-  }
-  return b;
-}
+static hbp_box random_box(void) { return grid_box(60, 9); }
 
 /* ---- the oracle: what the broad phase holds ---- */
 typedef struct {
@@ -43,41 +34,6 @@ static object live[MAX_LIVE];
 static size_t live_count = 0;
 static int collides[HBP_LAYER_COUNT][HBP_LAYER_COUNT];
 
-static int overlaps(const hbp_box* a, const hbp_box* b) {
-  int k;
-  for (k = 0; k < 3; ++k) {
-    if (a->max[k] < b->min[k] || a->min[k] > b->max[k]) return 0;
-  }
-  return 1;
-}
-
-static int pair_less(const hbp_pair* x, const hbp_pair* y) { return x->a < y->a || (x->a == y->a && x->b < y->b); }
-static int cmp_pair(const void* x, const void* y) {
-  const hbp_pair* p = (const hbp_pair*)x;
-  const hbp_pair* q = (const hbp_pair*)y;
-  return pair_less(p, q) ? -1 : pair_less(q, p) ? 1 : 0;
-}
-static int cmp_handle(const void* x, const void* y) {
-  hbp_handle a = *(const hbp_handle*)x, b = *(const hbp_handle*)y;
-  return a < b ? -1 : a > b ? 1 : 0;
-}
-
-typedef struct {
-  hbp_pair* v;
-  size_t n, cap;
-} pair_list;
-static void push_pair(pair_list* l, hbp_pair p) {
-  if (l->n == l->cap) {
-    l->cap = l->cap ? 2 * l->cap : 1024;
-    l->v = (hbp_pair*)realloc(l->v, l->cap * sizeof(hbp_pair));
-    if (!l->v) {
-      fprintf(stderr, "out of memory\n");
-      exit(2);
-    }
-  }
-  l->v[l->n++] = p;
-}
-
 static void oracle_pairs(pair_list* out) {
   size_t i, j;
   out->n = 0;
@@ -88,41 +44,10 @@ static void oracle_pairs(pair_list* out) {
       if (a->is_static && b->is_static) continue;
       if (!collides[a->layer][b->layer]) continue;
       if (!overlaps(&a->box, &b->box)) continue;
-      {
-        hbp_pair p;
-        p.a = a->handle < b->handle ? a->handle : b->handle;
-        p.b = a->handle < b->handle ? b->handle : a->handle;
-        push_pair(out, p);
-      }
+      push_pair(out, ordered_pair(a->handle, b->handle));
     }
   }
   qsort(out->v, out->n, sizeof(hbp_pair), cmp_pair);
-}
-
-/* Pairs of `from` not in `minus` (both sorted). */
-static void difference(const pair_list* from, const pair_list* minus, pair_list* out) {
-  size_t i = 0, j = 0;
-  out->n = 0;
-  while (i < from->n) {
-    if (j == minus->n || pair_less(&from->v[i], &minus->v[j])) {
-      push_pair(out, from->v[i++]);
-    } else if (pair_less(&minus->v[j], &from->v[i])) {
-      ++j;
-    } else {
-      ++i;
-      ++j;
-    }
-  }
-}
-
-static int same_pairs(const char* what, unsigned frame, const hbp_pair* got, size_t n, const pair_list* want) {
-  size_t i;
-  CHECK(n == want->n, "frame %u: %s: %lu pairs, oracle %lu", frame, what, (unsigned long)n, (unsigned long)want->n);
-  for (i = 0; i < n; ++i) {
-    CHECK(got[i].a == want->v[i].a && got[i].b == want->v[i].b, "frame %u: %s[%lu] = %u-%u, oracle %u-%u", frame,
-          what, (unsigned long)i, got[i].a, got[i].b, want->v[i].a, want->v[i].b);
-  }
-  return 0;
 }
 
 /* ---- queries ---- */
@@ -138,43 +63,6 @@ static int collect(void* user, hbp_handle h) {
   return !(c->stop_after != 0 && c->n >= c->stop_after);
 }
 
-/* The library's segment test, operation for operation (float). */
-static int ray_entry(const float o[3], const float d[3], float max_t, const hbp_box* b, float* entry) {
-  float t0 = 0.0f, t1 = max_t;
-  int k;
-  for (k = 0; k < 3; ++k) {
-    float inv = 1.0f / d[k];
-    if (d[k] == 0.0f || isinf(inv)) {
-      if (o[k] < b->min[k] || o[k] > b->max[k]) return 0;
-      continue;
-    }
-    {
-      float a = (b->min[k] - o[k]) * inv;
-      float c = (b->max[k] - o[k]) * inv;
-      if (a > c) {
-        float s = a;
-        a = c;
-        c = s;
-      }
-      if (a > t0) t0 = a;
-      if (c < t1) t1 = c;
-    }
-  }
-  if (!(t0 <= t1)) return 0;
-  *entry = t0;
-  return 1;
-}
-
-typedef struct {
-  float t;
-  hbp_handle h;
-} ray_hit;
-static int cmp_ray_hit(const void* x, const void* y) {
-  const ray_hit* p = (const ray_hit*)x;
-  const ray_hit* q = (const ray_hit*)y;
-  if (p->t != q->t) return p->t < q->t ? -1 : 1;
-  return p->h < q->h ? -1 : p->h > q->h ? 1 : 0;
-}
 
 static size_t box_hits = 0, ray_hits = 0;
 
@@ -218,7 +106,7 @@ static int check_queries(hbp_broad_phase* bp, unsigned frame) {
     if (q == 0) d[0] = d[1] = 0.0f; /* a ray along z */
     for (i = 0; i < live_count; ++i) {
       float t;
-      if (ray_entry(o, d, max_t, &live[i].box, &t)) {
+      if (ray_entry(o, d, max_t, live[i].box.min, live[i].box.max, &t)) {
         hits[n].t = t;
         hits[n].h = live[i].handle;
         ++n;

@@ -19,15 +19,7 @@
 
 #define MAX_LIVE 300
 
-static hbp_box random_box(void) {
-  hbp_box b;
-  int k;
-  for (k = 0; k < 3; ++k) {
-    b.min[k] = 0.5f * (float)rnd_below(30);
-    b.max[k] = b.min[k] + 0.5f * (float)rnd_below(5);
-  }
-  return b;
-}
+static hbp_box random_box(void) { return grid_box(30, 5); }
 static hbp_box grown(hbp_box b, float m) {
   int k;
   for (k = 0; k < 3; ++k) {
@@ -44,18 +36,6 @@ static hbp_box united(hbp_box a, const hbp_box* b) {
   }
   return a;
 }
-static int overlaps(const hbp_box* a, const hbp_box* b) {
-  int k;
-  for (k = 0; k < 3; ++k)
-    if (a->max[k] < b->min[k] || b->max[k] < a->min[k]) return 0;
-  return 1;
-}
-static int cmp_pair(const void* x, const void* y) {
-  const hbp_pair* p = (const hbp_pair*)x;
-  const hbp_pair* q = (const hbp_pair*)y;
-  if (p->a != q->a) return p->a < q->a ? -1 : 1;
-  return p->b < q->b ? -1 : p->b > q->b ? 1 : 0;
-}
 
 typedef struct {
   hbp_handle handle;
@@ -70,11 +50,8 @@ static hbp_pair want[MAX_LIVE * MAX_LIVE / 2];
 static int run(unsigned frames, uint32_t threads) {
   static const float margins[4] = {0.0f, 0.0f, 0.25f, 1.5f};
   hbp_broad_phase* bp;
-  hbp_options o;
   unsigned frame;
-  hbp_options_init(&o);
-  o.threads = threads;
-  CHECK(hbp_create(&o, &bp) == HBP_OK, "%s", hbp_last_error());
+  if (create_with_threads(threads, &bp)) return 1;
   n_live = 0;
   for (frame = 0; frame < frames; ++frame) {
     size_t i, j, n = 0, count;
@@ -147,10 +124,5 @@ static int run(unsigned frames, uint32_t threads) {
 }
 
 int main(int argc, char** argv) {
-  unsigned seed = argc > 1 ? (unsigned)atoi(argv[1]) : 1u;
-  unsigned frames = argc > 2 ? (unsigned)atoi(argv[2]) : 1500u;
-  rng_state ^= (unsigned long long)seed * 0x9E3779B97F4A7C15ull;
-  if (run(frames, 1) || run(frames, 2)) return 1;
-  printf("ok\n");
-  return 0;
+  return run_1_and_2_threads(run, seed_and_count(argc, argv, 1500u));
 }

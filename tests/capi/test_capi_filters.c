@@ -18,15 +18,7 @@
 
 #define MAX_LIVE 400
 
-static hbp_box random_box(void) {
-  hbp_box b;
-  int k;
-  for (k = 0; k < 3; ++k) {
-    b.min[k] = 0.5f * (float)rnd_below(30);
-    b.max[k] = b.min[k] + 0.5f * (float)rnd_below(6);
-  }
-  return b;
-}
+static hbp_box random_box(void) { return grid_box(30, 6); }
 
 static hbp_filter random_filter(void) {
   hbp_filter f;
@@ -50,25 +42,9 @@ static object live[MAX_LIVE];
 static size_t n_live = 0;
 static int collides[3][3];
 
-static int overlaps(const hbp_box* a, const hbp_box* b) {
-  int k;
-  for (k = 0; k < 3; ++k)
-    if (a->max[k] < b->min[k] || b->max[k] < a->min[k]) return 0;
-  return 1;
-}
 static int should_collide(const hbp_filter* a, const hbp_filter* b) {
   if (a->group == b->group && a->group != 0) return a->group > 0;
   return (a->category & b->mask) != 0 && (b->category & a->mask) != 0;
-}
-static int cmp_pair(const void* x, const void* y) {
-  const hbp_pair* p = (const hbp_pair*)x;
-  const hbp_pair* q = (const hbp_pair*)y;
-  if (p->a != q->a) return p->a < q->a ? -1 : 1;
-  return p->b < q->b ? -1 : p->b > q->b ? 1 : 0;
-}
-static int cmp_handle(const void* x, const void* y) {
-  const hbp_handle a = *(const hbp_handle*)x, b = *(const hbp_handle*)y;
-  return a < b ? -1 : a > b ? 1 : 0;
 }
 static const object* find(hbp_handle h) {
   size_t i;
@@ -144,11 +120,8 @@ static int check_frame(hbp_broad_phase* bp, unsigned frame) {
 
 static int run(unsigned frames, uint32_t threads) {
   hbp_broad_phase* bp;
-  hbp_options o;
   unsigned frame, a, b;
-  hbp_options_init(&o);
-  o.threads = threads;
-  CHECK(hbp_create(&o, &bp) == HBP_OK, "%s", hbp_last_error());
+  if (create_with_threads(threads, &bp)) return 1;
   n_live = 0;
   for (a = 0; a < 3; ++a)
     for (b = 0; b < 3; ++b) collides[a][b] = 1;
@@ -225,10 +198,5 @@ static int run(unsigned frames, uint32_t threads) {
 }
 
 int main(int argc, char** argv) {
-  unsigned seed = argc > 1 ? (unsigned)atoi(argv[1]) : 1u;
-  unsigned frames = argc > 2 ? (unsigned)atoi(argv[2]) : 1500u;
-  rng_state ^= (unsigned long long)seed * 0x9E3779B97F4A7C15ull;
-  if (run(frames, 1) || run(frames, 2)) return 1;
-  printf("ok\n");
-  return 0;
+  return run_1_and_2_threads(run, seed_and_count(argc, argv, 1500u));
 }

@@ -13,26 +13,10 @@
 
 #include "hbp/hbp.h"
 
+#include "capi_check.h"
+
 #define N 120
 #define FRAMES 400
-
-#define CHECK(cond, ...)                                                            \
-  do {                                                                              \
-    if (!(cond)) {                                                                  \
-      fprintf(stderr, "%s:%d: check failed: %s: ", __FILE__, __LINE__, #cond);      \
-      fprintf(stderr, __VA_ARGS__);                                                 \
-      fprintf(stderr, "\n");                                                        \
-      return 1;                                                                     \
-    }                                                                               \
-  } while (0)
-
-static unsigned long long rng_state = 88172645463325252ull;
-static double unit(void) {
-  rng_state ^= rng_state << 13;
-  rng_state ^= rng_state >> 7;
-  rng_state ^= rng_state << 17;
-  return (double)(rng_state >> 11) / 9007199254740992.0;
-}
 
 static int overlaps_d(const hbp_box_d* a, const hbp_box_d* b) {
   int k;
@@ -45,8 +29,8 @@ static hbp_box_d random_box(double centre) {
   hbp_box_d b;
   int k;
   for (k = 0; k < 3; ++k) {
-    b.min[k] = centre + (unit() - 0.5) * 40.0;
-    b.max[k] = b.min[k] + 0.01 + unit() * 5.0;
+    b.min[k] = centre + (rnd_unit() - 0.5) * 40.0;
+    b.max[k] = b.min[k] + 0.01 + rnd_unit() * 5.0;
   }
   return b;
 }
@@ -95,7 +79,7 @@ int main(void) {
         }
       } else {
         for (j = 0; j < 3; ++j) {
-          const double d = unit() - 0.5;
+          const double d = rnd_unit() - 0.5;
           b.min[j] += d;
           b.max[j] += d;
         }

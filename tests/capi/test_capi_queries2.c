@@ -41,34 +41,6 @@ static hbp_handle live_handle[MAX_LIVE];
 static hbp_box live_box[MAX_LIVE];
 static size_t live = 0;
 
-/* RaySegment::hits of the library, operation for operation. */
-static int ray_entry(const float o[3], const float d[3], float max_t, const float mn[3], const float mx[3],
-                     float* entry) {
-  float t0 = 0.0f, t1 = max_t;
-  int k;
-  for (k = 0; k < 3; ++k) {
-    float inv = 1.0f / d[k];
-    if (d[k] == 0.0f || isinf(inv)) {
-      if (o[k] < mn[k] || o[k] > mx[k]) return 0;
-      continue;
-    }
-    {
-      float a = (mn[k] - o[k]) * inv;
-      float c = (mx[k] - o[k]) * inv;
-      if (a > c) {
-        float s = a;
-        a = c;
-        c = s;
-      }
-      if (a > t0) t0 = a;
-      if (c < t1) t1 = c;
-    }
-  }
-  if (!(t0 <= t1)) return 0;
-  *entry = t0;
-  return 1;
-}
-
 /* The box cast: the target grown by the box against the segment from 0. */
 static int cast_entry(const hbp_box* box, const float d[3], const hbp_box* target, float* entry) {
   static const float zero[3] = {0.0f, 0.0f, 0.0f};
@@ -79,17 +51,6 @@ static int cast_entry(const hbp_box* box, const float d[3], const hbp_box* targe
     mx[k] = target->max[k] - box->min[k];
   }
   return ray_entry(zero, d, 1.0f, mn, mx, entry);
-}
-
-typedef struct {
-  float t;
-  hbp_handle h;
-} hit;
-static int cmp_hit(const void* x, const void* y) {
-  const hit* p = (const hit*)x;
-  const hit* q = (const hit*)y;
-  if (p->t != q->t) return p->t < q->t ? -1 : 1;
-  return p->h < q->h ? -1 : p->h > q->h ? 1 : 0;
 }
 
 typedef struct {
@@ -114,7 +75,7 @@ static void random_vec(float v[3], float scale) {
 }
 
 static int check_queries(hbp_broad_phase* bp, unsigned step) {
-  static hit want[MAX_LIVE];
+  static ray_hit want[MAX_LIVE];
   static collector c;
   int q;
   for (q = 0; q < 4; ++q) {
@@ -128,7 +89,7 @@ static int check_queries(hbp_broad_phase* bp, unsigned step) {
     /* Closest hit: the smallest (t, handle) of the scan. */
     for (i = 0; i < live; ++i)
       if (ray_entry(o, d, max_t, live_box[i].min, live_box[i].max, &t)) want[n].t = t, want[n++].h = live_handle[i];
-    qsort(want, n, sizeof(hit), cmp_hit);
+    qsort(want, n, sizeof(ray_hit), cmp_ray_hit);
     CHECK(hbp_raycast_closest(bp, o, d, max_t, &h, &t, &found) == HBP_OK, "%s", hbp_last_error());
     CHECK(found == (n > 0), "step %u: found %d, %zu hits expected", step, found, n);
     if (n > 0) {
@@ -142,7 +103,7 @@ static int check_queries(hbp_broad_phase* bp, unsigned step) {
     n = 0;
     for (i = 0; i < live; ++i)
       if (cast_entry(&box, d, &live_box[i], &t)) want[n].t = t, want[n++].h = live_handle[i];
-    qsort(want, n, sizeof(hit), cmp_hit);
+    qsort(want, n, sizeof(ray_hit), cmp_ray_hit);
     c.n = 0;
     c.stop_after = 0;
     CHECK(hbp_box_cast(bp, &box, d, collect, &c, &calls) == HBP_OK, "%s", hbp_last_error());
@@ -160,11 +121,8 @@ static int check_queries(hbp_broad_phase* bp, unsigned step) {
 
 static int run(unsigned steps, uint32_t threads) {
   hbp_broad_phase* bp;
-  hbp_options o;
   unsigned step;
-  hbp_options_init(&o);
-  o.threads = threads;
-  CHECK(hbp_create(&o, &bp) == HBP_OK, "%s", hbp_last_error());
+  if (create_with_threads(threads, &bp)) return 1;
   live = 0;
   for (step = 0; step < steps; ++step) {
     unsigned r = rnd_below(8), i;
@@ -229,11 +187,7 @@ static int check_errors(void) {
 }
 
 int main(int argc, char** argv) {
-  unsigned seed = argc > 1 ? (unsigned)atoi(argv[1]) : 1u;
-  unsigned steps = argc > 2 ? (unsigned)atoi(argv[2]) : 2000u;
-  rng_state ^= (unsigned long long)seed * 0x9E3779B97F4A7C15ull;
+  const unsigned steps = seed_and_count(argc, argv, 2000u);
   if (check_errors()) return 1;
-  if (run(steps, 1) || run(steps, 2)) return 1;
-  printf("ok\n");
-  return 0;
+  return run_1_and_2_threads(run, steps);
 }

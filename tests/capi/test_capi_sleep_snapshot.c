@@ -23,15 +23,7 @@
 
 #define OK(call) CHECK((call) == HBP_OK, "%s", hbp_last_error())
 
-static hbp_box random_box(void) {
-  hbp_box b;
-  int k;
-  for (k = 0; k < 3; ++k) {
-    b.min[k] = 0.5f * (float)(rnd() % 40);
-    b.max[k] = b.min[k] + 0.5f * (float)(rnd() % 7);
-  }
-  return b;
-}
+static hbp_box random_box(void) { return grid_box(40, 7); }
 
 /* ---- the oracle ---- */
 typedef struct {
@@ -43,24 +35,6 @@ typedef struct {
 static object live[MAX_LIVE];
 static size_t live_count = 0;
 
-static int overlaps(const hbp_box* a, const hbp_box* b) {
-  int k;
-  for (k = 0; k < 3; ++k)
-    if (a->max[k] < b->min[k] || a->min[k] > b->max[k]) return 0;
-  return 1;
-}
-static int pair_less(const hbp_pair* x, const hbp_pair* y) { return x->a < y->a || (x->a == y->a && x->b < y->b); }
-static int cmp_pair(const void* x, const void* y) {
-  const hbp_pair* p = (const hbp_pair*)x;
-  const hbp_pair* q = (const hbp_pair*)y;
-  return pair_less(p, q) ? -1 : pair_less(q, p) ? 1 : 0;
-}
-
-#define MAX_PAIRS (MAX_LIVE * MAX_LIVE / 2)
-typedef struct {
-  hbp_pair v[MAX_PAIRS];
-  size_t n;
-} pair_list;
 static pair_list now_pairs, previous_pairs, want_created, want_removed;
 
 static void oracle_pairs(pair_list* out) {
@@ -70,37 +44,10 @@ static void oracle_pairs(pair_list* out) {
     for (j = i + 1; j < live_count; ++j) {
       const object* a = &live[i];
       const object* b = &live[j];
-      hbp_pair p;
       if ((a->is_static && b->is_static) || !overlaps(&a->box, &b->box)) continue;
-      p.a = a->handle < b->handle ? a->handle : b->handle;
-      p.b = a->handle < b->handle ? b->handle : a->handle;
-      out->v[out->n++] = p;
+      push_pair(out, ordered_pair(a->handle, b->handle));
     }
   qsort(out->v, out->n, sizeof(hbp_pair), cmp_pair);
-}
-
-static void difference(const pair_list* from, const pair_list* minus, pair_list* out) {
-  size_t i = 0, j = 0;
-  out->n = 0;
-  while (i < from->n) {
-    if (j == minus->n || pair_less(&from->v[i], &minus->v[j])) {
-      out->v[out->n++] = from->v[i++];
-    } else if (pair_less(&minus->v[j], &from->v[i])) {
-      ++j;
-    } else {
-      ++i;
-      ++j;
-    }
-  }
-}
-
-static int same_list(const char* what, unsigned frame, const hbp_pair* got, size_t n, const pair_list* want) {
-  size_t i;
-  CHECK(n == want->n, "frame %u: %s: %lu pairs, oracle %lu", frame, what, (unsigned long)n, (unsigned long)want->n);
-  for (i = 0; i < n; ++i)
-    CHECK(got[i].a == want->v[i].a && got[i].b == want->v[i].b, "frame %u: %s[%lu] = %u-%u, oracle %u-%u", frame,
-          what, (unsigned long)i, got[i].a, got[i].b, want->v[i].a, want->v[i].b);
-  return 0;
 }
 
 /* ---- the same edits to every broad phase in bps[0 .. n_bps) and the oracle ---- */
@@ -195,14 +142,17 @@ static int frame_and_check(unsigned frame) {
     size_t n;
     OK(hbp_update(bps[s]));
     OK(hbp_pairs(bps[s], &p, &n));
-    if (same_list("pairs", frame, p, n, &now_pairs)) return 1;
+    if (same_pairs("pairs", frame, p, n, &now_pairs)) return 1;
     OK(hbp_created_pairs(bps[s], &p, &n));
-    if (same_list("created", frame, p, n, &want_created)) return 1;
+    if (same_pairs("created", frame, p, n, &want_created)) return 1;
     OK(hbp_removed_pairs(bps[s], &p, &n));
-    if (same_list("removed", frame, p, n, &want_removed)) return 1;
+    if (same_pairs("removed", frame, p, n, &want_removed)) return 1;
   }
-  memcpy(previous_pairs.v, now_pairs.v, now_pairs.n * sizeof(hbp_pair));
-  previous_pairs.n = now_pairs.n;
+  { /* this frame's pairs become the previous ones; the old list is reused */
+    const pair_list t = previous_pairs;
+    previous_pairs = now_pairs;
+    now_pairs = t;
+  }
   return 0;
 }
 
@@ -268,11 +218,9 @@ static int errors(void) {
 }
 
 int main(int argc, char** argv) {
-  const unsigned seed = argc > 1 ? (unsigned)atoi(argv[1]) : 1;
-  const unsigned frames = argc > 2 ? (unsigned)atoi(argv[2]) : 600;
+  const unsigned frames = seed_and_count(argc, argv, 600);
   unsigned f, restores = 0, follow = 0;
   hbp_options o;
-  rng_state ^= (unsigned long long)seed * 0x9E3779B97F4A7C15ull;
   if (errors()) return 1;
   hbp_options_init(&o);
   o.threads = 2;
