@@ -9,6 +9,7 @@
 #include <cstdint>
 
 #include "dedup/ownership.hpp"
+#include "geometry/box_screen.hpp"
 #include "hbp/cell_region.hpp"
 #include "hbp/host_device.hpp"
 
@@ -300,15 +301,16 @@ HBP_HOST_DEVICE inline std::uint32_t large_chunk(std::uint32_t n, std::uint32_t 
 
 namespace hbp::cuda {
 
-// What is wrong with box i: 0 nothing, else 1 + axis for a NaN/Inf
-// coordinate, 4 + axis for min > max. The frame rejects such boxes as the
-// CPU path does (BoxArray::validate), before any cell is chosen.
+// What is wrong with box i by the library's box screen
+// (geometry::interval_fails): 0 nothing, else on the first failing axis 1 +
+// axis for a NaN/Inf coordinate, 4 + axis for min > max. The frame rejects
+// such boxes as the CPU path does, before any cell is chosen.
 HBP_HOST_DEVICE inline std::uint32_t box_defect(const BoxLanesView& b, std::uint32_t i) {
   for (int k = 0; k < 3; ++k) {
     const float lo = b.lo[k][i], hi = b.hi[k][i];
-    // x - x is 0 for finite x and NaN for NaN or Inf.
-    if (!(lo - lo == 0.0f) || !(hi - hi == 0.0f)) return 1u + static_cast<std::uint32_t>(k);
-    if (lo > hi) return 4u + static_cast<std::uint32_t>(k);
+    if (!geometry::interval_fails(lo, hi)) continue;
+    const bool finite = lo - lo == 0.0f && hi - hi == 0.0f;  // x - x is NaN for NaN or Inf
+    return (finite ? 4u : 1u) + static_cast<std::uint32_t>(k);
   }
   return 0;
 }

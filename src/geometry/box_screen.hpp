@@ -12,11 +12,13 @@
 
 #include "hbp/aabb.hpp"
 #include "hbp/box_array.hpp"
+#include "hbp/host_device.hpp"
 
 namespace hbp::geometry {
 
-// Non-zero when [lo, hi] is not a finite interval with lo <= hi.
-inline int interval_fails(float lo, float hi) { return !(lo - lo == 0.0f) | !(hi - hi == 0.0f) | !(lo <= hi); }
+// Non-zero when [lo, hi] is not a finite interval with lo <= hi (host and
+// device: the GPU frame screens its boxes with it too).
+HBP_HOST_DEVICE inline int interval_fails(float lo, float hi) { return !(lo - lo == 0.0f) | !(hi - hi == 0.0f) | !(lo <= hi); }
 
 // True when some box of [begin, end) is not well formed.
 inline bool screen_fails(const BoxArray& boxes, std::size_t begin, std::size_t end) {
