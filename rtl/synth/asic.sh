@@ -105,6 +105,9 @@ for d in $designs; do
 set_driving_cell BUFX2
 set_load 0.02
 EOF
+    # The netlist is written for OpenSTA's Verilog reader, which takes no
+    # concatenation on the left of an assign: ports split into bits and the
+    # aliases between them purged, so every output is connected and timed.
     cat > "$log.ys" <<EOF
 read_verilog -sv $(for f in $(sources "$d"); do printf '%s ' "$rtl/$f"; done)
 hierarchy -top $t -chparam M $m -chparam DEPTH $depth -chparam PAIR_ROWS $pair_rows
@@ -118,6 +121,8 @@ abc -liberty $lib -D 4000 -constr $log.abc.sdc
 opt_clean
 tee -o $log.stat stat -liberty $lib
 delete t:\$mem_v2
+splitnets -ports
+opt_clean -purge
 write_verilog -noattr -noexpr $log.netlist.v
 EOF
     if [ "$sta_only" = 0 ] || [ ! -f "$log.netlist.v" ]; then
