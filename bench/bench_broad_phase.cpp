@@ -1,7 +1,6 @@
 // SPDX-License-Identifier: MIT
 // hbp::BroadPhase measured beside btDbvtBroadphase and the whole-frame
-// HybridBroadPhase, each pair of systems on the same boxes in the same run
-// (issue 15):
+// HybridBroadPhase, each pair of systems on the same boxes in the same run:
 //
 //   MostlyStatic/<statics>/<moving>/<threads>: a world of the paper's density,
 //     `statics` static boxes plus `moving` boxes moving as in the paper

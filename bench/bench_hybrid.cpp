@@ -92,7 +92,7 @@ BENCHMARK(PaperRebuild)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
-// The same from-scratch build on the pair-dense scenes of issue 14
+// The same from-scratch build on the pair-dense scenes
 // (`hbp scene gen --kind clustered|flat --n 1000000 --seed 3`: 1.8-2.3
 // entries an object against the paper scene's 1.28): kind 0 clustered,
 // 1 flat; frame 0 of each, warm buffers.

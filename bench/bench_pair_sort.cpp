@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// The frame's pair list sorted by (a, b) (issue 14, seventh session): the
+// The frame's pair list sorted by (a, b): the
 // serial radix sort (sort_pairs) beside the parallel sort
 // (src/pipeline/parallel_pair_sort) on the same list, and the hybrid
 // system's default sorted frame with its sort_ms stage.

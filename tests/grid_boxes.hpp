@@ -22,7 +22,7 @@ Aabb grid_box(std::mt19937& rng, World world, int max_halves) {
   return b;
 }
 
-// The sessions' boxes: sides up to 3 m in a small world.
+// The broad-phase sessions' boxes: sides up to 3 m in a small world.
 inline Aabb random_box(std::mt19937& rng, float world) { return grid_box(rng, world, 6); }
 
 // b moved by -1 .. 1 m (half-metre steps) per axis: it stays on the grid.

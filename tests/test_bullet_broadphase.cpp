@@ -539,7 +539,7 @@ TEST(BulletWorld, FilterAndBodiesRemovedAndReAdded) {
   EXPECT_GT(world.dispatcher().last().exact.size(), 500u);
 }
 
-// Issue 17 item 5: a destroyed proxy used again is caught (it used to
+// A destroyed proxy used again is caught (it used to
 // rewrite the box of whichever live proxy took its dense slot: phantom pairs).
 TEST(BulletBroadphase, StaleProxyIsRejectedNotAppliedToAnother) {
   BroadphaseAdapter bp;

@@ -155,8 +155,8 @@ TEST_F(Cli, NothingToComputeIsAnError) {
   EXPECT_NE(pairs.output.find("0 1\n"), std::string::npos) << pairs.output;
 }
 
-// The keys outside programs read from `hbp run --json` (issue 14: first,
-// worst and p99 frame beside the median; the partition's maintenance,
+// The keys outside programs read from `hbp run --json` (first, worst and
+// p99 frame beside the median; the partition's maintenance,
 // spread rebuilds included). The first frame builds from scratch.
 TEST_F(Cli, RunJsonNamesFrameTimesAndMaintenance) {
   const Result r = hbp({"run", "--n", "3000", "--frames", "3", "--threads", "2", "--json", "--quiet"});

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
 // The k-d partition kept across frames: membership, min-x order, depth bound
-// (issue 17: a tree past 64 levels used to overflow the traversal stack), the
+// (a tree past 64 levels would overflow the traversal stack), the
 // x split weight, determinism, and exact pairs through the hybrid system on
 // scenes that stress the incremental maintenance (crossing planes every
 // frame, teleporting, piling into one cell, objects appended and removed).

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// Memory follows the current frame (issue 17, item 3): a cluster of
+// Memory follows the current frame: a cluster of
 // identical boxes jumping to a new place every frame used to leave its peak
 // pair buffer behind in every cell it visited, so the resident set grew
 // frame after frame at constant load. Its own executable: the process's peak
@@ -105,9 +105,9 @@ TEST(MemoryBound, JumpingClusterKeepsPeakResidentSetFlat) {
   // Plus one step of the cluster's pair list (499,500 pairs, 4 MB) and its
   // copy: VmHWM rises in steps of that size at frames that vary from run to
   // run (which worker, and so which malloc arena, first meets a place), and
-  // since the first frame's build scratch is freed (eighth session) the
-  // base is smaller, so one late step alone passed 1.25x (41-47 MB after 50
-  // frames, 50-64 MB after 300, under ctest -j2). The growth this test is
+  // with the first frame's build scratch freed the base is small, so one
+  // late step alone can pass 1.25x (41-47 MB after 50 frames, 50-64 MB after
+  // 300, under ctest -j2). The growth this test is
   // for, a list left behind in every cell the cluster visits, is 4 MB a
   // frame: a gigabyte by frame 300.
   constexpr std::uint64_t kListStepKib = 8 << 10;

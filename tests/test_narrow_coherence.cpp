@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
 // The narrow phase's verdicts: no contact on a pair that is apart (the
-// false-contact defect of issue 16, reproduced), and the per-pair cache
+// false-contact defect on such a pair, reproduced), and the per-pair cache
 // changes no verdict.
 #include <gtest/gtest.h>
 
