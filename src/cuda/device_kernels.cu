@@ -128,6 +128,16 @@ __global__ void gather_kernel(BoxLanesView b, const std::uint64_t* keys, const s
   head[r] = r == 0 || (keys[r] >> 32) != (keys[r - 1] >> 32);
 }
 
+// Box `id` of `packed` into slot r of the six sorted lanes (refs each).
+// One box's six floats are 24 adjacent bytes of `packed`: a random gather
+// touches one or two sectors, where the six lanes would take six.
+__device__ void gather_box(const float* packed, std::uint32_t id, std::uint32_t r, std::uint32_t refs, float* lanes) {
+  const float2* box = reinterpret_cast<const float2*>(packed + std::size_t{6} * id);
+  const float2 v0 = box[0], v1 = box[1], v2 = box[2];
+  const float v[6] = {v0.x, v0.y, v1.x, v1.y, v2.x, v2.y};
+  for (int l = 0; l < 6; ++l) lanes[static_cast<std::size_t>(l) * refs + r] = v[l];
+}
+
 // The frame's gather: sorted lanes, positions (the keys' low bits), and
 // head[r] = 1 where a cell starts.
 __global__ void gather_cells_kernel(const float* packed, const std::uint32_t* keys, const std::uint32_t* ids,
@@ -135,12 +145,7 @@ __global__ void gather_cells_kernel(const float* packed, const std::uint32_t* ke
                                     std::uint32_t* head) {
   const std::uint32_t r = blockIdx.x * blockDim.x + threadIdx.x;
   if (r >= refs) return;
-  // One box's six floats are 24 adjacent bytes of `packed`: a random gather
-  // touches one or two sectors, where the six lanes would take six.
-  const float2* box = reinterpret_cast<const float2*>(packed + std::size_t{6} * ids[r]);
-  const float2 v0 = box[0], v1 = box[1], v2 = box[2];
-  const float v[6] = {v0.x, v0.y, v1.x, v1.y, v2.x, v2.y};
-  for (int l = 0; l < 6; ++l) lanes[static_cast<std::size_t>(l) * refs + r] = v[l];
+  gather_box(packed, ids[r], r, refs, lanes);
   const std::uint32_t key = keys[r];
   positions[r] = key & static_cast<std::uint32_t>((std::uint64_t{1} << bits) - 1);
   head[r] = r == 0 || (key >> bits) != (keys[r - 1] >> bits);
@@ -171,10 +176,7 @@ __global__ void gather_lanes_kernel(const float* packed, const std::uint32_t* ke
   const unsigned heads = __ballot_sync(0xffffffffu, head);
   if ((threadIdx.x & 31u) == 0 && heads) atomicAdd(cells, static_cast<std::uint32_t>(__popc(heads)));
   if (r >= refs) return;
-  const float2* box = reinterpret_cast<const float2*>(packed + std::size_t{6} * ids[r]);
-  const float2 v0 = box[0], v1 = box[1], v2 = box[2];
-  const float v[6] = {v0.x, v0.y, v1.x, v1.y, v2.x, v2.y};
-  for (int l = 0; l < 6; ++l) lanes[static_cast<std::size_t>(l) * refs + r] = v[l];
+  gather_box(packed, ids[r], r, refs, lanes);
 }
 
 // The rows with a thread per reference (CellSweep::PerReference): row r of
