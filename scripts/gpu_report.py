@@ -179,6 +179,7 @@ def main():
     lbvh = next((r for r in runs if r["name"] == "lbvh-paper-1024000"), None)
     cells = next((c for c in cpu_runs if c["name"] == "paper-1024000-cuda-cells"), None)
     blocks = next((r for r in runs if r["name"] == "paper-1024000-block-per-cell"), None)
+    cubes = next((r for r in runs if r["name"] == "paper-1024000-cubes"), None)
 
     report = {
         "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
@@ -233,6 +234,9 @@ def main():
         if blocks and blocks.get("median_frame_ms"):
             block["block_per_cell_ms"] = blocks["median_frame_ms"]
             block["block_per_cell_over_frame"] = blocks["median_frame_ms"] / paper["median_frame_ms"]
+        if cubes and cubes.get("median_frame_ms"):
+            block["cubic_cells_ms"] = cubes["median_frame_ms"]
+            block["cubic_cells_over_frame"] = cubes["median_frame_ms"] / paper["median_frame_ms"]
         cpu = next((c for c in comparisons if c["scene"] == "paper" and c["objects"] == 1024000), None)
         if cpu:
             block["cpu_sw_ms"] = cpu["cpu_median_ms"]
@@ -269,7 +273,8 @@ def main():
             md += [f"  - `{l}`" for l in python.get("build_log_tail", []) if l.strip()]
     md.append("")
     cols = [("objects", "objects", "{:.0f}"), ("order", "order", "{}"), ("pair order", "pair_order", "{}"), ("pair write", "pair_write", "{}"),
-            ("sweep", "sweep", "{}"), ("reserve", "reserve_ms", "{:.1f}"),
+            ("sweep", "sweep", "{}"), ("cells", "cell_shape", "{}"), ("grid", "grid", "{}"),
+            ("references", "references", "{:.0f}"), ("reserve", "reserve_ms", "{:.1f}"),
             ("first frame", "first_frame", "{}"), ("first", "first_frame_ms", "{:.3f}"),
             ("median", "median_frame_ms", "{:.3f}"), ("p99", "p99_frame_ms", "{:.3f}"),
             ("worst", "worst_frame_ms", "{:.3f}"), ("upload", "median_upload_ms", "{:.3f}"),
@@ -279,6 +284,8 @@ def main():
             ("mJ/frame", "energy_per_frame_mj", "{:.3f}"), ("CPU launcher ms", "reference_median_ms", "{:.1f}"),
             ("exact", "exact", "{}")]
     for r in runs:
+        if r.get("grid_x") is not None:
+            r["grid"] = f"{r['grid_x']:.0f}x{r['grid_y']:.0f}x{r['grid_z']:.0f}"
         if r.get("buffer_bytes") is not None:
             r["buffer_mib"] = r["buffer_bytes"] / 2**20
         if r.get("energy_per_frame_j") is not None:
@@ -322,6 +329,9 @@ def main():
         if "block_per_cell_ms" in p:
             md.append(f"| our GPU frame, the paper's block per cell (same run) | {p['block_per_cell_ms']:.3f} | "
                       f"{p['block_per_cell_over_frame']:.2f} |")
+        if "cubic_cells_ms" in p:
+            md.append(f"| our GPU frame, cubic cells (same run) | {p['cubic_cells_ms']:.3f} | "
+                      f"{p['cubic_cells_over_frame']:.2f} |")
         if "axis_sweep_ms" in p:
             md.append(f"| our GPU one-axis sort and sweep (same run) | {p['axis_sweep_ms']:.3f} | "
                       f"{p['axis_sweep_over_frame']:.1f} |")

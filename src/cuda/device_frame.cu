@@ -178,10 +178,10 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     check_cuda(cudaMemcpyAsync(words, acc_.as<std::uint32_t>(), kBoundsWords * sizeof(std::uint32_t),
                                cudaMemcpyDeviceToHost, stream_),
                "bounds read-back");
-    const bool lagged = grid_.update_from_last(n, options.boxes_per_cell, info.replanned);
+    const bool lagged = grid_.update_from_last(n, options.boxes_per_cell, options.cell_shape, info.replanned);
     if (!lagged) {
       sync();
-      info.replanned = grid_.update(take_bounds(b, n), extents_, n, options.boxes_per_cell);
+      info.replanned = grid_.update(take_bounds(b, n), extents_, n, options.boxes_per_cell, options.cell_shape);
     }
     reserve(planes_, 3 * kMaxAxisCells * sizeof(float));
     if (info.replanned && !grid_.planes().empty())

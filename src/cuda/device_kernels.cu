@@ -220,15 +220,18 @@ __global__ void reference_rows_kernel(GridView g, CellLanes s, int bits, std::ui
 // whose room would pass `capacity` write nothing; *total still counts
 // every pair, so the caller sees the frame did not fit and runs it again
 // in a larger buffer. Every thread of the block calls it.
+// The block's sums are 64-bit: 256 rows of a cell of 2^28 boxes on one
+// point hold more than 2^32 pairs, and a wrapped sum would undercount the
+// total that decides whether the frame fits.
 template <class Write>
 __device__ void append_block_rows(std::uint32_t count, unsigned long long* total, std::uint64_t capacity,
                                   Write&& write) {
-  using Scan = cub::BlockScan<std::uint32_t, kThreads>;
+  using Scan = cub::BlockScan<unsigned long long, kThreads>;
   __shared__ typename Scan::TempStorage scan;
   __shared__ unsigned long long base;
-  std::uint32_t offset = 0, block_total = 0;
-  Scan(scan).ExclusiveSum(count, offset, block_total);
-  if (threadIdx.x == 0) base = block_total ? atomicAdd(total, static_cast<unsigned long long>(block_total)) : 0;
+  unsigned long long offset = 0, block_total = 0;
+  Scan(scan).ExclusiveSum(static_cast<unsigned long long>(count), offset, block_total);
+  if (threadIdx.x == 0) base = block_total ? atomicAdd(total, block_total) : 0;
   __syncthreads();
   if (count && base + offset + count <= capacity) write(base + offset);
 }

@@ -34,10 +34,33 @@ void floor_bins(const ExtentHistogram& h, std::uint32_t n, std::uint32_t out[3])
 // extents, gives no floor: such boxes go to the large pass).
 double bin_ceiling(std::uint32_t bin) { return bin >= 255 ? 0.0 : std::ldexp(1.0, static_cast<int>(bin) - 126); }
 
+// Columns (CellShape): y and z cut kColumnSection times more finely (in
+// area) than the cubes, but never below the width of all but n /
+// kColumnTail boxes: a box wider than its cell on two axes may meet more
+// than kMaxRefsPerBox cells and go to the large pass, which tests it
+// against every box, so the few wider boxes must stay few. x is cut for a
+// kColumnSection-th of the cubes' count: every x cut replicates boxes and
+// none shortens a row (the sweep stops on x by itself), so the columns
+// hold kColumnSection times the boxes of a cube.
+constexpr double kColumnSection = 4;
+constexpr std::uint32_t kColumnTail = 4096;
+
+// The extent below which all but n / kColumnTail boxes lie on axis k (a bin
+// ceiling; boxes of infinite extent aside).
+double tail_extent(const ExtentHistogram& h, std::uint32_t n, int k) {
+  const std::uint64_t allowed = n / kColumnTail;
+  std::uint64_t above = 0;
+  for (std::uint32_t bin = kExtentBins - 2; bin > 0; --bin) {
+    above += h.count[k][bin];
+    if (above > allowed) return bin_ceiling(bin);
+  }
+  return bin_ceiling(0);
+}
+
 }  // namespace
 
 bool GridPlan::update(const Bounds& b, const ExtentHistogram& extents, std::uint32_t n,
-                      std::uint32_t boxes_per_cell) {
+                      std::uint32_t boxes_per_cell, CellShape shape) {
   std::uint32_t floor_bin[3];
   floor_bins(extents, n, floor_bin);
   bool keep = valid_ && 4ull * n >= 3ull * planned_n_ && 3ull * n <= 4ull * planned_n_;
@@ -49,13 +72,13 @@ bool GridPlan::update(const Bounds& b, const ExtentHistogram& extents, std::uint
            floor_bin[k] + 1 >= planned_floor_bin_[k] && floor_bin[k] <= planned_floor_bin_[k] + 1;
   }
   if (keep) return false;
-  plan(b, floor_bin, n, boxes_per_cell);
+  plan(b, extents, floor_bin, n, boxes_per_cell, shape);
   return true;
 }
 
-bool GridPlan::update_from_last(std::uint32_t n, std::uint32_t boxes_per_cell, bool& replanned) {
+bool GridPlan::update_from_last(std::uint32_t n, std::uint32_t boxes_per_cell, CellShape shape, bool& replanned) {
   if (!has_last_ || n != last_n_) return false;
-  replanned = update(last_bounds_, last_extents_, n, boxes_per_cell);
+  replanned = update(last_bounds_, last_extents_, n, boxes_per_cell, shape);
   return true;
 }
 
@@ -66,8 +89,8 @@ void GridPlan::remember(const Bounds& bounds, const ExtentHistogram& extents, st
   has_last_ = true;
 }
 
-void GridPlan::plan(const Bounds& b, const std::uint32_t floor_bin[3], std::uint32_t n,
-                    std::uint32_t boxes_per_cell) {
+void GridPlan::plan(const Bounds& b, const ExtentHistogram& extents, const std::uint32_t floor_bin[3],
+                    std::uint32_t n, std::uint32_t boxes_per_cell, CellShape shape) {
   const double target = std::clamp(static_cast<double>(n) / boxes_per_cell, 1.0, static_cast<double>(kMaxCells));
   double extent[3], floor[3];
   bool active[3];
@@ -98,12 +121,22 @@ void GridPlan::plan(const Bounds& b, const std::uint32_t floor_bin[3], std::uint
         changed = true;
       }
   }
-  for (int k = 0; k < 3; ++k) {
-    // As many cells as the edge asks (rounded up), but none narrower than
-    // the floor (rounded down).
-    const double d = active[k] ? std::min(std::ceil(extent[k] / edge), std::floor(extent[k] / floor[k])) : 1.0;
-    dims_[k] = static_cast<std::uint32_t>(std::clamp(d, 1.0, static_cast<double>(kMaxAxisCells)));
-  }
+  // Columns: a narrower edge on y and z when x and one of them are cut,
+  // then x cut for the cell count (below).
+  double cell[3] = {edge, edge, edge};
+  const int sections = int(active[1]) + int(active[2]);
+  const bool columns = shape == CellShape::Columns && active[0] && sections > 0;
+  if (columns)
+    for (int k = 1; k < 3; ++k)
+      cell[k] = std::min(edge, std::max(edge / std::pow(kColumnSection, 1.0 / sections), tail_extent(extents, n, k)));
+  const auto cells_on = [&](int k, double want) {
+    // As many cells as asked (rounded up), but none narrower than the
+    // floor (rounded down).
+    const double d = active[k] ? std::min(std::ceil(want), std::floor(extent[k] / floor[k])) : 1.0;
+    return static_cast<std::uint32_t>(std::clamp(d, 1.0, static_cast<double>(kMaxAxisCells)));
+  };
+  for (int k = 0; k < 3; ++k) dims_[k] = cells_on(k, extent[k] / cell[k]);
+  if (columns) dims_[0] = cells_on(0, target / kColumnSection / (static_cast<double>(dims_[1]) * dims_[2]));
   while (std::uint64_t{dims_[0]} * dims_[1] * dims_[2] > kMaxCells) {
     std::uint32_t* largest = std::max_element(dims_, dims_ + 3);
     *largest = (*largest + 1) / 2;

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "cuda/frame_bodies.hpp"
+#include "hbp/cuda/frame_broadphase.hpp"
 
 namespace hbp::cuda {
 
@@ -29,8 +30,9 @@ class GridPlan {
   // count, a bound moved by more than a tenth of the planned extent on its
   // axis, or the boxes' typical extent (extent_floor) moved by more than a
   // factor of two. Returns whether it planned. Deterministic in (bounds,
-  // extents, n).
-  bool update(const Bounds& bounds, const ExtentHistogram& extents, std::uint32_t n, std::uint32_t boxes_per_cell);
+  // extents, n, boxes_per_cell, shape).
+  bool update(const Bounds& bounds, const ExtentHistogram& extents, std::uint32_t n, std::uint32_t boxes_per_cell,
+              CellShape shape);
   // A frame of as many objects as the last one takes its grid from the last
   // frame's bounds and extents (remember), so the device need not wait for
   // its own before cutting cells: update() on those, `replanned` its result.
@@ -38,7 +40,7 @@ class GridPlan {
   // then calls update() with the frame's own. A grid one frame late is
   // still correct (the outer cells are unbounded); both launchers follow
   // this rule, so their frame-order lists stay identical.
-  bool update_from_last(std::uint32_t n, std::uint32_t boxes_per_cell, bool& replanned);
+  bool update_from_last(std::uint32_t n, std::uint32_t boxes_per_cell, CellShape shape, bool& replanned);
   // The frame's own bounds and extents, for the next frame (valid boxes only).
   void remember(const Bounds& bounds, const ExtentHistogram& extents, std::uint32_t n);
   // The planes of axis k start at plane_offset(k) in planes().
@@ -50,7 +52,8 @@ class GridPlan {
   GridView view(const float* planes) const;
 
  private:
-  void plan(const Bounds& bounds, const std::uint32_t floor_bin[3], std::uint32_t n, std::uint32_t boxes_per_cell);
+  void plan(const Bounds& bounds, const ExtentHistogram& extents, const std::uint32_t floor_bin[3], std::uint32_t n,
+            std::uint32_t boxes_per_cell, CellShape shape);
   std::uint32_t dims_[3] = {1, 1, 1};
   std::vector<float> planes_;  // capacity for every axis at its limit: no allocation per plan
   Bounds planned_{};

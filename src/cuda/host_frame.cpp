@@ -39,7 +39,7 @@ class HostFrame final : public FrameBroadPhase::Impl {
 
     // The grid from the last frame's bounds when it had as many objects
     // (GridPlan::update_from_last), as the device plans it.
-    const bool lagged = grid_.update_from_last(n, options.boxes_per_cell, info.replanned);
+    const bool lagged = grid_.update_from_last(n, options.boxes_per_cell, options.cell_shape, info.replanned);
 
     // Bounds, extents and validation: per-thread slices, combined in slice
     // order.
@@ -80,7 +80,7 @@ class HostFrame final : public FrameBroadPhase::Impl {
         }
       }
     }
-    if (!lagged) info.replanned = grid_.update(bounds, extents, n, options.boxes_per_cell);
+    if (!lagged) info.replanned = grid_.update(bounds, extents, n, options.boxes_per_cell, options.cell_shape);
     grid_.remember(bounds, extents, n);
     const GridView g = grid_.view(grid_.planes().data());
     for (int k = 0; k < 3; ++k) info.grid[k] = g.dims[k];

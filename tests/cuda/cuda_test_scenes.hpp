@@ -71,6 +71,22 @@ inline BoxArray extreme_boxes(std::uint32_t small) {
   return b;
 }
 
+// n unit cubes scattered through [0, side)^3, every `every`-th of them
+// `wide` units wide on y and z instead: a thin tail of wider boxes.
+inline BoxArray wide_tail(std::uint32_t n, float side, std::uint32_t every, float wide) {
+  BoxArray b(n);
+  std::uint32_t state = 12345;
+  const auto next = [&state, side] {
+    state = state * 1664525u + 1013904223u;
+    return static_cast<float>(state >> 8) / 16777216.0f * side;
+  };
+  for (std::uint32_t i = 0; i < n; ++i) {
+    const float x = next(), y = next(), z = next(), w = i % every == 0 ? wide : 1.0f;
+    b.set(i, Aabb{{x, y, z}, {x + 1, y + w, z + w}});
+  }
+  return b;
+}
+
 // The plain all-pairs oracle, for builds without the core library.
 inline std::vector<Pair> all_pairs(const BoxArray& b) {
   std::vector<Pair> out;

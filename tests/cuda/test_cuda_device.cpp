@@ -125,6 +125,33 @@ TEST(CudaDevice, AdversarialScenes) {
   expect_device_matches({BoxArray{}}, "empty", true);
 }
 
+// Cubes as well as the default columns: the device plans the CPU
+// launcher's grid and gives its list, in its order, with either sweep.
+TEST(CudaDevice, EitherCellShapeMatchesTheCpuLauncher) {
+  REQUIRE_DEVICE();
+  std::vector<BoxArray> scenes = scenes_of_every_kind(6000, 3000, 16);
+  scenes.push_back(cuda_test::wide_tail(20000, 100, 100, 6));
+  for (const cuda::CellShape shape : {cuda::CellShape::Columns, cuda::CellShape::Cubes})
+    for (const cuda::CellSweep sweep : {cuda::CellSweep::PerReference, cuda::CellSweep::BlockPerCell})
+      for (bool sorted : {true, false}) {
+        cuda::FrameOptions o;
+        o.threads = std::max(2u, std::thread::hardware_concurrency());
+        o.sorted = sorted;
+        o.sweep = sweep;
+        o.cell_shape = shape;
+        cuda::FrameBroadPhase host(o);
+        o.launcher = cuda::Launcher::Device;
+        cuda::FrameBroadPhase device(o);
+        for (std::size_t s = 0; s < scenes.size(); ++s) {
+          const std::vector<Pair> expected = host.update(lanes_of(scenes[s]));
+          ASSERT_EQ(device.update(lanes_of(scenes[s])), expected)
+              << "scene " << s << " shape " << int(shape) << " sweep " << int(sweep) << " sorted " << sorted;
+          for (int k = 0; k < 3; ++k) EXPECT_EQ(device.info().grid[k], host.info().grid[k]);
+          EXPECT_EQ(device.info().large, host.info().large);
+        }
+      }
+}
+
 // Every pair order and write gives the oracle's list: buckets from one to
 // thousands of partners (the one-point scene: one bucket per smaller id),
 // appended pairs outgrowing the last frame's room (each scene larger than

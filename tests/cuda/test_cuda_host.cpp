@@ -109,6 +109,65 @@ TEST(CudaHostFrame, FlatSceneGetsATwoDimensionalGridOfCellsAsWideAsItsBoxes) {
   }
 }
 
+cuda::FrameBroadPhase shaped_frame(cuda::CellShape shape, unsigned threads, bool sorted) {
+  cuda::FrameOptions o;
+  o.launcher = cuda::Launcher::Host;
+  o.threads = threads;
+  o.sorted = sorted;
+  o.cell_shape = shape;
+  return cuda::FrameBroadPhase(o);
+}
+
+TEST(CudaHostFrame, EitherCellShapeFrameByFrame) {
+  for (ScenarioKind kind : kKinds) {
+    const auto frames = cuda_test::scenario_frames(kind, 3000, 2);
+    for (const cuda::CellShape shape : {cuda::CellShape::Columns, cuda::CellShape::Cubes}) {
+      std::vector<Pair> frame_order[2];
+      for (unsigned threads : {1u, 2u}) {
+        auto sorted = shaped_frame(shape, threads, true);
+        for (std::size_t f = 0; f < frames.size(); ++f)
+          ASSERT_EQ(sorted.update(lanes_of(frames[f])), brute_force_pairs(frames[f]))
+              << scenario_kind_name(kind) << " shape " << int(shape) << " frame " << f << " threads " << threads;
+        auto unsorted = shaped_frame(shape, threads, false);
+        frame_order[threads - 1] = unsorted.update(lanes_of(frames[0]));
+      }
+      EXPECT_EQ(frame_order[0], frame_order[1]) << scenario_kind_name(kind) << " shape " << int(shape);
+    }
+  }
+}
+
+TEST(CudaHostFrame, ColumnCellsAreLongOnTheSweepAxis) {
+  // Columns cut y and z more finely than cubes and x more coarsely, for
+  // about a quarter of the cells; cubes cut the three axes of the paper's
+  // cubic world alike.
+  const auto frames = cuda_test::scenario_frames(ScenarioKind::Paper, 20000, 1);
+  auto columns = shaped_frame(cuda::CellShape::Columns, 2, true);
+  auto cubes = shaped_frame(cuda::CellShape::Cubes, 2, true);
+  ASSERT_EQ(columns.update(lanes_of(frames[0])), cubes.update(lanes_of(frames[0])));
+  const std::uint32_t* c = columns.info().grid;
+  const std::uint32_t* q = cubes.info().grid;
+  EXPECT_EQ(q[0], q[1]);
+  EXPECT_EQ(q[1], q[2]);
+  EXPECT_LT(2 * c[0], q[0]);
+  EXPECT_GT(c[1], q[1]);
+  EXPECT_GT(c[2], q[2]);
+  const double column_cells = double(c[0]) * c[1] * c[2], cube_cells = double(q[0]) * q[1] * q[2];
+  EXPECT_GT(column_cells, cube_cells / 8);
+  EXPECT_LT(column_cells, cube_cells / 2);
+  EXPECT_EQ(columns.info().large, 0u);
+}
+
+TEST(CudaHostFrame, ColumnCellsStayWiderThanAFewWideBoxes) {
+  // One box in a hundred is six times wider on y and z: narrower columns
+  // would put each in more than kMaxRefsPerBox cells (the large pass, a
+  // test against every box), so the columns stay wider than they are.
+  const BoxArray boxes = cuda_test::wide_tail(20000, 100, 100, 6);
+  auto columns = shaped_frame(cuda::CellShape::Columns, 2, true);
+  EXPECT_EQ(columns.update(lanes_of(boxes)), brute_force_pairs(boxes));
+  EXPECT_EQ(columns.info().large, 0u);
+  EXPECT_LT(columns.info().grid[0], columns.info().grid[1]);
+}
+
 TEST(CudaHostFrame, ReserveProvisionsTheFirstFrame) {
   const auto frames = cuda_test::scenario_frames(ScenarioKind::Paper, 20000, 2);
   auto cold = host_frame(2);

@@ -44,6 +44,7 @@ struct Args {
   unsigned threads = std::max(1u, std::thread::hardware_concurrency());
   std::uint32_t boxes_per_cell = hbp::cuda::FrameOptions{}.boxes_per_cell;
   hbp::cuda::CellSweep sweep = hbp::cuda::FrameOptions{}.sweep;
+  hbp::cuda::CellShape cell_shape = hbp::cuda::FrameOptions{}.cell_shape;
   hbp::cuda::PairOrder pair_order = hbp::cuda::FrameOptions{}.pair_order;
   hbp::cuda::PairWrite pair_write = hbp::cuda::FrameOptions{}.pair_write;
   double sustain_s = 0;  // --sustain S: device-entry frames back to back for S seconds
@@ -55,7 +56,8 @@ struct Args {
                "usage: hbp-gpu-bench [--system frame|axis-sweep|lbvh] [--kind paper|clustered|flat|huge|degenerate]\n"
                "                     [--n N] [--frames F]\n"
                "                     [--check-every K] [--launcher device|host] [--unsorted] [--no-reserve] [--threads T]\n"
-               "                     [--boxes-per-cell B] [--sweep per-reference|block-per-cell] [--sustain SECONDS]\n"
+               "                     [--boxes-per-cell B] [--cell-shape columns|cubes] [--sweep per-reference|block-per-cell]\n"
+               "                     [--sustain SECONDS]\n"
                "                     [--pair-order radix|buckets] [--pair-write offsets|append] [--json FILE]\n");
   std::exit(2);
 }
@@ -82,6 +84,12 @@ Args parse(int argc, char** argv) {
     else if (k == "--unsorted") a.sorted = false;
     else if (k == "--no-reserve") a.reserve = false;
     else if (k == "--boxes-per-cell") a.boxes_per_cell = static_cast<std::uint32_t>(std::stoul(value()));
+    else if (k == "--cell-shape") {
+      const std::string shape = value();
+      if (shape == "columns") a.cell_shape = hbp::cuda::CellShape::Columns;
+      else if (shape == "cubes") a.cell_shape = hbp::cuda::CellShape::Cubes;
+      else usage();
+    }
     else if (k == "--sweep") {
       const std::string sweep = value();
       if (sweep == "per-reference") a.sweep = hbp::cuda::CellSweep::PerReference;
@@ -210,6 +218,7 @@ int main(int argc, char** argv) {
     o.sorted = args.sorted;
     o.boxes_per_cell = args.boxes_per_cell;
     o.sweep = args.sweep;
+    o.cell_shape = args.cell_shape;
     o.pair_order = args.pair_order;
     o.pair_write = args.pair_write;
     o.threads = args.threads;
@@ -290,6 +299,7 @@ int main(int argc, char** argv) {
     str("device", args.host ? "" : hbp::cuda::device_name());
     str("kind", args.kind);
     str("order", args.sorted ? "sorted by (a, b)" : "frame order");
+    str("cell_shape", args.cell_shape == hbp::cuda::CellShape::Columns ? "columns" : "cubes");
     str("sweep", args.sweep == hbp::cuda::CellSweep::PerReference ? "per-reference" : "block-per-cell");
     str("pair_order", args.pair_order == hbp::cuda::PairOrder::Buckets ? "buckets" : "radix");
     str("pair_write", args.pair_write == hbp::cuda::PairWrite::Append ? "append" : "offsets");

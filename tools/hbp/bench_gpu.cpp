@@ -37,6 +37,7 @@ struct GpuBenchArgs {
   std::uint32_t frames = 10;
   std::string launcher = "device";
   std::string sweep = "per-reference";
+  std::string cell_shape = "columns";
   bool unsorted = false;
   unsigned threads = 0;
   bool json = false;
@@ -66,6 +67,7 @@ void run_bench_gpu(const GpuBenchArgs& a) {
   o.launcher = a.launcher == "host" ? cuda::Launcher::Host : cuda::Launcher::Device;
   o.sorted = !a.unsorted;
   o.sweep = a.sweep == "block-per-cell" ? cuda::CellSweep::BlockPerCell : cuda::CellSweep::PerReference;
+  o.cell_shape = a.cell_shape == "cubes" ? cuda::CellShape::Cubes : cuda::CellShape::Columns;
   BroadPhaseOptions cpu_options;
   cpu_options.threads = a.threads;
   cpu_options.sorted = true;
@@ -131,6 +133,7 @@ void run_bench_gpu(const GpuBenchArgs& a) {
       {"frames", a.frames},
       {"order", a.unsorted ? "frame order" : "sorted by (a, b)"},
       {"sweep", a.sweep},
+      {"cell_shape", a.cell_shape},
       {"reserve_ms", reserve_ms},
       {"first_frame_ms", frame.v.empty() ? 0.0 : frame.v.front()},
       {"frame_ms", frame_summary},
@@ -190,6 +193,9 @@ void add_bench_gpu(CLI::App* bench) {
       ->capture_default_str();
   cmd->add_option("--sweep", a->sweep, "per-reference, or block-per-cell: the paper's accelerator layout")
       ->check(CLI::IsMember({"per-reference", "block-per-cell"}))
+      ->capture_default_str();
+  cmd->add_option("--cell-shape", a->cell_shape, "columns (long on the sweep axis), or cubes")
+      ->check(CLI::IsMember({"columns", "cubes"}))
       ->capture_default_str();
   cmd->add_flag("--unsorted", a->unsorted, "Pairs in the frame's own order (compared with sw's as a set)");
   cmd->add_option("--threads", a->threads, "CPU threads of the sw engine and the CPU twin (0: all cores)")

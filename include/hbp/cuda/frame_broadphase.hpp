@@ -38,6 +38,18 @@ enum class CellSweep {
   BlockPerCell,
 };
 
+// The shape of the grid's cells (both launchers plan the same grid).
+enum class CellShape {
+  // Columns along the sweep axis x: y and z cut with half the cubes' edge
+  // (never finer than nearly every box is wide), x for a quarter of their
+  // count. A row's candidates are the boxes of its cell's y-z section that
+  // start within its x extent, so a narrower section means fewer of them;
+  // an x cut only replicates boxes, the sweep stops on x by itself.
+  Columns,
+  // Cubic cells: the same edge on every cut axis.
+  Cubes,
+};
+
 // How the device orders a frame's pairs by (a, b) (FrameOptions::sorted).
 // Both give the one sorted list; the host launcher sorts its own way.
 enum class PairOrder {
@@ -71,6 +83,7 @@ struct FrameOptions {
   bool sorted = true;              // pairs ordered by (a, b)
   std::uint64_t max_pairs = 0;     // 0: unlimited; else CapacityExceeded beyond
   std::uint32_t boxes_per_cell = 16;  // the grid's target occupancy (>= 1)
+  CellShape cell_shape = CellShape::Columns;  // the grid's cells
   CellSweep sweep = CellSweep::PerReference;  // Device: how the rows run
   PairOrder pair_order = PairOrder::Radix;    // Device, sorted: how the pairs are ordered
   PairWrite pair_write = PairWrite::Offsets;  // Device: how the pairs are written
