@@ -453,21 +453,25 @@ TEST_F(Cli, BenchPrintsASummaryAndTheReportPath) {
 
 // bench paper's GPU column comes from a stored GPU run, labelled with its
 // GPU and date; without one (or from a dry run) it reads not measured.
-// The GPU frame as a bench system ("cuda"): a column beside the others with
-// a CUDA device, its pairs checked like every system's; without one, named
-// among the systems not built, and the run goes on.
+// The GPU frame and its peers as bench systems ("cuda", "cuda-axis-sweep",
+// "cuda-lbvh"): columns beside the others with a CUDA device, their pairs
+// checked like every system's; without one, named among the systems not
+// built, and the run goes on.
 TEST_F(Cli, BenchRunsTheGpuFrameWhereThereIsADevice) {
   const std::string out = path("bench-cuda");
   const Result r = hbp({"bench", "kind", "paper", "--n", "400", "--frames", "2", "--warmup", "0", "--systems",
-                        "sw,cuda", "--no-plots", "--out", out});
+                        "sw,cuda,cuda-axis-sweep,cuda-lbvh", "--no-plots", "--out", out});
   ASSERT_EQ(r.status, 0) << r.output;
   nlohmann::json j;
   std::ifstream(out + "/report.json") >> j;
-  bool column = false;
-  for (const auto& s : j["systems"]) column |= s["key"] == "cuda";
+  int columns = 0;
+  for (const auto& s : j["systems"])
+    columns += s["key"] == "cuda" || s["key"] == "cuda-axis-sweep" || s["key"] == "cuda-lbvh";
   bool named = false;
-  for (const auto& m : j["not_built"]) named |= m.get<std::string>().find("GPU frame 'cuda'") != std::string::npos;
-  EXPECT_NE(column, named) << j["not_built"].dump();
+  for (const auto& m : j["not_built"])
+    named |= m.get<std::string>().find("GPU frame 'cuda' and its peers 'cuda-axis-sweep', 'cuda-lbvh'") !=
+             std::string::npos;
+  EXPECT_EQ(columns, named ? 0 : 3) << j["not_built"].dump();
   EXPECT_TRUE(j["mismatches"].empty()) << j["mismatches"].dump();
 #ifndef HBP_TEST_CUDA
   EXPECT_TRUE(named);

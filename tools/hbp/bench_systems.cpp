@@ -14,7 +14,9 @@
 #include "hbp/baselines/baseline.hpp"
 #endif
 #ifdef HBP_HAVE_CUDA
+#include "hbp/cuda/axis_sweep.hpp"
 #include "hbp/cuda/frame_broadphase.hpp"
+#include "hbp/cuda/lbvh.hpp"
 #endif
 #include "support/clock.hpp"
 
@@ -226,6 +228,40 @@ class GpuFrameSystem final : public BenchSystem {
  private:
   std::unique_ptr<cuda::FrameBroadPhase> frame_;
 };
+
+// The GPU peers (docs/gpu.md): the one-axis sort and sweep of the paper's
+// GPU column and a Karras LBVH, pairs sorted by (a, b), timed as the frame
+// (device time in the table, wall time for budgets).
+template <class Peer>
+class GpuPeerSystem final : public BenchSystem {
+ public:
+  GpuPeerSystem(std::string key, std::string label) : key_(std::move(key)), label_(std::move(label)) {}
+  std::string key() const override { return key_; }
+  std::string label() const override { return label_ + " (" + cuda::device_name() + ", device time)"; }
+  bool modelled() const override { return false; }
+  bool applies(std::uint32_t) const override { return true; }
+  std::string not_applicable_reason(std::uint32_t) const override { return {}; }
+  void setup(const BoxArray& boxes) override {
+    cuda::FrameOptions o;
+    o.launcher = cuda::Launcher::Device;
+    peer_ = std::make_unique<Peer>(o);
+    pairs_ = &peer_->update(cuda::lanes_of(boxes));
+  }
+  FrameTime update(const BoxArray& boxes) override {
+    const Stopwatch watch;
+    pairs_ = &peer_->update(cuda::lanes_of(boxes));
+    FrameTime t = watch.stop(BenchClock::Wall);
+    t.reported_ms = peer_->info().times.frame_ms;
+    return t;
+  }
+  std::uint64_t raw_pairs() const override { return peer_->info().pairs; }
+  const std::vector<Pair>& exact_pairs() override { return *pairs_; }
+
+ private:
+  std::string key_, label_;
+  std::unique_ptr<Peer> peer_;
+  const std::vector<Pair>* pairs_ = nullptr;
+};
 #endif
 
 bool engine_built(const std::string& name) {
@@ -246,7 +282,8 @@ const std::vector<Shape>*& current_bench_shapes() {
 
 std::vector<std::string> bench_system_keys() {
   std::vector<std::string> keys = {"bullet-dbvt", "bullet-dbvt-deferred", "bullet-axis-sweep", "cgal", "brute",
-                                   "sw", "sw-sorted", "sw-narrow", "cuda", "ae-none", "ae-1024", "mo-none"};
+                                   "sw", "sw-sorted", "sw-narrow", "cuda", "cuda-axis-sweep", "cuda-lbvh",
+                                   "ae-none", "ae-1024", "mo-none"};
   for (std::uint32_t c : kCellSizes) keys.push_back("mo-" + std::to_string(c));
   return keys;
 }
@@ -272,12 +309,16 @@ std::vector<std::unique_ptr<BenchSystem>> make_bench_systems(const SystemChoice&
   systems.push_back(std::make_unique<HybridSystem>("sw-sorted", "hybrid sw, sorted", sw_sorted, false, choice.clock));
   if (choice.shapes) systems.push_back(std::make_unique<PipelineSystem>(sw, choice.clock));
 #ifdef HBP_HAVE_CUDA
-  if (cuda::device_available())
+  if (cuda::device_available()) {
     systems.push_back(std::make_unique<GpuFrameSystem>());
-  else
-    missing.push_back("GPU frame 'cuda' (no CUDA device found)");
+    systems.push_back(
+        std::make_unique<GpuPeerSystem<cuda::AxisSweep>>("cuda-axis-sweep", "GPU one-axis sort and sweep"));
+    systems.push_back(std::make_unique<GpuPeerSystem<cuda::Lbvh>>("cuda-lbvh", "GPU LBVH"));
+  } else {
+    missing.push_back("GPU frame 'cuda' and its peers 'cuda-axis-sweep', 'cuda-lbvh' (no CUDA device found)");
+  }
 #else
-  missing.push_back("GPU frame 'cuda' (built without the CUDA room)");
+  missing.push_back("GPU frame 'cuda' and its peers 'cuda-axis-sweep', 'cuda-lbvh' (built without the CUDA room)");
 #endif
 
   if (engine_built("ae")) {

@@ -303,7 +303,8 @@ void add_common(CLI::App* cmd, BenchArgs& a) {
                                            "bullet-axis-sweep, cgal, fcl-dynamic-aabb-tree, fcl-sap, "
                                            "fcl-interval-tree, fcl-spatial-hash, ode-hash, ode-sap, ode-quadtree, "
                                            "brute, sw, sw-sorted, sw-narrow, cuda (the GPU frame, with a CUDA "
-                                           "device), ae-none, ae-1024, mo-none, mo-1024 ... mo-16384")
+                                           "device), cuda-axis-sweep, cuda-lbvh (its GPU peers), ae-none, "
+                                           "ae-1024, mo-none, mo-1024 ... mo-16384")
       ->delimiter(',');
   cmd->add_option("--out", a.out, "Output directory (default bench-results/<kind>-<time>)");
   cmd->add_option("--gpu-report", a.gpu_report, "The stored GPU run for the GPU column (bench paper)")
