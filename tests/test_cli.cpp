@@ -483,11 +483,14 @@ TEST_F(Cli, BenchPaperCarriesTheStoredGpuRunLabelled) {
     const std::string file = path(name);
     std::ofstream(file) << R"json({"dry_run": )json" << (dry ? "true" : "false")
                         << R"json(, "gpu": "Test GPU", "date": "2026-01-02T03:04:05Z", "host": "host: 16 CPUs",
-      "paper_1024000": {"frame_ms": 0.5, "with_transfers_ms": 4.5, "lbvh_ms": 1.5, "energy_per_frame_j": 0.25},
-      "runs": [{"system": "frame", "kind": "paper", "order": "sorted by (a, b)", "objects": 1000,
-                "median_frame_ms": 0.125, "exact": true},
-               {"system": "frame", "kind": "paper", "order": "sorted by (a, b)", "objects": 2000,
-                "median_frame_ms": 9.0, "exact": false}]})json";
+      "paper_1024000": {"frame_ms": 0.5, "with_transfers_ms": 4.5, "lbvh_ms": 1.5, "energy_per_frame_j": 0.25,
+                        "cpu_cells_gpu_accelerator_engine_ms": 40.0},
+      "runs": [{"name": "paper-1000", "system": "frame", "kind": "paper", "order": "sorted by (a, b)",
+                "objects": 1000, "median_frame_ms": 0.125, "exact": true},
+               {"name": "paper-1000-cubes", "system": "frame", "kind": "paper", "order": "sorted by (a, b)",
+                "objects": 1000, "median_frame_ms": 7.0, "exact": true},
+               {"name": "paper-2000", "system": "frame", "kind": "paper", "order": "sorted by (a, b)",
+                "objects": 2000, "median_frame_ms": 9.0, "exact": false}]})json";
     return file;
   };
   auto tables_of = [&](const std::string& gpu_report, const std::string& out) {
@@ -499,10 +502,12 @@ TEST_F(Cli, BenchPaperCarriesTheStoredGpuRunLabelled) {
   };
   const std::string measured = tables_of(report("gpu.json", false), "measured");
   EXPECT_NE(measured.find("Measured on Test GPU (2026-01-02T03:04:05Z"), std::string::npos) << measured;
-  EXPECT_NE(measured.find("| 1000 | 0.125"), std::string::npos) << measured;
+  EXPECT_NE(measured.find("| 1000 | 0.125"), std::string::npos) << "the defaults' run, not another option's:\n"
+                                                                 << measured;
   EXPECT_EQ(measured.find("| 2000 | 9"), std::string::npos) << "an inexact run shown:\n" << measured;
   EXPECT_NE(measured.find("our GPU LBVH 1.500 ms"), std::string::npos) << measured;
   EXPECT_NE(measured.find("our GPU frame 0.5000 ms (4.500 ms with host transfers)"), std::string::npos) << measured;
+  EXPECT_NE(measured.find("partition excluded) 40.000 ms"), std::string::npos) << measured;
   std::ifstream json_file(path("measured") + "/report.json");
   const std::string json((std::istreambuf_iterator<char>(json_file)), std::istreambuf_iterator<char>());
   EXPECT_NE(json.find("\"gpu\": \"Test GPU\""), std::string::npos) << json;

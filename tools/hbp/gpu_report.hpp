@@ -23,6 +23,7 @@ struct GpuPaperFrame {
   double axis_sweep_ms = 0;       // the one-axis sort-and-sweep peer, same run (0: absent)
   double lbvh_ms = 0;             // the LBVH peer, same run (0: absent)
   double cpu_sw_ms = 0;           // our CPU engine on that machine's cores, same run (0: absent)
+  double cells_accelerator_ms = 0;  // the paper's split: our CPU's cells on the GPU ("cuda" engine time; 0: absent)
 };
 
 struct GpuReport {
