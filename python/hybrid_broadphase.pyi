@@ -43,6 +43,18 @@ class CudaPairs:
     def __len__(self) -> int: ...
 
 
+class CudaFrame:
+    """The whole broad-phase frame on the GPU, kept across frames (grid, device buffers, stream): update(boxes)
+    every step (only in a module built with the CUDA room)."""
+
+    def __init__(self, *, launcher: str = "device", threads: SupportsIndex = 0, sorted: bool = True,
+                 max_pairs: int = 0, cell_shape: str = "columns") -> None: ...
+    def reserve(self, n: int) -> None: ...
+    # numpy boxes give numpy pairs; a CUDA array (launcher="device") a CudaPairs, valid until the next update.
+    def update(self, boxes: numpy.ndarray) -> Union[numpy.ndarray, CudaPairs]: ...
+    def info(self) -> dict: ...
+
+
 # boxes: an (n, 6) float32 numpy array; with engine="cuda" also any object with __cuda_array_interface__
 # (CuPy, PyTorch), which gives a CudaPairs left on the GPU.
 def find_pairs(boxes: numpy.ndarray, *, engine: str = "sw", threads: SupportsIndex = 0, cell_limit: int = 0,

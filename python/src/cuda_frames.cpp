@@ -3,9 +3,11 @@
 
 #include <pybind11/numpy.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "array_views.hpp"
@@ -86,6 +88,101 @@ cuda::DeviceRows rows_of(const py::dict& cai, void** stream) {
   return rows;
 }
 
+// The device rows of `boxes` when it exposes __cuda_array_interface__
+// (checked whole: ValueError before any device work), else nothing.
+bool device_rows_of(py::handle boxes, cuda::DeviceRows& rows, void** stream) {
+  if (!py::hasattr(boxes, "__cuda_array_interface__")) return false;
+  const py::object cai = boxes.attr("__cuda_array_interface__");
+  if (!py::isinstance<py::dict>(cai)) throw ArgumentError("boxes: __cuda_array_interface__ is not a dict");
+  rows = rows_of(cai.cast<py::dict>(), stream);
+  return true;
+}
+
+// One frame of `frame` over `boxes`: a CudaPairs for device rows (left in
+// the frame's memory), else numpy pairs. The GIL is released while the
+// frame runs.
+py::object run_frame(const std::shared_ptr<cuda::FrameBroadPhase>& frame, py::handle boxes) {
+  cuda::DeviceRows rows;
+  void* stream = nullptr;
+  if (device_rows_of(boxes, rows, &stream)) {
+    if (frame->options().launcher != cuda::Launcher::Device)
+      throw ArgumentError("boxes: a CUDA array needs launcher='device' (this frame runs on the CPU)");
+    CudaPairs result{frame, {}};
+    {
+      py::gil_scoped_release release;
+      result.pairs = frame->update_device(rows, stream);
+    }
+    return py::cast(std::move(result));
+  }
+  const BoxesView view = boxes_view(boxes, "boxes");
+  if (view.boxes.size() > 0xffffffffull)
+    throw ArgumentError("boxes: " + std::to_string(view.boxes.size()) + " rows is out of range");
+  const std::vector<Pair>* pairs = nullptr;
+  {
+    py::gil_scoped_release release;
+    BoxArray soa(view.boxes.size());
+    for (std::size_t i = 0; i < view.boxes.size(); ++i) soa.set(i, view.boxes[i]);
+    pairs = &frame->update(cuda::lanes_of(soa));
+  }
+  return pairs_array(*pairs);
+}
+
+std::uint64_t max_pairs_arg(long long max_pairs) {
+  if (max_pairs < 0) throw ArgumentError("max_pairs: must be >= 0 (0: unlimited), got " + std::to_string(max_pairs));
+  return static_cast<std::uint64_t>(max_pairs);
+}
+
+// hbp.CudaFrame: the GPU frame kept across frames (its grid, buffers and
+// CUDA stream), as GPU engines call it every step.
+class PyCudaFrame {
+ public:
+  PyCudaFrame(const std::string& launcher, unsigned threads, bool sorted, long long max_pairs,
+              const std::string& cell_shape) {
+    cuda::FrameOptions o;
+    if (launcher == "device") o.launcher = cuda::Launcher::Device;
+    else if (launcher == "host") o.launcher = cuda::Launcher::Host;
+    else throw ArgumentError("launcher: 'device' or 'host', got '" + launcher + "'");
+    if (cell_shape == "columns") o.cell_shape = cuda::CellShape::Columns;
+    else if (cell_shape == "cubes") o.cell_shape = cuda::CellShape::Cubes;
+    else throw ArgumentError("cell_shape: 'columns' or 'cubes', got '" + cell_shape + "'");
+    o.threads = threads ? threads : std::max(1u, std::thread::hardware_concurrency());
+    o.sorted = sorted;
+    o.max_pairs = max_pairs_arg(max_pairs);
+    frame_ = std::make_shared<cuda::FrameBroadPhase>(o);  // device: "no CUDA device found" without one
+  }
+  void reserve(long long n) {
+    if (n < 0) throw ArgumentError("reserve: objects must be >= 0, got " + std::to_string(n));
+    if (n > 0xffffffffll) throw ArgumentError("reserve: " + std::to_string(n) + " objects is out of range");
+    py::gil_scoped_release release;
+    frame_->reserve(static_cast<std::uint32_t>(n));
+  }
+  py::object update(py::handle boxes) { return run_frame(frame_, boxes); }
+  py::dict info() const {
+    const cuda::FrameInfo& i = frame_->info();
+    const cuda::StageTimes& t = i.times;
+    py::dict times;
+    const std::pair<const char*, double> stages[] = {
+        {"upload", t.upload_ms}, {"bounds", t.bounds_ms}, {"refs", t.refs_ms},   {"sort", t.sort_ms},
+        {"count", t.count_ms},   {"fill", t.fill_ms},     {"order", t.order_ms}, {"download", t.download_ms},
+        {"frame", t.frame_ms}};
+    for (const auto& [name, ms] : stages) times[name] = ms;
+    py::dict d;
+    d["pairs"] = i.pairs;
+    d["references"] = i.references;
+    d["cells"] = i.cells;
+    d["large"] = i.large;
+    d["grid"] = py::make_tuple(i.grid[0], i.grid[1], i.grid[2]);
+    d["replanned"] = i.replanned;
+    d["allocations"] = i.allocations;
+    d["buffer_bytes"] = i.buffer_bytes;
+    d["times_ms"] = times;
+    return d;
+  }
+
+ private:
+  std::shared_ptr<cuda::FrameBroadPhase> frame_;
+};
+
 }  // namespace
 
 void register_cuda_frames(py::module_& m) {
@@ -101,38 +198,42 @@ void register_cuda_frames(py::module_& m) {
           "__len__", [](const CudaPairs& p) { return p.pairs.count; }, "The number of pairs, k.")
       .def("__repr__",
            [](const CudaPairs& p) { return "CudaPairs(" + std::to_string(p.pairs.count) + " pairs on the GPU)"; });
+
+  py::class_<PyCudaFrame>(m, "CudaFrame",
+                          "The whole broad-phase frame on the GPU, kept across frames (grid, device buffers, "
+                          "stream): update(boxes) every step. numpy boxes give numpy pairs; boxes with "
+                          "__cuda_array_interface__ (CuPy, PyTorch) give a CudaPairs left on the GPU, valid until "
+                          "this frame's next update.")
+      .def(py::init([](const std::string& launcher, const py::object& threads, bool sorted, long long max_pairs,
+                       const std::string& cell_shape) {
+             return PyCudaFrame(launcher, threads_arg(threads), sorted, max_pairs, cell_shape);
+           }),
+           py::kw_only(), py::arg("launcher") = "device", py::arg("threads") = 0, py::arg("sorted") = true,
+           py::arg("max_pairs") = 0, py::arg("cell_shape") = "columns",
+           "launcher: 'device' (a CUDA GPU; RuntimeError 'no CUDA device found' without one) or 'host' (the same "
+           "kernels on CPU threads); threads: the host launcher's, 0 = all cores; sorted: pairs ordered by (a, b), "
+           "else the frame's own order; max_pairs: 0 = unlimited, else update() raises CapacityExceeded beyond "
+           "it; cell_shape: 'columns' (long on the sweep axis) or 'cubes'.")
+      .def("reserve", &PyCudaFrame::reserve, py::arg("n"),
+           "Loads the kernels and sizes the buffers for about n objects before the first update.")
+      .def("update", &PyCudaFrame::update, py::arg("boxes"),
+           "Every overlapping pair of rows of boxes ((n, 6) float32): a (k, 2) uint32 numpy array, or a CudaPairs "
+           "for a CUDA array (launcher='device'). ValueError for bad boxes (NaN, min > max: the object is "
+           "named), CapacityExceeded past max_pairs.")
+      .def("info", &PyCudaFrame::info,
+           "The last update: pairs, references, cells, large, grid, replanned, allocations, buffer_bytes and "
+           "times_ms (upload, bounds, refs, sort, count, fill, order, download, frame: device time on a GPU, "
+           "wall time on the host launcher).");
 }
 
 py::object find_pairs_cuda(py::handle boxes, long long max_pairs) {
-  if (max_pairs < 0) throw ArgumentError("max_pairs: must be >= 0 (0: unlimited), got " + std::to_string(max_pairs));
   cuda::FrameOptions options;
   options.launcher = cuda::Launcher::Device;
-  options.max_pairs = static_cast<std::uint64_t>(max_pairs);
-  if (py::hasattr(boxes, "__cuda_array_interface__")) {
-    const py::object cai = boxes.attr("__cuda_array_interface__");
-    if (!py::isinstance<py::dict>(cai)) throw ArgumentError("boxes: __cuda_array_interface__ is not a dict");
-    void* stream = nullptr;
-    const cuda::DeviceRows rows = rows_of(cai.cast<py::dict>(), &stream);
-    auto frame = std::make_shared<cuda::FrameBroadPhase>(options);  // "no CUDA device found" without one
-    CudaPairs result{frame, {}};
-    {
-      py::gil_scoped_release release;
-      result.pairs = frame->update_device(rows, stream);
-    }
-    return py::cast(std::move(result));
-  }
-  const BoxesView view = boxes_view(boxes, "boxes");
-  if (view.boxes.size() > 0xffffffffull)
-    throw ArgumentError("boxes: " + std::to_string(view.boxes.size()) + " rows is out of range");
-  std::vector<Pair> pairs;
-  {
-    py::gil_scoped_release release;
-    BoxArray soa(view.boxes.size());
-    for (std::size_t i = 0; i < view.boxes.size(); ++i) soa.set(i, view.boxes[i]);
-    cuda::FrameBroadPhase frame(options);
-    pairs = frame.update(cuda::lanes_of(soa));
-  }
-  return pairs_array(pairs);
+  options.max_pairs = max_pairs_arg(max_pairs);
+  cuda::DeviceRows rows;
+  void* stream = nullptr;
+  device_rows_of(boxes, rows, &stream);  // a malformed interface is a ValueError before any device work
+  return run_frame(std::make_shared<cuda::FrameBroadPhase>(options), boxes);
 }
 
 }  // namespace hbp::python

@@ -117,3 +117,86 @@ def test_device_arrays_stay_on_the_device(library):
         assert isinstance(pairs, hbp.CudaPairs) and pairs.shape == (len(want), 2) and len(pairs) == len(want)
         got = lib.asarray(pairs).get() if library == "cupy" else lib.as_tensor(pairs, device="cuda").cpu().numpy()
         np.testing.assert_array_equal(got, want)
+
+
+# ---- CudaFrame: the frame kept across frames --------------------------------------------
+
+def test_cuda_frame_on_the_host_launcher_frame_by_frame():
+    rng = np.random.default_rng(70)
+    frame = hbp.CudaFrame(launcher="host", threads=2)
+    frame.reserve(2000)
+    boxes = random_boxes(rng, 2000)
+    for f in range(4):
+        got = frame.update(boxes)
+        np.testing.assert_array_equal(got, brute_pairs(boxes))
+        info = frame.info()
+        assert info["pairs"] == len(got) > 100
+        assert info["references"] >= 2000 and info["large"] == 0 and len(info["grid"]) == 3
+        assert set(info["times_ms"]) == {"upload", "bounds", "refs", "sort", "count", "fill", "order", "download",
+                                         "frame"}
+        if f > 0:
+            assert info["allocations"] == 0, f"frame {f} allocated"
+        boxes = boxes + rng.uniform(-0.5, 0.5, (2000, 1)).astype(np.float32)  # every box moves as one
+
+
+def test_cuda_frame_orders_and_shapes_give_the_same_pairs():
+    boxes = random_boxes(np.random.default_rng(71), 1500)
+    want = brute_pairs(boxes)
+    for shape in ("columns", "cubes"):
+        np.testing.assert_array_equal(hbp.CudaFrame(launcher="host", cell_shape=shape).update(boxes), want)
+        unsorted = hbp.CudaFrame(launcher="host", sorted=False, cell_shape=shape).update(boxes)
+        assert np.all(unsorted[:, 0] < unsorted[:, 1])
+        np.testing.assert_array_equal(unsorted[np.lexsort((unsorted[:, 1], unsorted[:, 0]))], want)
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"launcher": "gpu"}, "launcher: 'device' or 'host', got 'gpu'"),
+    ({"cell_shape": "spheres"}, "cell_shape: 'columns' or 'cubes', got 'spheres'"),
+    ({"max_pairs": -1}, "max_pairs"),
+    ({"threads": -1}, "threads"),
+])
+def test_cuda_frame_rejects_bad_options(kwargs, message):
+    with pytest.raises(ValueError) as e:
+        hbp.CudaFrame(**dict({"launcher": "host"}, **kwargs))
+    assert message in str(e.value)
+
+
+def test_cuda_frame_errors_change_nothing():
+    frame = hbp.CudaFrame(launcher="host", max_pairs=1000)
+    with pytest.raises(ValueError, match="reserve"):
+        frame.reserve(-1)
+    bad = random_boxes(np.random.default_rng(72), 50)
+    bad[17, 1] = np.nan
+    with pytest.raises(ValueError, match="17"):
+        frame.update(bad)
+    one_point = np.tile(np.array([[1, 2, 3, 1, 2, 3]], np.float32), (100, 1))  # 4,950 pairs
+    with pytest.raises(hbp.CapacityExceeded, match="max_pairs = 1000"):
+        frame.update(one_point)
+    assert len(frame.update(one_point[:45])) == 990
+    with pytest.raises(ValueError, match="needs launcher='device'"):
+        frame.update(Interface())
+
+
+def test_cuda_frame_on_the_device():
+    if not device_present():
+        with pytest.raises(RuntimeError, match="no CUDA device found"):
+            hbp.CudaFrame()
+        skip_unless_required("no CUDA device")
+    rng = np.random.default_rng(73)
+    frame = hbp.CudaFrame()
+    frame.reserve(3000)
+    for f in range(3):
+        boxes = random_boxes(rng, 3000)
+        np.testing.assert_array_equal(frame.update(boxes), brute_pairs(boxes))
+        assert frame.info()["times_ms"]["frame"] > 0
+    try:
+        cupy = __import__("cupy")
+    except ImportError as e:
+        skip_unless_required(f"cupy cannot be imported ({e})")
+    for f in range(3):
+        boxes = random_boxes(rng, 3000)
+        pairs = frame.update(cupy.asarray(boxes))
+        assert isinstance(pairs, hbp.CudaPairs)
+        np.testing.assert_array_equal(cupy.asarray(pairs).get(), brute_pairs(boxes))
+        if f > 0:
+            assert frame.info()["allocations"] == 0

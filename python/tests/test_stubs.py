@@ -11,9 +11,10 @@ import hybrid_broadphase as hbp
 
 STUB = pathlib.Path(__file__).resolve().parents[1] / "hybrid_broadphase.pyi"
 STUB_ONLY = {"BoxLike", "Vec3Like", "HandlesLike", "Stats"}  # type aliases of the stub
-# CudaPairs is in the module only when it is built with the CUDA room.
-CUDA_ONLY = {"CudaPairs"}
-CLASSES = ("BroadPhase", "UpdateResult") + (("CudaPairs",) if hasattr(hbp, "CudaPairs") else ())
+# CudaPairs and CudaFrame are in the module only when it is built with the
+# CUDA room.
+CUDA_ONLY = {"CudaPairs", "CudaFrame"}
+CLASSES = ("BroadPhase", "UpdateResult") + (("CudaPairs", "CudaFrame") if hasattr(hbp, "CudaPairs") else ())
 
 
 def stub_tree():
