@@ -29,12 +29,14 @@ using cuda_test::lanes_of;
 const ScenarioKind kKinds[] = {ScenarioKind::Paper, ScenarioKind::Clustered, ScenarioKind::Flat, ScenarioKind::Huge,
                                ScenarioKind::Degenerate};
 
-cuda::FrameBroadPhase host_frame(unsigned threads, bool sorted = true, std::uint64_t max_pairs = 0) {
+cuda::FrameBroadPhase host_frame(unsigned threads, bool sorted = true, std::uint64_t max_pairs = 0,
+                                 cuda::CellShape shape = cuda::CellShape::Columns) {
   cuda::FrameOptions o;
   o.launcher = cuda::Launcher::Host;
   o.threads = threads;
   o.sorted = sorted;
   o.max_pairs = max_pairs;
+  o.cell_shape = shape;
   return cuda::FrameBroadPhase(o);
 }
 
@@ -110,12 +112,7 @@ TEST(CudaHostFrame, FlatSceneGetsATwoDimensionalGridOfCellsAsWideAsItsBoxes) {
 }
 
 cuda::FrameBroadPhase shaped_frame(cuda::CellShape shape, unsigned threads, bool sorted) {
-  cuda::FrameOptions o;
-  o.launcher = cuda::Launcher::Host;
-  o.threads = threads;
-  o.sorted = sorted;
-  o.cell_shape = shape;
-  return cuda::FrameBroadPhase(o);
+  return host_frame(threads, sorted, 0, shape);
 }
 
 TEST(CudaHostFrame, EitherCellShapeFrameByFrame) {

@@ -198,44 +198,15 @@ class WholeWorldModel final : public BenchSystem {
 };
 
 #ifdef HBP_HAVE_CUDA
-// The whole frame on the GPU (docs/gpu.md), pairs sorted by (a, b). The
-// table's time is the frame's device time (CUDA events, boxes already on the
-// device); the wall time (host transfers included) goes to budgets and ETA.
-class GpuFrameSystem final : public BenchSystem {
+// The whole frame on the GPU (docs/gpu.md) and its peers (the one-axis sort
+// and sweep of the paper's GPU column, a Karras LBVH), pairs sorted by (a,
+// b). The table's time is the device time per frame (CUDA events, boxes
+// already on the device); the wall time (host transfers included) goes to
+// budgets and ETA.
+template <class Gpu>
+class GpuSystem final : public BenchSystem {
  public:
-  std::string key() const override { return "cuda"; }
-  std::string label() const override { return "GPU frame (" + cuda::device_name() + ", device time)"; }
-  bool modelled() const override { return false; }
-  bool applies(std::uint32_t) const override { return true; }
-  std::string not_applicable_reason(std::uint32_t) const override { return {}; }
-  void setup(const BoxArray& boxes) override {
-    cuda::FrameOptions o;
-    o.launcher = cuda::Launcher::Device;
-    frame_ = std::make_unique<cuda::FrameBroadPhase>(o);
-    frame_->reserve(static_cast<std::uint32_t>(boxes.size()));
-    frame_->update(cuda::lanes_of(boxes));
-  }
-  FrameTime update(const BoxArray& boxes) override {
-    const Stopwatch watch;
-    frame_->update(cuda::lanes_of(boxes));
-    FrameTime t = watch.stop(BenchClock::Wall);
-    t.reported_ms = frame_->info().times.frame_ms;
-    return t;
-  }
-  std::uint64_t raw_pairs() const override { return frame_->info().pairs; }
-  const std::vector<Pair>& exact_pairs() override { return frame_->pairs(); }
-
- private:
-  std::unique_ptr<cuda::FrameBroadPhase> frame_;
-};
-
-// The GPU peers (docs/gpu.md): the one-axis sort and sweep of the paper's
-// GPU column and a Karras LBVH, pairs sorted by (a, b), timed as the frame
-// (device time in the table, wall time for budgets).
-template <class Peer>
-class GpuPeerSystem final : public BenchSystem {
- public:
-  GpuPeerSystem(std::string key, std::string label) : key_(std::move(key)), label_(std::move(label)) {}
+  GpuSystem(std::string key, std::string label) : key_(std::move(key)), label_(std::move(label)) {}
   std::string key() const override { return key_; }
   std::string label() const override { return label_ + " (" + cuda::device_name() + ", device time)"; }
   bool modelled() const override { return false; }
@@ -244,22 +215,23 @@ class GpuPeerSystem final : public BenchSystem {
   void setup(const BoxArray& boxes) override {
     cuda::FrameOptions o;
     o.launcher = cuda::Launcher::Device;
-    peer_ = std::make_unique<Peer>(o);
-    pairs_ = &peer_->update(cuda::lanes_of(boxes));
+    gpu_ = std::make_unique<Gpu>(o);
+    if constexpr (requires(Gpu& g) { g.reserve(0u); }) gpu_->reserve(static_cast<std::uint32_t>(boxes.size()));
+    pairs_ = &gpu_->update(cuda::lanes_of(boxes));
   }
   FrameTime update(const BoxArray& boxes) override {
     const Stopwatch watch;
-    pairs_ = &peer_->update(cuda::lanes_of(boxes));
+    pairs_ = &gpu_->update(cuda::lanes_of(boxes));
     FrameTime t = watch.stop(BenchClock::Wall);
-    t.reported_ms = peer_->info().times.frame_ms;
+    t.reported_ms = gpu_->info().times.frame_ms;
     return t;
   }
-  std::uint64_t raw_pairs() const override { return peer_->info().pairs; }
+  std::uint64_t raw_pairs() const override { return gpu_->info().pairs; }
   const std::vector<Pair>& exact_pairs() override { return *pairs_; }
 
  private:
   std::string key_, label_;
-  std::unique_ptr<Peer> peer_;
+  std::unique_ptr<Gpu> gpu_;
   const std::vector<Pair>* pairs_ = nullptr;
 };
 #endif
@@ -310,10 +282,10 @@ std::vector<std::unique_ptr<BenchSystem>> make_bench_systems(const SystemChoice&
   if (choice.shapes) systems.push_back(std::make_unique<PipelineSystem>(sw, choice.clock));
 #ifdef HBP_HAVE_CUDA
   if (cuda::device_available()) {
-    systems.push_back(std::make_unique<GpuFrameSystem>());
+    systems.push_back(std::make_unique<GpuSystem<cuda::FrameBroadPhase>>("cuda", "GPU frame"));
     systems.push_back(
-        std::make_unique<GpuPeerSystem<cuda::AxisSweep>>("cuda-axis-sweep", "GPU one-axis sort and sweep"));
-    systems.push_back(std::make_unique<GpuPeerSystem<cuda::Lbvh>>("cuda-lbvh", "GPU LBVH"));
+        std::make_unique<GpuSystem<cuda::AxisSweep>>("cuda-axis-sweep", "GPU one-axis sort and sweep"));
+    systems.push_back(std::make_unique<GpuSystem<cuda::Lbvh>>("cuda-lbvh", "GPU LBVH"));
   } else {
     missing.push_back("GPU frame 'cuda' and its peers 'cuda-axis-sweep', 'cuda-lbvh' (no CUDA device found)");
   }
