@@ -34,8 +34,8 @@ class Stats(TypedDict):
 
 
 class CudaPairs:
-    """Pairs of find_pairs(..., engine='cuda') on boxes in device memory: (k, 2) uint32, a < b, sorted, left
-    on the GPU (only in a module built with the CUDA room)."""
+    """Pairs of find_pairs(..., engine='cuda') or CudaFrame.update on boxes in device memory: (k, 2) uint32,
+    a < b, sorted (unless CudaFrame(sorted=False)), left on the GPU (only in a module built with the CUDA room)."""
 
     __cuda_array_interface__: dict
     @property
@@ -50,7 +50,7 @@ class CudaFrame:
     def __init__(self, *, launcher: str = "device", threads: SupportsIndex = 0, sorted: bool = True,
                  max_pairs: int = 0, cell_shape: str = "columns") -> None: ...
     def reserve(self, n: int) -> None: ...
-    # numpy boxes give numpy pairs; a CUDA array (launcher="device") a CudaPairs, valid until the next update.
+    # numpy boxes give numpy pairs; a CUDA array (launcher="device") a CudaPairs, valid while referenced.
     def update(self, boxes: numpy.ndarray) -> Union[numpy.ndarray, CudaPairs]: ...
     def info(self) -> dict: ...
 

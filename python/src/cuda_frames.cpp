@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <thread>
 #include <vector>
@@ -18,8 +19,9 @@ namespace hbp::python {
 namespace {
 
 // A frame's pairs in device memory: (count, 2) uint32, a < b, sorted by
-// (a, b). The frame that holds them lives as long as this object (and the
-// CuPy array or PyTorch tensor made from it, which keeps it referenced).
+// (a, b) (or in the frame's own order from CudaFrame(sorted=False)). The
+// frame that holds them lives as long as this object (and the CuPy array or
+// PyTorch tensor made from it, which keeps it referenced).
 struct CudaPairs {
   std::shared_ptr<cuda::FrameBroadPhase> frame;
   cuda::DevicePairs pairs;
@@ -98,33 +100,46 @@ bool device_rows_of(py::handle boxes, cuda::DeviceRows& rows, void** stream) {
   return true;
 }
 
-// One frame of `frame` over `boxes`: a CudaPairs for device rows (left in
-// the frame's memory), else numpy pairs. The GIL is released while the
-// frame runs.
-py::object run_frame(const std::shared_ptr<cuda::FrameBroadPhase>& frame, py::handle boxes) {
+// The boxes of one frame: rows in device memory, or numpy rows copied into
+// lanes. Read with the GIL held; the frame then runs without it.
+struct FrameInput {
+  bool on_device = false;
   cuda::DeviceRows rows;
   void* stream = nullptr;
-  if (device_rows_of(boxes, rows, &stream)) {
-    if (frame->options().launcher != cuda::Launcher::Device)
+  BoxArray lanes;
+};
+
+FrameInput frame_input(py::handle boxes, cuda::Launcher launcher) {
+  FrameInput in;
+  in.on_device = device_rows_of(boxes, in.rows, &in.stream);
+  if (in.on_device) {
+    if (launcher != cuda::Launcher::Device)
       throw ArgumentError("boxes: a CUDA array needs launcher='device' (this frame runs on the CPU)");
-    CudaPairs result{frame, {}};
-    {
-      py::gil_scoped_release release;
-      result.pairs = frame->update_device(rows, stream);
-    }
-    return py::cast(std::move(result));
+    return in;
   }
   const BoxesView view = boxes_view(boxes, "boxes");
   if (view.boxes.size() > 0xffffffffull)
     throw ArgumentError("boxes: " + std::to_string(view.boxes.size()) + " rows is out of range");
-  const std::vector<Pair>* pairs = nullptr;
-  {
-    py::gil_scoped_release release;
-    BoxArray soa(view.boxes.size());
-    for (std::size_t i = 0; i < view.boxes.size(); ++i) soa.set(i, view.boxes[i]);
-    pairs = &frame->update(cuda::lanes_of(soa));
-  }
-  return pairs_array(*pairs);
+  py::gil_scoped_release release;
+  in.lanes = BoxArray(view.boxes.size());
+  for (std::size_t i = 0; i < view.boxes.size(); ++i) in.lanes.set(i, view.boxes[i]);
+  return in;
+}
+
+// Runs `frame` over `in` (no GIL needed): the device pairs, or the host
+// pairs left in frame->pairs().
+cuda::DevicePairs run_input(cuda::FrameBroadPhase& frame, const FrameInput& in) {
+  if (in.on_device) return frame.update_device(in.rows, in.stream);
+  frame.update(cuda::lanes_of(in.lanes));
+  return {};
+}
+
+// The result of a frame run on `in`: a CudaPairs holding `frame` (its
+// memory holds the pairs), or numpy pairs.
+py::object frame_result(const std::shared_ptr<cuda::FrameBroadPhase>& frame, const FrameInput& in,
+                        const cuda::DevicePairs& pairs) {
+  if (in.on_device) return py::cast(CudaPairs{frame, pairs});
+  return pairs_array(frame->pairs());
 }
 
 std::uint64_t max_pairs_arg(long long max_pairs) {
@@ -133,32 +148,46 @@ std::uint64_t max_pairs_arg(long long max_pairs) {
 }
 
 // hbp.CudaFrame: the GPU frame kept across frames (its grid, buffers and
-// CUDA stream), as GPU engines call it every step.
+// CUDA stream), as GPU engines call it every step. A CudaPairs lies in the
+// memory of the frame that made it and holds that frame, so no update may
+// run on a frame whose result is still referenced: device results
+// alternate between two frames (the usual `p = update(...)` loop drops a
+// result before its frame comes round again), and a frame still
+// referenced when its turn comes is left to its results and replaced.
+// Calls from several Python threads take turns (the GIL is released first).
 class PyCudaFrame {
  public:
-  PyCudaFrame(const std::string& launcher, unsigned threads, bool sorted, long long max_pairs,
-              const std::string& cell_shape) {
-    cuda::FrameOptions o;
-    if (launcher == "device") o.launcher = cuda::Launcher::Device;
-    else if (launcher == "host") o.launcher = cuda::Launcher::Host;
-    else throw ArgumentError("launcher: 'device' or 'host', got '" + launcher + "'");
-    if (cell_shape == "columns") o.cell_shape = cuda::CellShape::Columns;
-    else if (cell_shape == "cubes") o.cell_shape = cuda::CellShape::Cubes;
-    else throw ArgumentError("cell_shape: 'columns' or 'cubes', got '" + cell_shape + "'");
-    o.threads = threads ? threads : std::max(1u, std::thread::hardware_concurrency());
-    o.sorted = sorted;
-    o.max_pairs = max_pairs_arg(max_pairs);
-    frame_ = std::make_shared<cuda::FrameBroadPhase>(o);  // device: "no CUDA device found" without one
+  explicit PyCudaFrame(const cuda::FrameOptions& o) : options_(o) {
+    slots_[0] = std::make_shared<cuda::FrameBroadPhase>(o);  // device: "no CUDA device found" without one
   }
   void reserve(long long n) {
     if (n < 0) throw ArgumentError("reserve: objects must be >= 0, got " + std::to_string(n));
     if (n > 0xffffffffll) throw ArgumentError("reserve: " + std::to_string(n) + " objects is out of range");
     py::gil_scoped_release release;
-    frame_->reserve(static_cast<std::uint32_t>(n));
+    const std::lock_guard<std::mutex> lock(mutex_);
+    free_slot()->reserve(static_cast<std::uint32_t>(n));
   }
-  py::object update(py::handle boxes) { return run_frame(frame_, boxes); }
-  py::dict info() const {
-    const cuda::FrameInfo& i = frame_->info();
+  py::object update(py::handle boxes) {
+    const FrameInput in = frame_input(boxes, options_.launcher);
+    std::shared_ptr<cuda::FrameBroadPhase> frame;
+    cuda::DevicePairs pairs;
+    {
+      py::gil_scoped_release release;
+      const std::lock_guard<std::mutex> lock(mutex_);
+      frame = free_slot();
+      last_ = frame;
+      pairs = run_input(*frame, in);
+      if (in.on_device) next_ ^= 1;  // this result's frame is not run again while the next one is free
+    }
+    return frame_result(frame, in, pairs);
+  }
+  py::dict info() {
+    cuda::FrameInfo i;
+    {
+      py::gil_scoped_release release;
+      const std::lock_guard<std::mutex> lock(mutex_);
+      i = (last_ ? last_ : slots_[next_])->info();
+    }
     const cuda::StageTimes& t = i.times;
     py::dict times;
     const std::pair<const char*, double> stages[] = {
@@ -180,15 +209,28 @@ class PyCudaFrame {
   }
 
  private:
-  std::shared_ptr<cuda::FrameBroadPhase> frame_;
+  // The frame of this turn, made anew when none is there yet or a result
+  // (or another call) still holds the one there. Under mutex_.
+  const std::shared_ptr<cuda::FrameBroadPhase>& free_slot() {
+    std::shared_ptr<cuda::FrameBroadPhase>& slot = slots_[next_];
+    const long held = (slot ? slot.use_count() : 0) - (slot && slot == last_ ? 1 : 0);
+    if (!slot || held > 1) slot = std::make_shared<cuda::FrameBroadPhase>(options_);
+    return slot;
+  }
+
+  cuda::FrameOptions options_;
+  std::mutex mutex_;
+  std::shared_ptr<cuda::FrameBroadPhase> slots_[2];
+  std::shared_ptr<cuda::FrameBroadPhase> last_;  // the frame of the last update (info())
+  int next_ = 0;
 };
 
 }  // namespace
 
 void register_cuda_frames(py::module_& m) {
   py::class_<CudaPairs>(m, "CudaPairs",
-                        "Pairs of find_pairs(..., engine='cuda') on boxes in device memory: (k, 2) uint32, a < b, "
-                        "sorted, left on the GPU. cupy.asarray(p) and torch.as_tensor(p, device='cuda') take them "
+                        "Pairs of find_pairs(..., engine='cuda') or CudaFrame.update on boxes in device memory: "
+                        "(k, 2) uint32, a < b, sorted (unless CudaFrame(sorted=False)), left on the GPU. cupy.asarray(p) and torch.as_tensor(p, device='cuda') take them "
                         "without a copy (__cuda_array_interface__).")
       .def_property_readonly("__cuda_array_interface__", &array_interface,
                              "CUDA Array Interface version 3: shape (k, 2), typestr '<u4', the device pointer")
@@ -202,11 +244,22 @@ void register_cuda_frames(py::module_& m) {
   py::class_<PyCudaFrame>(m, "CudaFrame",
                           "The whole broad-phase frame on the GPU, kept across frames (grid, device buffers, "
                           "stream): update(boxes) every step. numpy boxes give numpy pairs; boxes with "
-                          "__cuda_array_interface__ (CuPy, PyTorch) give a CudaPairs left on the GPU, valid until "
-                          "this frame's next update.")
+                          "__cuda_array_interface__ (CuPy, PyTorch) give a CudaPairs left on the GPU, valid while "
+                          "referenced (an update never overwrites a referenced result).")
       .def(py::init([](const std::string& launcher, const py::object& threads, bool sorted, long long max_pairs,
                        const std::string& cell_shape) {
-             return PyCudaFrame(launcher, threads_arg(threads), sorted, max_pairs, cell_shape);
+             cuda::FrameOptions o;
+             if (launcher == "device") o.launcher = cuda::Launcher::Device;
+             else if (launcher == "host") o.launcher = cuda::Launcher::Host;
+             else throw ArgumentError("launcher: 'device' or 'host', got '" + launcher + "'");
+             if (cell_shape == "columns") o.cell_shape = cuda::CellShape::Columns;
+             else if (cell_shape == "cubes") o.cell_shape = cuda::CellShape::Cubes;
+             else throw ArgumentError("cell_shape: 'columns' or 'cubes', got '" + cell_shape + "'");
+             const unsigned t = threads_arg(threads);
+             o.threads = t ? t : std::max(1u, std::thread::hardware_concurrency());
+             o.sorted = sorted;
+             o.max_pairs = max_pairs_arg(max_pairs);
+             return std::make_unique<PyCudaFrame>(o);
            }),
            py::kw_only(), py::arg("launcher") = "device", py::arg("threads") = 0, py::arg("sorted") = true,
            py::arg("max_pairs") = 0, py::arg("cell_shape") = "columns",
@@ -215,7 +268,7 @@ void register_cuda_frames(py::module_& m) {
            "else the frame's own order; max_pairs: 0 = unlimited, else update() raises CapacityExceeded beyond "
            "it; cell_shape: 'columns' (long on the sweep axis) or 'cubes'.")
       .def("reserve", &PyCudaFrame::reserve, py::arg("n"),
-           "Loads the kernels and sizes the buffers for about n objects before the first update.")
+           "Loads the kernels and sizes the next update's buffers for about n objects.")
       .def("update", &PyCudaFrame::update, py::arg("boxes"),
            "Every overlapping pair of rows of boxes ((n, 6) float32): a (k, 2) uint32 numpy array, or a CudaPairs "
            "for a CUDA array (launcher='device'). ValueError for bad boxes (NaN, min > max: the object is "
@@ -230,10 +283,14 @@ py::object find_pairs_cuda(py::handle boxes, long long max_pairs) {
   cuda::FrameOptions options;
   options.launcher = cuda::Launcher::Device;
   options.max_pairs = max_pairs_arg(max_pairs);
-  cuda::DeviceRows rows;
-  void* stream = nullptr;
-  device_rows_of(boxes, rows, &stream);  // a malformed interface is a ValueError before any device work
-  return run_frame(std::make_shared<cuda::FrameBroadPhase>(options), boxes);
+  const FrameInput in = frame_input(boxes, options.launcher);  // a bad interface or array: ValueError first
+  auto frame = std::make_shared<cuda::FrameBroadPhase>(options);  // "no CUDA device found" without one
+  cuda::DevicePairs pairs;
+  {
+    py::gil_scoped_release release;
+    pairs = run_input(*frame, in);
+  }
+  return frame_result(frame, in, pairs);
 }
 
 }  // namespace hbp::python
