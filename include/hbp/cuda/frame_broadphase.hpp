@@ -40,11 +40,12 @@ enum class CellSweep {
 
 // The shape of the grid's cells (both launchers plan the same grid).
 enum class CellShape {
-  // Columns along the sweep axis x: y and z cut with half the cubes' edge
-  // (never finer than nearly every box is wide), x for a quarter of their
-  // count. A row's candidates are the boxes of its cell's y-z section that
-  // start within its x extent, so a narrower section means fewer of them;
-  // an x cut only replicates boxes, the sweep stops on x by itself.
+  // Columns along the sweep axis x: y and z cut for a quarter of the
+  // cubes' section (never finer than nearly every box is wide), x for a
+  // quarter of their count. A row's candidates are the boxes of its cell's
+  // y-z section that start within its x extent, so a narrower section means
+  // fewer of them; an x cut only replicates boxes, the sweep stops on x by
+  // itself.
   Columns,
   // Cubic cells: the same edge on every cut axis.
   Cubes,
