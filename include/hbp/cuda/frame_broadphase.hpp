@@ -83,7 +83,7 @@ struct FrameOptions {
   unsigned threads = 1;            // Host: CPU threads running the blocks (>= 1)
   bool sorted = true;              // pairs ordered by (a, b)
   std::uint64_t max_pairs = 0;     // 0: unlimited; else CapacityExceeded beyond
-  std::uint32_t boxes_per_cell = 16;  // the grid's target occupancy (>= 1)
+  std::uint32_t boxes_per_cell = 16;  // the cubes' target occupancy (>= 1); a column holds about 4x
   CellShape cell_shape = CellShape::Columns;  // the grid's cells
   CellSweep sweep = CellSweep::PerReference;  // Device: how the rows run
   PairOrder pair_order = PairOrder::Radix;    // Device, sorted: how the pairs are ordered
