@@ -220,6 +220,12 @@ py::array_t<std::uint32_t> pairs_array(const std::vector<Pair>& pairs) {
   return out;
 }
 
+BoxArray box_array_of(std::span<const Aabb> boxes) {
+  BoxArray soa(boxes.size());
+  for (std::size_t i = 0; i < boxes.size(); ++i) soa.set(i, boxes[i]);
+  return soa;
+}
+
 py::array_t<std::uint32_t> handles_array(std::vector<Handle>&& handles) {
   auto* owned = new std::vector<Handle>(std::move(handles));
   py::capsule free_when_done(owned, [](void* p) { delete static_cast<std::vector<Handle>*>(p); });

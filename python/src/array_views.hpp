@@ -13,11 +13,13 @@
 #include <pybind11/pybind11.h>
 
 #include <cstdint>
+#include <mutex>
 #include <span>
 #include <vector>
 
 #include "hbp/aabb.hpp"
 #include "hbp/aabb_d.hpp"
+#include "hbp/box_array.hpp"
 #include "hbp/broad_phase.hpp"
 #include "hbp/pair.hpp"
 
@@ -59,6 +61,9 @@ void vec3(py::handle obj, const char* what, float out[3]);
 
 // (k, 2) uint32 copy of canonical pairs.
 py::array_t<std::uint32_t> pairs_array(const std::vector<Pair>& pairs);
+// Rows of boxes as the structure of arrays the frames take (one copy; no
+// Python object touched, so callable without the GIL).
+BoxArray box_array_of(std::span<const Aabb> boxes);
 // (k,) uint32 array owning the vector's storage (no copy).
 py::array_t<std::uint32_t> handles_array(std::vector<Handle>&& handles);
 
@@ -66,6 +71,19 @@ py::array_t<std::uint32_t> handles_array(std::vector<Handle>&& handles);
 Handle handle_arg(const py::object& h, const char* what = "handle");
 // A Python int as a thread count 0 (all cores) .. kMaxThreads.
 unsigned threads_arg(const py::object& threads);
+
+// Exclusive access to an object that several Python threads share: the GIL
+// released first, then the mutex taken (a thread holding the mutex may need
+// the GIL to finish: the other order could deadlock), both given back in
+// reverse order.
+class LockWithoutGil {
+ public:
+  explicit LockWithoutGil(std::mutex& m) : lock_(m) {}
+
+ private:
+  py::gil_scoped_release release_;
+  std::lock_guard<std::mutex> lock_;
+};
 // A Python int as a layer 0..31.
 std::uint8_t layer_arg(const py::object& layer, const char* what = "layer");
 

@@ -121,8 +121,7 @@ FrameInput frame_input(py::handle boxes, cuda::Launcher launcher) {
   if (view.boxes.size() > 0xffffffffull)
     throw ArgumentError("boxes: " + std::to_string(view.boxes.size()) + " rows is out of range");
   py::gil_scoped_release release;
-  in.lanes = BoxArray(view.boxes.size());
-  for (std::size_t i = 0; i < view.boxes.size(); ++i) in.lanes.set(i, view.boxes[i]);
+  in.lanes = box_array_of(view.boxes);
   return in;
 }
 
@@ -163,8 +162,7 @@ class PyCudaFrame {
   void reserve(long long n) {
     if (n < 0) throw ArgumentError("reserve: objects must be >= 0, got " + std::to_string(n));
     if (n > 0xffffffffll) throw ArgumentError("reserve: " + std::to_string(n) + " objects is out of range");
-    py::gil_scoped_release release;
-    const std::lock_guard<std::mutex> lock(mutex_);
+    const LockWithoutGil lock(mutex_);
     free_slot()->reserve(static_cast<std::uint32_t>(n));
   }
   py::object update(py::handle boxes) {
@@ -172,10 +170,9 @@ class PyCudaFrame {
     std::shared_ptr<cuda::FrameBroadPhase> frame;
     cuda::DevicePairs pairs;
     {
-      py::gil_scoped_release release;
-      const std::lock_guard<std::mutex> lock(mutex_);
+      const LockWithoutGil lock(mutex_);
       frame = free_slot();
-      last_ = frame;
+      last_ = next_;
       pairs = run_input(*frame, in);
       if (in.on_device) next_ ^= 1;  // this result's frame is not run again while the next one is free
     }
@@ -184,9 +181,8 @@ class PyCudaFrame {
   py::dict info() {
     cuda::FrameInfo i;
     {
-      py::gil_scoped_release release;
-      const std::lock_guard<std::mutex> lock(mutex_);
-      i = (last_ ? last_ : slots_[next_])->info();
+      const LockWithoutGil lock(mutex_);
+      i = slots_[last_]->info();
     }
     const cuda::StageTimes& t = i.times;
     py::dict times;
@@ -210,19 +206,18 @@ class PyCudaFrame {
 
  private:
   // The frame of this turn, made anew when none is there yet or a result
-  // (or another call) still holds the one there. Under mutex_.
+  // (or another call) holds the one there besides its slot. Under mutex_.
   const std::shared_ptr<cuda::FrameBroadPhase>& free_slot() {
     std::shared_ptr<cuda::FrameBroadPhase>& slot = slots_[next_];
-    const long held = (slot ? slot.use_count() : 0) - (slot && slot == last_ ? 1 : 0);
-    if (!slot || held > 1) slot = std::make_shared<cuda::FrameBroadPhase>(options_);
+    if (!slot || slot.use_count() > 1) slot = std::make_shared<cuda::FrameBroadPhase>(options_);
     return slot;
   }
 
   cuda::FrameOptions options_;
   std::mutex mutex_;
   std::shared_ptr<cuda::FrameBroadPhase> slots_[2];
-  std::shared_ptr<cuda::FrameBroadPhase> last_;  // the frame of the last update (info())
-  int next_ = 0;
+  int next_ = 0;  // the slot of the next update
+  int last_ = 0;  // the slot of the last update (info()): its frame is the one that ran
 };
 
 }  // namespace
@@ -252,9 +247,7 @@ void register_cuda_frames(py::module_& m) {
              if (launcher == "device") o.launcher = cuda::Launcher::Device;
              else if (launcher == "host") o.launcher = cuda::Launcher::Host;
              else throw ArgumentError("launcher: 'device' or 'host', got '" + launcher + "'");
-             if (cell_shape == "columns") o.cell_shape = cuda::CellShape::Columns;
-             else if (cell_shape == "cubes") o.cell_shape = cuda::CellShape::Cubes;
-             else throw ArgumentError("cell_shape: 'columns' or 'cubes', got '" + cell_shape + "'");
+             o.cell_shape = cuda::parse_cell_shape(cell_shape);  // InvalidInput: a ValueError
              const unsigned t = threads_arg(threads);
              o.threads = t ? t : std::max(1u, std::thread::hardware_concurrency());
              o.sorted = sorted;

@@ -75,16 +75,14 @@ py::object find_pairs(py::handle boxes_obj, const std::string& engine, const py:
   {
     py::gil_scoped_release release;
     // The engine's input is structure-of-arrays: one copy is unavoidable here.
-    BoxArray soa(view.boxes.size());
-    for (std::size_t i = 0; i < view.boxes.size(); ++i) soa.set(i, view.boxes[i]);
+    const BoxArray soa = box_array_of(view.boxes);
     HybridBroadPhase bp(options);  // also validates the engine name and options
     pairs = bp.update(soa);
   }
   return pairs_array(pairs);
 }
 
-// Exclusive access to one BroadPhase: releases the GIL first, then takes the
-// mutex (and gives them back in reverse order).
+// Exclusive access to one BroadPhase (LockWithoutGil).
 // A pair filter runs inside update(), which holds the mutex: a filter calling
 // back into its BroadPhase would wait for itself. Refused instead.
 thread_local bool t_in_pair_filter = false;
@@ -101,8 +99,7 @@ class Exclusive {
     return true;
   }
   bool not_reentrant_ = refuse_reentry();  // first: before anything is released or locked
-  py::gil_scoped_release release_;         // then the GIL, before locking
-  std::lock_guard<std::mutex> lock_;
+  LockWithoutGil lock_;
 };
 
 // Result of BroadPhase.update(): copies, so they stay valid after the next update.

@@ -16,6 +16,14 @@ DevicePairs FrameBroadPhase::Impl::run_device(const DeviceRows&, void*) {
   throw InvalidInput("FrameBroadPhase::update_device needs Launcher::Device");
 }
 
+const char* cell_shape_name(CellShape shape) { return shape == CellShape::Cubes ? "cubes" : "columns"; }
+
+CellShape parse_cell_shape(const std::string& name) {
+  for (const CellShape shape : {CellShape::Columns, CellShape::Cubes})
+    if (name == cell_shape_name(shape)) return shape;
+  throw InvalidInput("cell_shape: 'columns' or 'cubes', got '" + name + "'");
+}
+
 void check_object_count(std::uint32_t n) {
   if (n > kMaxFrameObjects)
     throw InvalidInput("FrameBroadPhase: " + std::to_string(n) + " objects, more than the limit " +

@@ -85,10 +85,11 @@ Args parse(int argc, char** argv) {
     else if (k == "--no-reserve") a.reserve = false;
     else if (k == "--boxes-per-cell") a.boxes_per_cell = static_cast<std::uint32_t>(std::stoul(value()));
     else if (k == "--cell-shape") {
-      const std::string shape = value();
-      if (shape == "columns") a.cell_shape = hbp::cuda::CellShape::Columns;
-      else if (shape == "cubes") a.cell_shape = hbp::cuda::CellShape::Cubes;
-      else usage();
+      try {
+        a.cell_shape = hbp::cuda::parse_cell_shape(value());
+      } catch (const hbp::InvalidInput&) {
+        usage();
+      }
     }
     else if (k == "--sweep") {
       const std::string sweep = value();
@@ -299,7 +300,7 @@ int main(int argc, char** argv) {
     str("device", args.host ? "" : hbp::cuda::device_name());
     str("kind", args.kind);
     str("order", args.sorted ? "sorted by (a, b)" : "frame order");
-    str("cell_shape", args.cell_shape == hbp::cuda::CellShape::Columns ? "columns" : "cubes");
+    str("cell_shape", hbp::cuda::cell_shape_name(args.cell_shape));
     str("sweep", args.sweep == hbp::cuda::CellSweep::PerReference ? "per-reference" : "block-per-cell");
     str("pair_order", args.pair_order == hbp::cuda::PairOrder::Buckets ? "buckets" : "radix");
     str("pair_write", args.pair_write == hbp::cuda::PairWrite::Append ? "append" : "offsets");

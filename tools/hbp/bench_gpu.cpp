@@ -67,7 +67,7 @@ void run_bench_gpu(const GpuBenchArgs& a) {
   o.launcher = a.launcher == "host" ? cuda::Launcher::Host : cuda::Launcher::Device;
   o.sorted = !a.unsorted;
   o.sweep = a.sweep == "block-per-cell" ? cuda::CellSweep::BlockPerCell : cuda::CellSweep::PerReference;
-  o.cell_shape = a.cell_shape == "cubes" ? cuda::CellShape::Cubes : cuda::CellShape::Columns;
+  o.cell_shape = cuda::parse_cell_shape(a.cell_shape);
   BroadPhaseOptions cpu_options;
   cpu_options.threads = a.threads;
   cpu_options.sorted = true;

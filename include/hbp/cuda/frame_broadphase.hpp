@@ -50,6 +50,10 @@ enum class CellShape {
   // Cubic cells: the same edge on every cut axis.
   Cubes,
 };
+// "columns", "cubes": the names the CLI, JSON and Python use. Parsing any
+// other name throws InvalidInput "cell_shape: 'columns' or 'cubes', got ...".
+const char* cell_shape_name(CellShape shape);
+CellShape parse_cell_shape(const std::string& name);
 
 // How the device orders a frame's pairs by (a, b) (FrameOptions::sorted).
 // Both give the one sorted list; the host launcher sorts its own way.
