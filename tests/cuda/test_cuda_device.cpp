@@ -191,6 +191,30 @@ TEST(CudaDevice, PairExplosionAgainstMaxPairs) {
   EXPECT_EQ(unlimited.update(lanes_of(boxes)).size(), 7'998'000u);
 }
 
+// 10^8 pairs in one cell: refused against max_pairs = 10^8 with the exact
+// count, and every pair there, sorted, without a limit, in every pair order
+// and write.
+TEST(CudaDevice, HundredMillionPairsOnOnePoint) {
+  REQUIRE_DEVICE();
+  const std::uint32_t n = cuda_test::kHundredMillionPairsOnOnePoint;
+  const BoxArray boxes = cuda_test::all_on_one_point(n);
+  auto limited = frame(cuda::Launcher::Device, true, 100'000'000);
+  try {
+    limited.update(lanes_of(boxes));
+    FAIL() << "no CapacityExceeded";
+  } catch (const CapacityExceeded& e) {
+    EXPECT_NE(std::string(e.what()).find("counted 100005153"), std::string::npos) << e.what();
+  }
+  for (cuda::PairOrder order : {cuda::PairOrder::Radix, cuda::PairOrder::Buckets})
+    for (cuda::PairWrite write : {cuda::PairWrite::Offsets, cuda::PairWrite::Append}) {
+      auto unlimited = frame(cuda::Launcher::Device, true, 0, cuda::CellSweep::PerReference, order, write);
+      const std::vector<Pair>& pairs = unlimited.update(lanes_of(boxes));
+      EXPECT_EQ(pairs.size(), cuda_test::kHundredMillionPairs) << "order " << int(order) << " write " << int(write);
+      EXPECT_EQ(cuda_test::first_pair_not_all_of(pairs, n), pairs.size())
+          << "order " << int(order) << " write " << int(write);
+    }
+}
+
 TEST(CudaDevice, DeviceEntryLeavesPairsOnTheDevice) {
   REQUIRE_DEVICE();
   const auto frames = cuda_test::scenario_frames(ScenarioKind::Paper, 20'000, 1);

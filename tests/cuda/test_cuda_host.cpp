@@ -245,6 +245,22 @@ TEST(CudaHostFrame, PairExplosionAgainstMaxPairs) {
   EXPECT_EQ(limited.update(lanes_of(small)).size(), 4950u);
 }
 
+// The adversarial count, 10^8 pairs against max_pairs: counted
+// exactly, named in the error, and the frame recovers.
+TEST(CudaHostFrame, HundredMillionPairsAgainstMaxPairs) {
+  const BoxArray boxes = cuda_test::all_on_one_point(cuda_test::kHundredMillionPairsOnOnePoint);
+  auto limited = host_frame(2, true, 100'000'000);
+  try {
+    limited.update(lanes_of(boxes));
+    FAIL() << "no CapacityExceeded";
+  } catch (const CapacityExceeded& e) {
+    EXPECT_NE(std::string(e.what()).find("max_pairs = 100000000"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("counted 100005153"), std::string::npos) << e.what();
+  }
+  const BoxArray small = cuda_test::all_on_one_point(100);
+  EXPECT_EQ(limited.update(lanes_of(small)).size(), 4950u);
+}
+
 TEST(CudaHostFrame, RejectsDefectiveBoxesNamingTheObject) {
   BoxArray boxes = cuda_test::all_on_one_point(10);
   boxes.min(1)[7] = 5.0f;  // min > max on y
