@@ -232,7 +232,6 @@ py::array_t<std::uint32_t> handles_array(std::vector<Handle>&& handles) {
   return py::array_t<std::uint32_t>({static_cast<py::ssize_t>(owned->size())}, owned->data(), free_when_done);
 }
 
-namespace {
 std::int64_t integer_arg(const py::object& v, const char* what) {
   PyObject* index = PyNumber_Index(v.ptr());  // ints and numpy integers, not floats or str
   if (!index) {
@@ -246,7 +245,17 @@ std::int64_t integer_arg(const py::object& v, const char* what) {
   if (overflow) throw ArgumentError(std::string(what) + ": " + py::repr(v).cast<std::string>() + " is out of range");
   return x;
 }
-}  // namespace
+
+std::uint64_t u64_arg(const py::object& obj, const char* what) {
+  PyObject* index = PyNumber_Index(obj.ptr());
+  if (index) {
+    const unsigned long long v = PyLong_AsUnsignedLongLong(index);
+    Py_DECREF(index);
+    if (!PyErr_Occurred()) return v;
+  }
+  PyErr_Clear();
+  throw ArgumentError(std::string(what) + ": must be an integer 0..2**64 - 1, got " + py::repr(obj).cast<std::string>());
+}
 
 Handle handle_arg(const py::object& h, const char* what) {
   const std::int64_t v = integer_arg(h, what);

@@ -67,6 +67,10 @@ BoxArray box_array_of(std::span<const Aabb> boxes);
 // (k,) uint32 array owning the vector's storage (no copy).
 py::array_t<std::uint32_t> handles_array(std::vector<Handle>&& handles);
 
+// A Python int (or numpy integer) as a signed / unsigned 64-bit value
+// (ValueError naming `what` for a non-integer or one out of range).
+std::int64_t integer_arg(const py::object& v, const char* what);
+std::uint64_t u64_arg(const py::object& obj, const char* what);
 // A Python int as a handle (ValueError when outside uint32).
 Handle handle_arg(const py::object& h, const char* what = "handle");
 // A Python int as a thread count 0 (all cores) .. kMaxThreads.

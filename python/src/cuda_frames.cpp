@@ -14,6 +14,7 @@
 #include "array_views.hpp"
 #include "hbp/box_array.hpp"
 #include "hbp/cuda/frame_broadphase.hpp"
+#include "hbp/error.hpp"
 
 namespace hbp::python {
 namespace {
@@ -39,24 +40,41 @@ py::dict array_interface(const CudaPairs& p) {
   return d;
 }
 
-std::int64_t as_int(py::handle v, const char* what) {
-  if (!py::isinstance<py::int_>(v))
-    throw ArgumentError(std::string("boxes: __cuda_array_interface__ ") + what + " must be an int");
-  return v.cast<std::int64_t>();
+std::int64_t interface_int(py::handle v, const char* what) {
+  return integer_arg(py::reinterpret_borrow<py::object>(v),
+                     (std::string("boxes: __cuda_array_interface__ ") + what).c_str());
+}
+
+// The producer's stream as a cudaStream_t. Version 3 of the interface
+// gives an int: 1 the legacy default stream, 2 the per-thread one (the
+// runtime's handles cudaStreamLegacy and cudaStreamPerThread have those
+// values), else a stream's handle; 0 is refused by the interface itself
+// (ambiguous between the two defaults). None or no entry: the data is ready,
+// the frame runs on the legacy default stream.
+void* stream_of(const py::dict& cai) {
+  if (!cai.contains("stream") || cai["stream"].is_none()) return nullptr;
+  const py::object value = cai["stream"];
+  const std::uint64_t stream = u64_arg(value, "boxes: __cuda_array_interface__ 'stream'");
+  if (stream == 0)
+    throw ArgumentError("boxes: __cuda_array_interface__ 'stream' 0 is not allowed (1: the legacy default stream, "
+                        "2: the per-thread default stream)");
+  return reinterpret_cast<void*>(static_cast<std::uintptr_t>(stream));
 }
 
 // The rows of an (n, 6) float32 array from its __cuda_array_interface__,
-// and the producer's stream (null: the default stream). Everything the
-// interface may say is checked: a float64 array would have to be rounded,
-// which can shrink or invert a box, so only float32 is taken.
+// and the producer's stream. Everything the interface may say is checked
+// (then cuda::check_device_rows: the object limit, the pointer's
+// alignment): a float64 array would have to be rounded, which can shrink or
+// invert a box, so only float32 is taken.
 cuda::DeviceRows rows_of(const py::dict& cai, void** stream) {
   for (const char* key : {"shape", "typestr", "data"})
     if (!cai.contains(key)) throw ArgumentError(std::string("boxes: __cuda_array_interface__ has no '") + key + "'");
   const py::object shape = cai["shape"];
-  if (!py::isinstance<py::tuple>(shape) || py::len(shape) != 2 || as_int(shape.cast<py::tuple>()[1], "shape") != 6)
+  if (!py::isinstance<py::tuple>(shape) || py::len(shape) != 2 ||
+      interface_int(shape.cast<py::tuple>()[1], "shape") != 6)
     throw ArgumentError("boxes: a CUDA array of shape (n, 6) is needed, got shape " +
                         py::str(shape).cast<std::string>());
-  const std::int64_t n = as_int(shape.cast<py::tuple>()[0], "shape");
+  const std::int64_t n = interface_int(shape.cast<py::tuple>()[0], "shape");
   const std::string typestr = py::str(cai["typestr"]);
   if (typestr != "<f4" && typestr != "|f4")
     throw ArgumentError("boxes: a float32 CUDA array is needed (min x, y, z, max x, y, z per row), got typestr '" +
@@ -65,10 +83,10 @@ cuda::DeviceRows rows_of(const py::dict& cai, void** stream) {
   const py::object data = cai["data"];
   if (!py::isinstance<py::tuple>(data) || py::len(data) != 2)
     throw ArgumentError("boxes: __cuda_array_interface__ 'data' must be (pointer, read_only)");
-  const std::uint64_t address = py::cast<std::uint64_t>(data.cast<py::tuple>()[0]);
-  if (n < 0 || n > 0xffffffffll) throw ArgumentError("boxes: " + std::to_string(n) + " rows is out of range");
-  if (n > 0 && address == 0)
-    throw ArgumentError("boxes: __cuda_array_interface__ has a null pointer for " + std::to_string(n) + " rows");
+  const std::uint64_t address = u64_arg(data.cast<py::tuple>()[0], "boxes: __cuda_array_interface__ 'data' pointer");
+  if (n < 0 || n > cuda::kMaxFrameObjects)
+    throw ArgumentError("boxes: " + std::to_string(n) + " rows is out of range (0.." +
+                        std::to_string(cuda::kMaxFrameObjects) + ")");
   cuda::DeviceRows rows;
   rows.data = reinterpret_cast<const float*>(static_cast<std::uintptr_t>(address));
   rows.n = static_cast<std::uint32_t>(n);
@@ -76,25 +94,38 @@ cuda::DeviceRows rows_of(const py::dict& cai, void** stream) {
     const py::object strides = cai["strides"];
     if (!py::isinstance<py::tuple>(strides) || py::len(strides) != 2)
       throw ArgumentError("boxes: __cuda_array_interface__ 'strides' must be None or two byte strides");
-    const std::int64_t row = as_int(strides.cast<py::tuple>()[0], "strides");
-    const std::int64_t column = as_int(strides.cast<py::tuple>()[1], "strides");
+    const std::int64_t row = interface_int(strides.cast<py::tuple>()[0], "strides");
+    const std::int64_t column = interface_int(strides.cast<py::tuple>()[1], "strides");
     if (row % 4 != 0 || column % 4 != 0)
       throw ArgumentError("boxes: strides (" + std::to_string(row) + ", " + std::to_string(column) +
                           ") are not whole float32 elements");
     rows.row_stride = row / 4;
     rows.column_stride = column / 4;
   }
-  *stream = nullptr;
-  if (cai.contains("stream") && !cai["stream"].is_none())
-    *stream = reinterpret_cast<void*>(static_cast<std::uintptr_t>(as_int(cai["stream"], "stream")));
+  try {
+    cuda::check_device_rows(rows);
+  } catch (const InvalidInput& e) {
+    throw ArgumentError(std::string("boxes: __cuda_array_interface__: ") + e.what());
+  }
+  *stream = stream_of(cai);
   return rows;
 }
 
 // The device rows of `boxes` when it exposes __cuda_array_interface__
-// (checked whole: ValueError before any device work), else nothing.
+// (checked whole: ValueError before any device work), else nothing. An
+// object whose interface raises (a PyTorch tensor that requires grad) is a
+// ValueError with the producer's message, not an array of another kind.
 bool device_rows_of(py::handle boxes, cuda::DeviceRows& rows, void** stream) {
-  if (!py::hasattr(boxes, "__cuda_array_interface__")) return false;
-  const py::object cai = boxes.attr("__cuda_array_interface__");
+  PyObject* interface = PyObject_GetAttrString(boxes.ptr(), "__cuda_array_interface__");
+  if (!interface) {
+    if (PyErr_ExceptionMatches(PyExc_AttributeError)) {
+      PyErr_Clear();
+      return false;
+    }
+    const py::error_already_set raised;  // takes the error
+    throw ArgumentError(std::string("boxes: __cuda_array_interface__ raised ") + raised.what());
+  }
+  const py::object cai = py::reinterpret_steal<py::object>(interface);
   if (!py::isinstance<py::dict>(cai)) throw ArgumentError("boxes: __cuda_array_interface__ is not a dict");
   rows = rows_of(cai.cast<py::dict>(), stream);
   return true;
@@ -118,8 +149,9 @@ FrameInput frame_input(py::handle boxes, cuda::Launcher launcher) {
     return in;
   }
   const BoxesView view = boxes_view(boxes, "boxes");
-  if (view.boxes.size() > 0xffffffffull)
-    throw ArgumentError("boxes: " + std::to_string(view.boxes.size()) + " rows is out of range");
+  if (view.boxes.size() > cuda::kMaxFrameObjects)
+    throw ArgumentError("boxes: " + std::to_string(view.boxes.size()) + " rows is out of range (0.." +
+                        std::to_string(cuda::kMaxFrameObjects) + ")");
   py::gil_scoped_release release;
   in.lanes = box_array_of(view.boxes);
   return in;

@@ -142,18 +142,8 @@ struct PythonPairFilter {
   }
 };
 
-// A Python int as an unsigned 64-bit value / a signed 32-bit one (ValueError
-// outside the range or for a non-integer).
-std::uint64_t u64_arg(const py::object& obj, const char* what) {
-  PyObject* index = PyNumber_Index(obj.ptr());
-  if (index) {
-    const unsigned long long v = PyLong_AsUnsignedLongLong(index);
-    Py_DECREF(index);
-    if (!PyErr_Occurred()) return v;
-  }
-  PyErr_Clear();
-  throw ArgumentError(std::string(what) + ": must be an integer 0..2**64 - 1, got " + py::repr(obj).cast<std::string>());
-}
+// A Python int as a signed 32-bit value (ValueError outside the range or for
+// a non-integer).
 std::int32_t i32_arg(const py::object& obj, const char* what) {
   PyObject* index = PyNumber_Index(obj.ptr());
   if (index) {

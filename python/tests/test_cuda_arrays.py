@@ -57,14 +57,39 @@ def random_boxes(rng, n, extent=50.0, size=6.0):
     ({"shape": (4,)}, "shape (n, 6)"),
     ({"strides": (24, 2)}, "whole float32 elements"),
     ({"strides": (24,)}, "two byte strides"),
-    ({"data": (0, False)}, "null pointer"),
+    ({"data": (0, False)}, "null data"),
     ({"data": 5}, "(pointer, read_only)"),
+    ({"data": ("x", False)}, "'data' pointer"),
+    ({"data": (-5, False)}, "'data' pointer"),
+    ({"data": (0x7f0000000001, False)}, "not aligned to a float"),
     ({"mask": object()}, "masked"),
+    ({"shape": ("4", 6)}, "shape"),
+    ({"shape": (2**28 + 1, 6)}, "out of range"),
+    ({"stream": 0}, "'stream' 0 is not allowed"),
+    ({"stream": -1}, "'stream'"),
+    ({"stream": 2**64}, "'stream'"),
+    ({"stream": "s"}, "'stream'"),
 ])
 def test_a_malformed_interface_is_a_value_error_naming_it(entries, message):
     with pytest.raises(ValueError, match="boxes") as e:
         hbp.find_pairs(Interface(**entries), engine="cuda")
     assert message in str(e.value)
+
+
+class RaisingInterface:
+    """As a PyTorch tensor that requires grad: the interface itself raises."""
+
+    @property
+    def __cuda_array_interface__(self):
+        raise RuntimeError("Can't get __cuda_array_interface__ on Variable that requires grad. "
+                           "If gradients aren't required, use var.detach() to get Variable that doesn't require grad.")
+
+
+def test_an_interface_that_raises_is_a_value_error_with_its_message():
+    with pytest.raises(ValueError, match="detach"):
+        hbp.find_pairs(RaisingInterface(), engine="cuda")
+    with pytest.raises(ValueError, match="detach"):
+        hbp.CudaFrame(launcher="host").update(RaisingInterface())
 
 
 def test_an_interface_without_its_keys_is_a_value_error():

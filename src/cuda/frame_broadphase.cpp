@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 #include "hbp/cuda/frame_broadphase.hpp"
 
+#include <cstdint>
 #include <string>
 
 #include "cuda/frame_bodies.hpp"
@@ -29,6 +30,19 @@ void check_object_count(std::uint32_t n) {
     throw InvalidInput("FrameBroadPhase: " + std::to_string(n) + " objects, more than the limit " +
                        std::to_string(kMaxFrameObjects));
 }
+
+namespace {
+// InvalidInput unless `data` can hold n floats a kernel reads: not null (for
+// n > 0) and aligned to a float (a misaligned device read is a sticky error
+// that ends the whole CUDA context, the caller's arrays with it).
+void check_float_data(const float* data, std::uint32_t n, const std::string& what) {
+  if (n && !data) throw InvalidInput(what + ": null data for " + std::to_string(n) + " objects");
+  const auto address = reinterpret_cast<std::uintptr_t>(data);
+  if (address % alignof(float) != 0)
+    throw InvalidInput(what + ": data at address " + std::to_string(address) + " is not aligned to a float (" +
+                       std::to_string(alignof(float)) + " bytes)");
+}
+}  // namespace
 
 void check_host_lanes(const Lanes& boxes) {
   check_object_count(boxes.n);
@@ -75,14 +89,21 @@ void FrameBroadPhase::reserve(std::uint32_t objects) {
 
 DevicePairs FrameBroadPhase::update_device(const Lanes& device_boxes, void* stream) {
   check_object_count(device_boxes.n);
+  static const char* const kLaneNames[6] = {"min x", "min y", "min z", "max x", "max y", "max z"};
+  for (int l = 0; l < 6; ++l)
+    check_float_data(l < 3 ? device_boxes.lo[l] : device_boxes.hi[l - 3], device_boxes.n,
+                     std::string("device lanes: ") + kLaneNames[l]);
   return impl_->run_device(device_boxes, stream);
 }
 
 DevicePairs FrameBroadPhase::update_device(const DeviceRows& device_boxes, void* stream) {
-  check_object_count(device_boxes.n);
-  if (device_boxes.n && !device_boxes.data)
-    throw InvalidInput("DeviceRows: null data for " + std::to_string(device_boxes.n) + " rows");
+  check_device_rows(device_boxes);
   return impl_->run_device(device_boxes, stream);
+}
+
+void check_device_rows(const DeviceRows& rows) {
+  check_object_count(rows.n);
+  check_float_data(rows.data, rows.n, "DeviceRows");
 }
 
 const std::vector<Pair>& FrameBroadPhase::pairs() const { return impl_->pairs; }

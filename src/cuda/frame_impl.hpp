@@ -31,10 +31,6 @@ std::unique_ptr<FrameBroadPhase::Impl> make_host_frame(const FrameOptions& optio
 // Throws hbp::Error "no CUDA device found" when there is none.
 std::unique_ptr<FrameBroadPhase::Impl> make_device_frame(const FrameOptions& options);
 
-// Most objects one frame takes: kMaxRefsPerBox references each must fit the
-// 32-bit reference index.
-inline constexpr std::uint32_t kMaxFrameObjects = 1u << 28;
-
 // InvalidInput for more than kMaxFrameObjects objects.
 void check_object_count(std::uint32_t n);
 // The peers' check of host lanes before either launcher runs (the frame

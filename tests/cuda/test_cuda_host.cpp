@@ -297,6 +297,45 @@ TEST(CudaHostFrame, DeviceEntriesNeedTheDeviceLauncher) {
   EXPECT_TRUE(f.pairs().empty());
 }
 
+// What a device entry refuses before any device work, naming it: null or
+// misaligned data (a misaligned device read would end the CUDA context) and
+// more objects than a frame takes.
+TEST(CudaHostFrame, DeviceInputsAreCheckedBeforeAnyDeviceWork) {
+  const auto message = [](const cuda::DeviceRows& rows) -> std::string {
+    try {
+      cuda::check_device_rows(rows);
+    } catch (const InvalidInput& e) {
+      return e.what();
+    }
+    return "";
+  };
+  alignas(8) static const float six[7] = {0, 0, 0, 1, 1, 1, 0};
+  cuda::DeviceRows rows;
+  rows.n = 1;
+  rows.data = six;
+  EXPECT_EQ(message(rows), "");
+  rows.data = reinterpret_cast<const float*>(reinterpret_cast<const char*>(six) + 2);
+  EXPECT_NE(message(rows).find("not aligned to a float"), std::string::npos) << message(rows);
+  rows.data = nullptr;
+  EXPECT_NE(message(rows).find("null data for 1 objects"), std::string::npos) << message(rows);
+  rows.n = 0;
+  EXPECT_EQ(message(rows), "");  // no rows, no data needed
+  rows.data = six;
+  rows.n = cuda::kMaxFrameObjects + 1;
+  EXPECT_NE(message(rows).find("more than the limit 268435456"), std::string::npos) << message(rows);
+
+  cuda::FrameBroadPhase f(cuda::FrameOptions{cuda::Launcher::Host, 1});
+  const BoxArray two = cuda_test::all_on_one_point(2);
+  cuda::Lanes lanes = lanes_of(two);
+  lanes.hi[1] = reinterpret_cast<const float*>(reinterpret_cast<const char*>(lanes.hi[1]) + 1);
+  try {
+    f.update_device(lanes);
+    FAIL() << "misaligned lanes taken";
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("device lanes: max y"), std::string::npos) << e.what();
+  }
+}
+
 // Appended pairs come in no fixed order: only a sorted frame swept a
 // thread per reference may take them; any other is refused naming why.
 TEST(CudaHostFrame, AppendedPairsNeedASortedPerReferenceFrame) {

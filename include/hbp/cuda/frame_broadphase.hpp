@@ -125,6 +125,16 @@ struct DeviceRows {
   std::int64_t column_stride = 1;
 };
 
+// Most objects one frame takes: kMaxRefsPerBox (8) cell references each must
+// fit the 32-bit reference index.
+inline constexpr std::uint32_t kMaxFrameObjects = 1u << 28;
+
+// InvalidInput unless `rows` can be a frame's device input: at most
+// kMaxFrameObjects rows, data not null (for n > 0) and aligned to a float.
+// update_device checks it first; a caller that must refuse an input before
+// any device work (the Python module) calls it itself.
+void check_device_rows(const DeviceRows& rows);
+
 // Milliseconds per stage of the last frame. Device: CUDA events on the
 // frame's stream (device time); upload/download are the host transfers,
 // reported apart. Host: steady-clock wall time.
@@ -178,7 +188,8 @@ class FrameBroadPhase {
   // buffers for the typical frame (about two cell references and two pairs
   // per object; a frame that needs more grows them then). Optional.
   void reserve(std::uint32_t objects);
-  // Device entry (Launcher::Device only): lanes in device memory, pairs left
+  // Device entry (Launcher::Device only): lanes in device memory of the
+  // frame's device (InvalidInput naming both devices otherwise), pairs left
   // in device memory; the work is queued on `stream` (a cudaStream_t, null:
   // the default stream) and finished when this returns.
   DevicePairs update_device(const Lanes& device_boxes, void* stream = nullptr);
