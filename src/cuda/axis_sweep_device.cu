@@ -18,19 +18,20 @@ namespace {
 
 class DeviceAxisSweep final : public AxisSweep::Impl {
  public:
-  explicit DeviceAxisSweep(const FrameOptions& o) : Impl(o) {
-    require_device();
+  explicit DeviceAxisSweep(const FrameOptions& o) : Impl(o), device_(require_device()) {
     check_cuda(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking), "cudaStreamCreate");
     for (auto& e : events_) check_cuda(cudaEventCreate(&e), "cudaEventCreate");
     check_cuda(cudaMallocHost(&pinned_, 8 * sizeof(double)), "cudaMallocHost");
   }
   ~DeviceAxisSweep() override {
+    const DeviceScope scope(device_);
     for (auto& e : events_) cudaEventDestroy(e);
     cudaStreamDestroy(stream_);
     cudaFreeHost(pinned_);
   }
 
   void run(const Lanes& in) override {
+    const DeviceScope scope(device_);
     info = {};
     const std::uint32_t n = in.n;
     record(0);
@@ -117,6 +118,7 @@ class DeviceAxisSweep final : public AxisSweep::Impl {
     return ms;
   }
 
+  int device_;  // the device current when it was made: its calls run there
   cudaStream_t stream_ = nullptr;
   cudaEvent_t events_[7] = {};
   double* pinned_ = nullptr;

@@ -15,15 +15,16 @@
 namespace hbp::cuda {
 
 struct DeviceCell::State {
+  int device = require_device();  // current when the engine was made: its calls run there
   cudaStream_t stream = nullptr;
   DeviceBuffer lanes, ids, counts, offsets, pairs, starts, regions;
   ~State() {
+    const DeviceScope scope(device);
     if (stream) cudaStreamDestroy(stream);
   }
 };
 
 DeviceCell::DeviceCell() : state_(std::make_unique<State>()) {
-  require_device();
   check_cuda(cudaStreamCreateWithFlags(&state_->stream, cudaStreamNonBlocking), "cudaStreamCreate");
 }
 
@@ -31,6 +32,7 @@ DeviceCell::~DeviceCell() = default;
 
 void DeviceCell::run(const CellSweep& sorted, const CellRegion& region, std::uint64_t pair_limit,
                      std::vector<Pair>& out) {
+  const DeviceScope scope(state_->device);
   State& st = *state_;
   const std::uint32_t n = sorted.size();
   if (n < 2) return;
@@ -72,6 +74,7 @@ void DeviceCell::run(const CellSweep& sorted, const CellRegion& region, std::uin
 
 void DeviceCell::run_batch(const CellBatch& batch, std::uint64_t pair_limit, std::vector<Pair>& out,
                            std::span<CellBatchOutcome> outcomes) {
+  const DeviceScope scope(state_->device);
   State& st = *state_;
   const std::uint32_t cells = batch.cells();
   const std::uint32_t n = batch.starts[cells];

@@ -18,14 +18,28 @@
 
 namespace hbp::cuda {
 
-void require_device() {
+int require_device() {
   int count = 0;
   if (cudaGetDeviceCount(&count) != cudaSuccess || count == 0) {
     cudaGetLastError();  // clear the sticky error of a missing driver or device
     throw Error("no CUDA device found (the \"cuda\" engine and Launcher::Device need an NVIDIA GPU; "
                 "\"cuda-host\" runs the same kernels on the CPU)");
   }
-  check_cuda(cudaSetDevice(0), "cudaSetDevice");
+  int device = 0;
+  check_cuda(cudaGetDevice(&device), "cudaGetDevice");
+  return device;
+}
+
+void check_on_device(const void* data, int device, const char* what) {
+  cudaPointerAttributes a{};
+  if (cudaPointerGetAttributes(&a, data) != cudaSuccess) {
+    cudaGetLastError();  // not the launches' to report
+    return;
+  }
+  if (a.type == cudaMemoryTypeDevice && a.device != device)
+    throw InvalidInput(std::string(what) + " lie in the memory of CUDA device " + std::to_string(a.device) +
+                       ", the frame runs on device " + std::to_string(device) +
+                       " (the device current when it was made)");
 }
 
 bool device_available() {
@@ -55,20 +69,21 @@ enum Stage { kStart, kUploaded, kBounds, kRefs, kSorted, kCounted, kFilled, kOrd
 
 class DeviceFrame final : public FrameBroadPhase::Impl {
  public:
-  explicit DeviceFrame(const FrameOptions& o) : Impl(o) {
-    require_device();
+  explicit DeviceFrame(const FrameOptions& o) : Impl(o), device_(require_device()) {
     check_cuda(cudaStreamCreateWithFlags(&own_stream_, cudaStreamNonBlocking), "cudaStreamCreate");
     for (auto& e : events_) check_cuda(cudaEventCreate(&e), "cudaEventCreate");
     check_cuda(cudaMallocHost(&pinned_, (kScalars + 4) * sizeof(std::uint64_t)), "cudaMallocHost");
     scalars_ = pinned_ + kScalars;
   }
   ~DeviceFrame() override {
+    const DeviceScope scope(device_);
     for (auto& e : events_) cudaEventDestroy(e);
     cudaStreamDestroy(own_stream_);
     cudaFreeHost(pinned_);
   }
 
   void run(const Lanes& in) override {
+    const DeviceScope scope(device_);
     info = {};
     stream_ = own_stream_;
     record(kStart);
@@ -94,6 +109,7 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
   }
 
   void reserve(std::uint32_t n) override {
+    const DeviceScope scope(device_);
     // Three overlapping boxes: a frame that launches the frame's kernels
     // (the large pass aside), so none is loaded in a timed frame.
     static const float lo[3] = {0, 0.25f, 0.5f}, hi[3] = {1, 1.25f, 1.5f};
@@ -115,6 +131,8 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
   }
 
   DevicePairs run_device(const DeviceRows& rows, void* stream) override {
+    const DeviceScope scope(device_);
+    if (rows.n) check_on_device(rows.data, device_, "boxes");
     begin_device(stream);
     const std::uint32_t n = rows.n;
     size_uploads(n);
@@ -130,6 +148,12 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
   }
 
   DevicePairs run_device(const Lanes& in, void* stream) override {
+    const DeviceScope scope(device_);
+    if (in.n)
+      for (int l = 0; l < 3; ++l) {
+        check_on_device(in.lo[l], device_, "boxes");
+        check_on_device(in.hi[l], device_, "boxes");
+      }
     begin_device(stream);
     return finish_device(in, false);
   }
@@ -424,6 +448,7 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     info.buffer_bytes = held;
   }
 
+  int device_;  // the device current when the frame was made: its calls run there
   GridPlan grid_;
   ExtentHistogram extents_{};
   std::uint64_t last_total_ = 0;  // the last frame's pairs: the room a sorted frame starts with

@@ -20,9 +20,35 @@ inline void check_cuda(cudaError_t e, const char* what) {
   if (e != cudaSuccess) throw Error(std::string("CUDA: ") + what + ": " + cudaGetErrorString(e));
 }
 
-// Throws hbp::Error "no CUDA device found" unless a device is usable, and
-// makes device 0 current.
-void require_device();
+// Throws hbp::Error "no CUDA device found" unless a device is usable; else
+// the caller's current device, the one an object made now runs on.
+int require_device();
+
+// The device an object runs on made current for a scope, the caller's
+// restored after it: frames, peers and cell engines keep the device they
+// were made on whatever the caller makes current between calls (CuPy and
+// PyTorch switch devices freely), and leave the caller's choice as it was.
+class DeviceScope {
+ public:
+  explicit DeviceScope(int device) : device_(device) {
+    check_cuda(cudaGetDevice(&caller_), "cudaGetDevice");
+    if (caller_ != device_) check_cuda(cudaSetDevice(device_), "cudaSetDevice");
+  }
+  ~DeviceScope() {
+    if (caller_ != device_) cudaSetDevice(caller_);
+  }
+  DeviceScope(const DeviceScope&) = delete;
+  DeviceScope& operator=(const DeviceScope&) = delete;
+
+ private:
+  int device_;
+  int caller_ = 0;
+};
+
+// InvalidInput when `data` lies in the memory of another device than
+// `device`: a kernel there would fault and end the context. Managed, host
+// and unknown memory are left to the driver.
+void check_on_device(const void* data, int device, const char* what);
 
 class DeviceBuffer {
  public:

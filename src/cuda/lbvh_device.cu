@@ -80,19 +80,20 @@ enum Stage { kStart, kUploaded, kBounds, kSorted, kBuilt, kCounted, kFilled, kOr
 
 class DeviceLbvh final : public Lbvh::Impl {
  public:
-  explicit DeviceLbvh(const FrameOptions& o) : Impl(o) {
-    require_device();
+  explicit DeviceLbvh(const FrameOptions& o) : Impl(o), device_(require_device()) {
     check_cuda(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking), "cudaStreamCreate");
     for (auto& e : events_) check_cuda(cudaEventCreate(&e), "cudaEventCreate");
     check_cuda(cudaMallocHost(&pinned_, 8 * sizeof(std::uint64_t)), "cudaMallocHost");
   }
   ~DeviceLbvh() override {
+    const DeviceScope scope(device_);
     for (auto& e : events_) cudaEventDestroy(e);
     cudaStreamDestroy(stream_);
     cudaFreeHost(pinned_);
   }
 
   void run(const Lanes& in) override {
+    const DeviceScope scope(device_);
     info = {};
     const std::uint32_t n = in.n;
     const std::uint32_t nodes = n ? n - 1 : 0;
@@ -226,6 +227,7 @@ class DeviceLbvh final : public Lbvh::Impl {
     return ms;
   }
 
+  int device_;  // the device current when it was made: its calls run there
   cudaStream_t stream_ = nullptr;
   cudaEvent_t events_[kStages] = {};
   std::uint64_t* pinned_ = nullptr;
