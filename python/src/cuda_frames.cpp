@@ -309,10 +309,11 @@ py::object find_pairs_cuda(py::handle boxes, long long max_pairs) {
   options.launcher = cuda::Launcher::Device;
   options.max_pairs = max_pairs_arg(max_pairs);
   const FrameInput in = frame_input(boxes, options.launcher);  // a bad interface or array: ValueError first
-  auto frame = std::make_shared<cuda::FrameBroadPhase>(options);  // "no CUDA device found" without one
+  std::shared_ptr<cuda::FrameBroadPhase> frame;
   cuda::DevicePairs pairs;
   {
-    py::gil_scoped_release release;
+    py::gil_scoped_release release;  // a first frame also starts the CUDA context
+    frame = std::make_shared<cuda::FrameBroadPhase>(options);  // "no CUDA device found" without one
     pairs = run_input(*frame, in);
   }
   return frame_result(frame, in, pairs);

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <utility>
 #include <vector>
 
 #include "cuda/device_kernels.cuh"
@@ -111,9 +112,16 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
   void reserve(std::uint32_t n) override {
     const DeviceScope scope(device_);
     // Three overlapping boxes: a frame that launches the frame's kernels
-    // (the large pass aside), so none is loaded in a timed frame.
+    // (the large pass aside), so none is loaded in a timed frame. Its three
+    // pairs are not the caller's: max_pairs is lifted for it (a limit of 1
+    // or 2 would refuse it) and put back however it ends.
     static const float lo[3] = {0, 0.25f, 0.5f}, hi[3] = {1, 1.25f, 1.5f};
     const Lanes tiny{{lo, lo, lo}, {hi, hi, hi}, 3};
+    struct Restore {
+      std::uint64_t& limit;
+      std::uint64_t kept;
+      ~Restore() { limit = kept; }
+    } restore{options.max_pairs, std::exchange(options.max_pairs, 0)};
     run(tiny);
     grid_ = GridPlan();
     info = {};

@@ -80,6 +80,9 @@ class DeviceBuffer {
   std::size_t capacity() const { return capacity_; }
 
  private:
+  // cudaFree waits for the device's queued work, so a buffer that grows
+  // while a queued kernel still reads it (the CUB temporary storage between
+  // two calls of a frame) is freed only after that kernel.
   void release() {
     if (data_) cudaFree(data_);
     data_ = nullptr;

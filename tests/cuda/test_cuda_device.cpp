@@ -292,6 +292,12 @@ TEST(CudaDevice, ReserveProvisionsTheFirstFrame) {
   provisioned.update(lanes_of(frames[0]));
   EXPECT_LT(provisioned.info().allocations, cold_allocations);
   EXPECT_LE(provisioned.info().allocations, 2u) << "reserve left most of the first frame's buffers to it";
+  // reserve's own frame (three boxes, three pairs) is not held to the
+  // caller's max_pairs, which still holds for the frames after it.
+  auto limited = frame(cuda::Launcher::Device, true, 2);
+  EXPECT_NO_THROW(limited.reserve(1000));
+  EXPECT_THROW(limited.update(lanes_of(cuda_test::all_on_one_point(3))), CapacityExceeded);
+  EXPECT_EQ(limited.update(lanes_of(cuda_test::all_on_one_point(2))).size(), 1u);
 }
 
 TEST(CudaDevice, AxisSweepPeerMatchesTheOracle) {

@@ -183,6 +183,12 @@ TEST(CudaHostFrame, ReserveProvisionsTheFirstFrame) {
   provisioned.update(lanes_of(frames[0]));
   EXPECT_LT(provisioned.info().allocations, again.info().allocations);
   EXPECT_THROW(provisioned.reserve((1u << 28) + 1), InvalidInput);
+  // Any max_pairs, however small, leaves reserve to provision (the device
+  // launcher's warm-up frame is not held to it) and still holds after.
+  auto limited = host_frame(1, true, 2);
+  EXPECT_NO_THROW(limited.reserve(1000));
+  EXPECT_THROW(limited.update(lanes_of(cuda_test::all_on_one_point(3))), CapacityExceeded);
+  EXPECT_EQ(limited.update(lanes_of(cuda_test::all_on_one_point(2))).size(), 1u);
 }
 
 TEST(CudaHostFrame, HugeSceneSendsTheHugeObjectsToTheLargePass) {
