@@ -28,11 +28,15 @@ int require_device();
 // restored after it: frames, peers and cell engines keep the device they
 // were made on whatever the caller makes current between calls (CuPy and
 // PyTorch switch devices freely), and leave the caller's choice as it was.
+// Never throws (destructors use it too): when the device cannot be made
+// current, the scope changes nothing and the next checked call reports.
 class DeviceScope {
  public:
   explicit DeviceScope(int device) : device_(device) {
-    check_cuda(cudaGetDevice(&caller_), "cudaGetDevice");
-    if (caller_ != device_) check_cuda(cudaSetDevice(device_), "cudaSetDevice");
+    if (cudaGetDevice(&caller_) != cudaSuccess || (caller_ != device_ && cudaSetDevice(device_) != cudaSuccess)) {
+      cudaGetLastError();
+      caller_ = device_;
+    }
   }
   ~DeviceScope() {
     if (caller_ != device_) cudaSetDevice(caller_);

@@ -3,9 +3,10 @@
 // --system axis-sweep the one-axis sort-and-sweep peer (hbp::cuda::AxisSweep)
 // or --system lbvh the Karras-style LBVH peer (hbp::cuda::Lbvh), on a
 // scenario, frame by frame: device time per stage (CUDA events) with the host
-// transfers apart, checked every frame against the CPU launcher of the same
-// kernels (identical lists) and, independently, by brute force for a sample
-// of objects against all others. Writes one JSON object (--json) for
+// transfers apart, checked against the CPU launcher of the same kernels
+// (identical lists) every frame, or with --check-every K every K-th frame and
+// the last (K >= frames: the last alone), and, independently, by brute force
+// for a sample of objects against all others in the first and last frames. Writes one JSON object (--json) for
 // scripts/gpu-check's report. With --sustain S, the last frame's boxes are
 // then kept in device memory and the frame re-run through the device entry
 // (update_device) back to back for S seconds, so that board power sampled in
@@ -113,7 +114,7 @@ Args parse(int argc, char** argv) {
     else if (k == "--json") a.json = value();
     else usage();
   }
-  if (a.frames == 0 || a.threads == 0) usage();
+  if (a.frames == 0 || a.threads == 0 || a.check_every == 0) usage();
   if (a.sustain_s > 0 && (a.host || a.axis_sweep || a.lbvh)) usage();
   if (a.axis_sweep || a.lbvh) a.sorted = true;  // checked against the frame's sorted list
   return a;
@@ -259,7 +260,7 @@ int main(int argc, char** argv) {
       pairs_per_frame.push_back(info.pairs);
       if (f > 0) steady_allocations += info.allocations;
       buffer_bytes = std::max<std::uint64_t>(buffer_bytes, info.buffer_bytes);
-      if (f % args.check_every == 0 || f + 1 == args.frames) {
+      if ((f + 1) % args.check_every == 0 || f + 1 == args.frames) {
         const auto t0 = std::chrono::steady_clock::now();
         const std::vector<hbp::Pair>& want = reference.update(hbp::cuda::lanes_of(boxes));
         reference_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
