@@ -215,6 +215,17 @@ def main():
     hbp_bench_gpu = report.get("hbp_bench_gpu", {"exact": True})
     ok = ok and (hbp_bench_gpu.get("exact") is True or hbp_bench_gpu.get("cut") is True)
     ok = ok and all((r.get("exit_code") == 0 and r.get("exact")) or r["cut"] for r in runs)
+    # hbp bench kind with the GPU systems (the carried main build), when it ran.
+    kind_rc_path = os.path.join(logs, "hbp-bench-kind.rc")
+    if os.path.exists(kind_rc_path):
+        rc = open(kind_rc_path).read().strip()
+        text = open(os.path.join(logs, "hbp-bench-kind.log")).read()
+        # All four systems ran (sw and the three GPU ones): a GPU system that
+        # could not start would be left out of the tables, not fail the run.
+        all_ran = dry or "4 system(s)" in text
+        report["hbp_bench_kind"] = {"exit_code": None if rc == "cut" else int(rc), "cut": rc == "cut",
+                                    "all_systems_ran": all_ran, "log_tail": text.strip().splitlines()[-4:]}
+        ok = ok and (rc == "cut" or (rc == "0" and all_ran))
     ok = ok and report["engine_tests"]["exit_code"] in (None, 0)
     ok = ok and all(c["pair_counts_equal"] for c in comparisons)
     ok = ok and python["ok"] in (None, True)
@@ -363,6 +374,13 @@ def main():
                    f"{fmt((h.get('frame_ms') or {}).get('median'))} ms, our CPU engine "
                    f"{fmt(((h.get('cpu') or {}).get('frame_ms') or {}).get('median'))} ms (x{fmt(h.get('cpu_over_gpu'), '{:.1f}')}); "
                    f"frames mismatched {h.get('frames_mismatched')}; exact {h.get('exact')}."]
+    if "hbp_bench_kind" in report:
+        k = report["hbp_bench_kind"]
+        state = "cut by the script's deadline" if k["cut"] else f"exit {k['exit_code']}"
+        md += ["", f"`hbp bench kind paper --n 100000 --systems sw,cuda,cuda-axis-sweep,cuda-lbvh` (main build): "
+               f"{state}" + ("" if k["cut"] or (k["exit_code"] == 0 and k["all_systems_ran"])
+                             else " — **NOT OK**" + ("" if k["all_systems_ran"] else " (not every system ran)"))]
+        md += [f"  - `{l}`" for l in k["log_tail"]]
     cut = [r["name"] for r in runs if r["cut"]]
     if cut:
         md += ["", "Cut by the script's deadline (listed, not failures): " + ", ".join(cut) + "."]
