@@ -4,7 +4,7 @@
 Installed beside the module. python/tests/test_stubs.py checks that every
 public name of the module is declared here and every name here exists.
 """
-from typing import Callable, Iterator, Optional, Sequence, SupportsIndex, Tuple, TypedDict, Union
+from typing import Any, Callable, Iterator, Optional, Sequence, SupportsIndex, Tuple, TypedDict, Union
 
 import numpy
 
@@ -51,7 +51,7 @@ class CudaFrame:
                  max_pairs: int = 0, cell_shape: str = "columns") -> None: ...
     def reserve(self, n: int) -> None: ...
     # numpy boxes give numpy pairs; a CUDA array (launcher="device") a CudaPairs, valid while referenced.
-    def update(self, boxes: numpy.ndarray) -> Union[numpy.ndarray, CudaPairs]: ...
+    def update(self, boxes: numpy.ndarray, *, stream: Optional[Any] = None) -> Union[numpy.ndarray, CudaPairs]: ...
     def info(self) -> dict: ...
 
 

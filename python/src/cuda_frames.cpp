@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -157,6 +158,22 @@ FrameInput frame_input(py::handle boxes, cuda::Launcher launcher) {
   return in;
 }
 
+// The stream an update is told to run on (update(boxes, stream=...)),
+// overriding what the array's interface says: an int handle (0 and 1: the
+// legacy default stream, 2: the per-thread one), or a stream object of CuPy
+// (`ptr`) or PyTorch (`cuda_stream`); nothing for None.
+std::optional<void*> stream_arg(const py::object& stream) {
+  if (stream.is_none()) return std::nullopt;
+  py::object handle = stream;
+  for (const char* attribute : {"cuda_stream", "ptr"})
+    if (py::hasattr(stream, attribute)) {
+      handle = stream.attr(attribute);
+      break;
+    }
+  return reinterpret_cast<void*>(
+      static_cast<std::uintptr_t>(u64_arg(handle, "stream (an int handle, or a CuPy or PyTorch stream)")));
+}
+
 // Runs `frame` over `in` (no GIL needed): the device pairs, or the host
 // pairs left in frame->pairs().
 cuda::DevicePairs run_input(cuda::FrameBroadPhase& frame, const FrameInput& in) {
@@ -197,8 +214,13 @@ class PyCudaFrame {
     const LockWithoutGil lock(mutex_);
     free_slot()->reserve(static_cast<std::uint32_t>(n));
   }
-  py::object update(py::handle boxes) {
-    const FrameInput in = frame_input(boxes, options_.launcher);
+  py::object update(py::handle boxes, const py::object& stream) {
+    const std::optional<void*> given = stream_arg(stream);
+    FrameInput in = frame_input(boxes, options_.launcher);
+    if (given) {
+      if (!in.on_device) throw ArgumentError("stream: only for boxes in device memory (a CUDA array)");
+      in.stream = *given;
+    }
     std::shared_ptr<cuda::FrameBroadPhase> frame;
     cuda::DevicePairs pairs;
     {
@@ -294,10 +316,12 @@ void register_cuda_frames(py::module_& m) {
            "it; cell_shape: 'columns' (long on the sweep axis) or 'cubes'.")
       .def("reserve", &PyCudaFrame::reserve, py::arg("n"),
            "Loads the kernels and sizes the next update's buffers for about n objects.")
-      .def("update", &PyCudaFrame::update, py::arg("boxes"),
+      .def("update", &PyCudaFrame::update, py::arg("boxes"), py::kw_only(), py::arg("stream") = py::none(),
            "Every overlapping pair of rows of boxes ((n, 6) float32): a (k, 2) uint32 numpy array, or a CudaPairs "
            "for a CUDA array (launcher='device'). ValueError for bad boxes (NaN, min > max: the object is "
-           "named), CapacityExceeded past max_pairs.")
+           "named), CapacityExceeded past max_pairs. stream: the CUDA stream to run on for a CUDA array (an int "
+           "handle, a cupy.cuda.Stream or a torch.cuda.Stream), instead of the one its interface names (PyTorch "
+           "names none: the legacy default stream); the work is finished when update returns.")
       .def("info", &PyCudaFrame::info,
            "The last update: pairs, references, cells, large, grid, replanned, allocations, buffer_bytes and "
            "times_ms (upload, bounds, refs, sort, count, fill, order, download, frame: device time on a GPU, "

@@ -202,6 +202,27 @@ def test_cuda_frame_errors_change_nothing():
         frame.update(Interface())
 
 
+class FakeStream:
+    def __init__(self, **attributes):
+        self.__dict__.update(attributes)
+
+
+@pytest.mark.parametrize("stream, message", [
+    (5, "stream: only for boxes in device memory"),
+    (FakeStream(ptr=7), "stream: only for boxes in device memory"),
+    ("s", r"stream \(an int handle, or a CuPy or PyTorch stream\): must be an integer"),
+    (-1, "stream .*must be an integer 0..2"),
+    (2**64, "stream .*must be an integer 0..2"),
+    (FakeStream(ptr="x"), "stream .*must be an integer"),
+    (FakeStream(cuda_stream=-3), "stream .*must be an integer"),
+])
+def test_a_stream_is_checked_and_only_for_device_arrays(stream, message):
+    frame = hbp.CudaFrame(launcher="host")
+    with pytest.raises(ValueError, match=message):
+        frame.update(random_boxes(np.random.default_rng(74), 10), stream=stream)
+    assert len(frame.update(np.tile(np.array([[0, 0, 0, 1, 1, 1]], np.float32), (3, 1)))) == 3
+
+
 def test_cuda_frame_on_the_device():
     if not device_present():
         with pytest.raises(RuntimeError, match="no CUDA device found"):
@@ -233,3 +254,31 @@ def test_cuda_frame_on_the_device():
     for f in range(4):
         frame.update(cupy.asarray(random_boxes(rng, 6000)))
     np.testing.assert_array_equal(kept.get(), brute_pairs(kept_boxes))
+
+
+@pytest.mark.parametrize("library", ["cupy", "torch"])
+def test_cuda_frame_runs_on_the_stream_it_is_given(library):
+    if not device_present():
+        skip_unless_required("no CUDA device")
+    try:
+        lib = __import__(library)
+    except ImportError as e:
+        skip_unless_required(f"{library} cannot be imported ({e})")
+    rng = np.random.default_rng(75)
+    frame = hbp.CudaFrame()
+    for f in range(3):
+        boxes = random_boxes(rng, 4000)
+        want = brute_pairs(boxes)
+        if library == "cupy":
+            stream = lib.cuda.Stream(non_blocking=True)
+            with stream:
+                device = lib.asarray(boxes) * 1  # written on the side stream
+                pairs = frame.update(device, stream=stream)
+            got = lib.asarray(pairs).get()
+        else:
+            stream = lib.cuda.Stream()
+            with lib.cuda.stream(stream):
+                device = lib.as_tensor(boxes, device="cuda") * 1  # written on the side stream; none exported
+                pairs = frame.update(device, stream=stream)
+            got = lib.as_tensor(pairs, device="cuda").cpu().numpy()
+        np.testing.assert_array_equal(got, want)
