@@ -38,6 +38,16 @@ def device_present():
         return False
 
 
+def device_array_library(name):
+    """CuPy or PyTorch, where there is a device and the library imports; else a skip."""
+    if not device_present():
+        skip_unless_required("no CUDA device")
+    try:
+        return __import__(name)
+    except ImportError as e:
+        skip_unless_required(f"{name} cannot be imported ({e})")
+
+
 class Interface:
     """An object that only says where a CUDA array would be."""
 
@@ -122,12 +132,7 @@ def test_numpy_boxes_on_the_device_equal_brute_force():
 
 @pytest.mark.parametrize("library", ["cupy", "torch"])
 def test_device_arrays_stay_on_the_device(library):
-    if not device_present():
-        skip_unless_required("no CUDA device")
-    try:
-        lib = __import__(library)
-    except ImportError as e:
-        skip_unless_required(f"{library} cannot be imported ({e})")
+    lib = device_array_library(library)
     boxes = random_boxes(np.random.default_rng(61), 3000)
     want = brute_pairs(boxes)
     for order in ("C", "F"):
@@ -258,12 +263,7 @@ def test_cuda_frame_on_the_device():
 
 @pytest.mark.parametrize("library", ["cupy", "torch"])
 def test_cuda_frame_runs_on_the_stream_it_is_given(library):
-    if not device_present():
-        skip_unless_required("no CUDA device")
-    try:
-        lib = __import__(library)
-    except ImportError as e:
-        skip_unless_required(f"{library} cannot be imported ({e})")
+    lib = device_array_library(library)
     rng = np.random.default_rng(75)
     frame = hbp.CudaFrame()
     for f in range(3):
