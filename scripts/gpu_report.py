@@ -38,6 +38,17 @@ def read_json(path):
         return {"error": f"{os.path.basename(path)}: {e}"}
 
 
+def read_rc(path):
+    """(exit code, cut) of a step's NAME.rc as scripts/gpu-check records it:
+    "cut" when the deadline shortened the step's limit and it ran out of it
+    (listed, not a failure); a missing or unreadable file is exit code 1."""
+    try:
+        rc = open(path).read().strip()
+        return (None, True) if rc == "cut" else (int(rc), False)
+    except (OSError, ValueError):
+        return 1, False
+
+
 def power_samples(path):
     """[(unix seconds, watts)] from nvidia-smi's csv (local-time stamps)."""
     samples = []
@@ -119,13 +130,7 @@ def main():
     for name in a.runs:
         r = {"name": name}
         r.update(read_json(os.path.join(logs, f"bench-{name}.json")))
-        try:
-            rc = open(os.path.join(logs, f"bench-{name}.rc")).read().strip()
-            # "cut": the deadline shortened the run's limit and it ran out of
-            # time; listed, not a failure of the frame.
-            r["exit_code"], r["cut"] = (None, True) if rc == "cut" else (int(rc), False)
-        except (OSError, ValueError):
-            r["exit_code"], r["cut"] = 1, False
+        r["exit_code"], r["cut"] = read_rc(os.path.join(logs, f"bench-{name}.rc"))
         samples = power_samples(os.path.join(logs, f"power-{name}.csv"))
         if samples:
             watts = [w for _, w in samples]
@@ -202,30 +207,32 @@ def main():
         "comparisons": comparisons,
     }
     # hbp bench gpu of the carried main build, when it ran.
-    hbp_bench_path = os.path.join(logs, "hbp-bench-gpu.json")
-    hbp_bench = read_json(hbp_bench_path) if os.path.exists(hbp_bench_path) else {}
-    if hbp_bench and "error" not in hbp_bench:
-        report["hbp_bench_gpu"] = {k: hbp_bench.get(k) for k in ("device", "objects", "frames", "frame_ms", "cpu",
-                                                                 "cpu_over_gpu", "frames_mismatched", "exact")}
-    elif os.path.exists(os.path.join(logs, "hbp-bench-gpu.log")):
-        text = open(os.path.join(logs, "hbp-bench-gpu.log")).read().strip()
-        report["hbp_bench_gpu"] = ({"cut": True} if text.endswith("cut by the deadline")
-                                   else {"error": text[-500:]})
+    if os.path.exists(os.path.join(logs, "hbp-bench-gpu.rc")):
+        exit_code, cut = read_rc(os.path.join(logs, "hbp-bench-gpu.rc"))
+        hbp_bench = read_json(os.path.join(logs, "hbp-bench-gpu.json"))
+        if cut:
+            report["hbp_bench_gpu"] = {"cut": True}
+        elif "error" not in hbp_bench:
+            report["hbp_bench_gpu"] = {k: hbp_bench.get(k) for k in ("device", "objects", "frames", "frame_ms",
+                                                                     "cpu", "cpu_over_gpu", "frames_mismatched",
+                                                                     "exact")}
+        else:
+            text = open(os.path.join(logs, "hbp-bench-gpu.log")).read().strip()
+            report["hbp_bench_gpu"] = {"error": f"exit {exit_code}: {text[-500:]}"}
     ok = build_ok and a.tests_rc == 0 and bool(runs)
     hbp_bench_gpu = report.get("hbp_bench_gpu", {"exact": True})
     ok = ok and (hbp_bench_gpu.get("exact") is True or hbp_bench_gpu.get("cut") is True)
     ok = ok and all((r.get("exit_code") == 0 and r.get("exact")) or r["cut"] for r in runs)
     # hbp bench kind with the GPU systems (the carried main build), when it ran.
-    kind_rc_path = os.path.join(logs, "hbp-bench-kind.rc")
-    if os.path.exists(kind_rc_path):
-        rc = open(kind_rc_path).read().strip()
+    if os.path.exists(os.path.join(logs, "hbp-bench-kind.rc")):
+        exit_code, cut = read_rc(os.path.join(logs, "hbp-bench-kind.rc"))
         text = open(os.path.join(logs, "hbp-bench-kind.log")).read()
         # All four systems ran (sw and the three GPU ones): a GPU system that
         # could not start would be left out of the tables, not fail the run.
         all_ran = dry or "4 system(s)" in text
-        report["hbp_bench_kind"] = {"exit_code": None if rc == "cut" else int(rc), "cut": rc == "cut",
-                                    "all_systems_ran": all_ran, "log_tail": text.strip().splitlines()[-4:]}
-        ok = ok and (rc == "cut" or (rc == "0" and all_ran))
+        report["hbp_bench_kind"] = {"exit_code": exit_code, "cut": cut, "all_systems_ran": all_ran,
+                                    "log_tail": text.strip().splitlines()[-4:]}
+        ok = ok and (cut or (exit_code == 0 and all_ran))
     ok = ok and report["engine_tests"]["exit_code"] in (None, 0)
     ok = ok and all(c["pair_counts_equal"] for c in comparisons)
     ok = ok and python["ok"] in (None, True)

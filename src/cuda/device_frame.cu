@@ -8,7 +8,6 @@
 
 #include <algorithm>
 #include <cstring>
-#include <utility>
 #include <vector>
 
 #include "cuda/device_kernels.cuh"
@@ -83,7 +82,35 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     cudaFreeHost(pinned_);
   }
 
-  void run(const Lanes& in) override {
+  void run(const Lanes& in) override { run_host(in, options.max_pairs); }
+
+  void reserve(std::uint32_t n) override {
+    const DeviceScope scope(device_);
+    // Three overlapping boxes: a frame that launches the frame's kernels
+    // (the large pass aside), so none is loaded in a timed frame. Its three
+    // pairs are not the caller's: no pair limit (a max_pairs of 1 or 2
+    // would refuse it).
+    static const float lo[3] = {0, 0.25f, 0.5f}, hi[3] = {1, 1.25f, 1.5f};
+    const Lanes tiny{{lo, lo, lo}, {hi, hi, hi}, 3};
+    run_host(tiny, 0);
+    grid_ = GridPlan();
+    info = {};
+    // The typical frame: about two references and under two pairs per
+    // object (a frame that needs more grows its buffers then).
+    const std::uint64_t refs = std::min<std::uint64_t>(2ull * n, 0xffffffffu);
+    size_uploads(n);
+    size_objects(n);
+    // Cells: the grid's target count (grid_plan.hpp).
+    const std::uint64_t cells = std::min<std::uint64_t>(n / options.boxes_per_cell + 1, kMaxCells);
+    size_references(static_cast<std::uint32_t>(refs), 0, static_cast<std::uint32_t>(std::min(refs, cells)), refs);
+    size_pairs(2ull * n, n);
+    pairs.clear();  // no frame yet
+    info = {};
+  }
+
+  // Host lanes in, host pairs out (update() and reserve's frame), with
+  // `max_pairs` as the pair limit (0: none).
+  void run_host(const Lanes& in, std::uint64_t max_pairs) {
     const DeviceScope scope(device_);
     info = {};
     stream_ = own_stream_;
@@ -99,7 +126,7 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
       (l < 3 ? d.lo[l] : d.hi[l - 3]) = lane;
     }
     record(kUploaded);
-    const std::uint64_t count = frame(d);
+    const std::uint64_t count = frame(d, max_pairs);
     pairs.resize(count);
     if (count)
       check_cuda(cudaMemcpyAsync(pairs.data(), pair_buffer(), count * sizeof(Pair), cudaMemcpyDeviceToHost, stream_),
@@ -107,35 +134,6 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     record(kDownloaded);
     sync();
     times(true);
-  }
-
-  void reserve(std::uint32_t n) override {
-    const DeviceScope scope(device_);
-    // Three overlapping boxes: a frame that launches the frame's kernels
-    // (the large pass aside), so none is loaded in a timed frame. Its three
-    // pairs are not the caller's: max_pairs is lifted for it (a limit of 1
-    // or 2 would refuse it) and put back however it ends.
-    static const float lo[3] = {0, 0.25f, 0.5f}, hi[3] = {1, 1.25f, 1.5f};
-    const Lanes tiny{{lo, lo, lo}, {hi, hi, hi}, 3};
-    struct Restore {
-      std::uint64_t& limit;
-      std::uint64_t kept;
-      ~Restore() { limit = kept; }
-    } restore{options.max_pairs, std::exchange(options.max_pairs, 0)};
-    run(tiny);
-    grid_ = GridPlan();
-    info = {};
-    // The typical frame: about two references and under two pairs per
-    // object (a frame that needs more grows its buffers then).
-    const std::uint64_t refs = std::min<std::uint64_t>(2ull * n, 0xffffffffu);
-    size_uploads(n);
-    size_objects(n);
-    // Cells: the grid's target count (grid_plan.hpp).
-    const std::uint64_t cells = std::min<std::uint64_t>(n / options.boxes_per_cell + 1, kMaxCells);
-    size_references(static_cast<std::uint32_t>(refs), 0, static_cast<std::uint32_t>(std::min(refs, cells)), refs);
-    size_pairs(2ull * n, n);
-    pairs.clear();  // no frame yet
-    info = {};
   }
 
   DevicePairs run_device(const DeviceRows& rows, void* stream) override {
@@ -179,7 +177,7 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
   }
   DevicePairs finish_device(const Lanes& lanes, bool transposed) {
     record(kUploaded);
-    const std::uint64_t count = frame(lanes);
+    const std::uint64_t count = frame(lanes, options.max_pairs);
     record(kDownloaded);
     sync();
     times(false);
@@ -188,9 +186,10 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
     return {pair_buffer(), count};
   }
 
-  // The stages bounds .. order over device lanes; returns the pair count,
-  // the pairs left in pair_out_.
-  std::uint64_t frame(const Lanes& in) {
+  // The stages bounds .. order over device lanes, CapacityExceeded past
+  // `max_pairs` (0: no limit); returns the pair count, the pairs left in
+  // pair_out_.
+  std::uint64_t frame(const Lanes& in, std::uint64_t max_pairs) {
     const std::uint32_t n = in.n;
     const BoxLanesView b{{in.lo[0], in.lo[1], in.lo[2]}, {in.hi[0], in.hi[1], in.hi[2]}};
 
@@ -290,7 +289,7 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
       };
       total = append();
       record(kCounted);
-      if (options.max_pairs && total > options.max_pairs) throw_too_many_pairs(total, options.max_pairs);
+      if (max_pairs && total > max_pairs) throw_too_many_pairs(total, max_pairs);
       if (total > pair_out_.capacity() / 8) {
         reserve(pair_out_, (total + 1) * 8);
         append();
@@ -313,7 +312,7 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
       read_counts(offsets_.as<std::uint64_t>() + slots);
       total = scalars_[0];
       record(kCounted);
-      if (options.max_pairs && total > options.max_pairs) throw_too_many_pairs(total, options.max_pairs);
+      if (max_pairs && total > max_pairs) throw_too_many_pairs(total, max_pairs);
 
       // Fill.
       reserve(pair_out_, (total + 1) * 8);

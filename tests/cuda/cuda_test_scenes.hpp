@@ -9,6 +9,7 @@
 
 #include "hbp/box_array.hpp"
 #include "hbp/cuda/frame_broadphase.hpp"
+#include "hbp/error.hpp"
 #include "hbp/pair.hpp"
 #include "hbp/scenario.hpp"
 
@@ -98,6 +99,18 @@ inline std::vector<Pair> all_pairs(const BoxArray& b) {
       if (hit) out.push_back(Pair{i, j});
     }
   return out;
+}
+
+// The CapacityExceeded message of a frame or peer run on `boxes`; "" when it
+// is not thrown.
+template <class Frame>
+std::string capacity_message(Frame& f, const BoxArray& boxes) {
+  try {
+    f.update(lanes_of(boxes));
+  } catch (const CapacityExceeded& e) {
+    return e.what();
+  }
+  return "";
 }
 
 // The one-point scene's pairs (every i < j, sorted) for `n` objects on one

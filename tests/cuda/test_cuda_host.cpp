@@ -29,18 +29,6 @@ using cuda_test::lanes_of;
 const ScenarioKind kKinds[] = {ScenarioKind::Paper, ScenarioKind::Clustered, ScenarioKind::Flat, ScenarioKind::Huge,
                                ScenarioKind::Degenerate};
 
-// The CapacityExceeded message of a frame or peer run on `boxes`; "" when it
-// is not thrown.
-template <class Frame>
-std::string capacity_message(Frame& f, const BoxArray& boxes) {
-  try {
-    f.update(lanes_of(boxes));
-  } catch (const CapacityExceeded& e) {
-    return e.what();
-  }
-  return "";
-}
-
 cuda::FrameBroadPhase host_frame(unsigned threads, bool sorted = true, std::uint64_t max_pairs = 0,
                                  cuda::CellShape shape = cuda::CellShape::Columns) {
   cuda::FrameOptions o;
@@ -249,7 +237,7 @@ TEST(CudaHostFrame, EmptyAndSingleFrames) {
 TEST(CudaHostFrame, PairExplosionAgainstMaxPairs) {
   const BoxArray boxes = cuda_test::all_on_one_point(2000);  // 1,999,000 pairs
   auto limited = host_frame(2, true, 1'000'000);
-  EXPECT_NE(capacity_message(limited, boxes).find("max_pairs = 1000000"), std::string::npos);
+  EXPECT_NE(cuda_test::capacity_message(limited, boxes).find("max_pairs = 1000000"), std::string::npos);
   // Exactly at the limit: no error, every pair.
   auto exact = host_frame(1, true, 1'999'000);
   EXPECT_EQ(exact.update(lanes_of(boxes)).size(), 1'999'000u);
@@ -263,7 +251,7 @@ TEST(CudaHostFrame, PairExplosionAgainstMaxPairs) {
 TEST(CudaHostFrame, HundredMillionPairsAgainstMaxPairs) {
   const BoxArray boxes = cuda_test::all_on_one_point(cuda_test::kHundredMillionPairsOnOnePoint);
   auto limited = host_frame(2, true, 100'000'000);
-  const std::string message = capacity_message(limited, boxes);
+  const std::string message = cuda_test::capacity_message(limited, boxes);
   EXPECT_NE(message.find("max_pairs = 100000000"), std::string::npos) << message;
   EXPECT_NE(message.find("counted 100005153"), std::string::npos) << message;
   const BoxArray small = cuda_test::all_on_one_point(100);
@@ -568,7 +556,7 @@ TEST(CudaHostLbvh, FlatAxesAndSmallFrames) {
 TEST(CudaHostLbvh, PairExplosionAgainstMaxPairs) {
   const BoxArray boxes = cuda_test::all_on_one_point(2000);  // 1,999,000 pairs
   auto limited = host_lbvh(2, true, 1'000'000);
-  const std::string message = capacity_message(limited, boxes);
+  const std::string message = cuda_test::capacity_message(limited, boxes);
   EXPECT_NE(message.find("max_pairs = 1000000"), std::string::npos) << message;
   EXPECT_NE(message.find("counted 1999000"), std::string::npos) << message;
   auto exact = host_lbvh(1, true, 1'999'000);

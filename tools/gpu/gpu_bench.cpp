@@ -6,12 +6,13 @@
 // transfers apart, checked against the CPU launcher of the same kernels
 // (identical lists) every frame, or with --check-every K every K-th frame and
 // the last (K >= frames: the last alone), and, independently, by brute force
-// for a sample of objects against all others in the first and last frames. Writes one JSON object (--json) for
-// scripts/gpu-check's report. With --sustain S, the last frame's boxes are
-// then kept in device memory and the frame re-run through the device entry
-// (update_device) back to back for S seconds, so that board power sampled in
-// that window (its wall-clock bounds are in the JSON) is the power of steady
-// frames alone. Exits 1 on any mismatch.
+// for a sample of objects against all others in the first and last frames.
+// Writes one JSON object (--json) for scripts/gpu-check's report. With
+// --sustain S, the last frame's boxes are then kept in device memory and the
+// frame re-run through the device entry (update_device) back to back for S
+// seconds, so that board power sampled in that window (its wall-clock bounds
+// are in the JSON) is the power of steady frames alone. Exits 1 on any
+// mismatch.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
