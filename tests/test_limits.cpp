@@ -31,21 +31,13 @@
 #include "hbp/hw/hw_cell_engines.hpp"
 #include "hbp/hybrid_broadphase.hpp"
 #include "hbp/limits.hpp"
+#include "sanitizers.hpp"
 
 extern char** environ;
 
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
-#define HBP_LIMITS_SANITIZED 1
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
-#define HBP_LIMITS_SANITIZED 1
-#endif
-#endif
-#ifndef HBP_LIMITS_SANITIZED
-#define HBP_LIMITS_SANITIZED 0
-#endif
-
 namespace {
+
+constexpr bool kSanitized = hbp::test::kAddressSanitizer || hbp::test::kThreadSanitizer;
 
 using hbp::Aabb;
 using hbp::BoxArray;
@@ -101,7 +93,7 @@ int child_main(const char* spec) {
   std::size_t cap_mib = 2048;
   in >> job >> engine >> n >> max_pairs;
   if (!(in >> cap_mib)) cap_mib = 2048;
-  if (!HBP_LIMITS_SANITIZED) {
+  if (!kSanitized) {
     const rlimit cap{cap_mib * kMiB, cap_mib * kMiB};
     setrlimit(RLIMIT_AS, &cap);
   }
@@ -199,7 +191,7 @@ std::vector<std::string> builtin_engines() {
 // stop with CapacityExceeded while the process stays small. Stopping near
 // the limit costs ~8 bytes per pair in the engine's output plus the same in
 // the cell's list: ~16 MiB over the process's baseline.
-constexpr std::size_t kExplosionBound = HBP_LIMITS_SANITIZED ? 1536 * kMiB : 64 * kMiB;
+constexpr std::size_t kExplosionBound = kSanitized ? 1536 * kMiB : 64 * kMiB;
 
 void expect_explosion_stopped(const std::string& engine, std::size_t n) {
   const ChildResult r = run_child("coincident " + engine + " " + std::to_string(n) + " 1000000");
@@ -352,7 +344,7 @@ TEST(Limits, MemoryPerObjectAndPerPair) {
               calm.peak_rss / kMiB, boom.peak_rss / kMiB, per_pair);
   EXPECT_GT(per_object, 24.0);  // at least the input boxes themselves
   EXPECT_GT(per_pair, 8.0);     // at least the output pairs themselves
-  if (!HBP_LIMITS_SANITIZED) {
+  if (!kSanitized) {
     EXPECT_LT(per_object, 1024.0);
     EXPECT_LT(per_pair, 64.0);
   }
@@ -365,7 +357,7 @@ TEST(Limits, MemoryPerObjectAndPerPair) {
 // their ~3.5 GB resident peak and fail with std::bad_alloc), and the peak
 // address space stays near the peak resident memory.
 TEST(Limits, AddressSpaceFollowsResidentMemoryAtTheObjectLimit) {
-  if (HBP_LIMITS_SANITIZED) GTEST_SKIP() << "the sanitizers' shadow memory is address space";
+  if (kSanitized) GTEST_SKIP() << "the sanitizers' shadow memory is address space";
   const ChildResult r = run_child("coincident sw 16777215 1000 8192");
   std::printf("object limit, coincident, max_pairs 1000, 8 GiB address space: %s\n", describe(r).c_str());
   ASSERT_TRUE(WIFEXITED(r.status)) << describe(r);

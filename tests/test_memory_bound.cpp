@@ -13,20 +13,12 @@
 
 #include "hbp/hybrid_broadphase.hpp"
 #include "hbp/scenario.hpp"
+#include "sanitizers.hpp"
 
 namespace {
 
-#if defined(__SANITIZE_ADDRESS__)
-constexpr bool kSanitized = true;  // the allocator's quarantine keeps freed memory resident
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-constexpr bool kSanitized = true;
-#else
-constexpr bool kSanitized = false;
-#endif
-#else
-constexpr bool kSanitized = false;
-#endif
+// The allocator's quarantine keeps freed memory resident.
+constexpr bool kSanitized = hbp::test::kAddressSanitizer;
 
 // A figure of /proc/self/status, in KiB: VmHWM (the peak resident set so
 // far) or VmRSS (now).

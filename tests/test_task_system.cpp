@@ -31,6 +31,7 @@
 #include "hbp/scenario.hpp"
 #include "hbp/task_system.hpp"
 #include "pair_sets.hpp"
+#include "sanitizers.hpp"
 
 namespace {
 
@@ -353,10 +354,11 @@ void run_edit_stream(std::uint32_t start_moving, std::uint32_t start_static, flo
   systems.expect_contract_kept();
 }
 
-// Thousands of steps with events: moves, static moves, adds and removes,
-// layers and a pair filter, the partition in many cells.
+// Thousands of steps (hundreds under TSan) with events: moves, static moves,
+// adds and removes, layers and a pair filter, the partition in many cells.
 TEST(TaskSystem, BroadPhaseLongRunSameUnderEveryTaskSystem) {
-  run_edit_stream(1500, 300, 60.0f, 2.5f, 2000, 0.3, 8, 11, 16);
+  const std::uint32_t steps = hbp::test::kThreadSanitizer ? 300 : 2000;  // sanitizers.hpp
+  run_edit_stream(1500, 300, 60.0f, 2.5f, steps, 0.3, 8, 11, 16);
 }
 
 // Fewer, larger frames: the parallel paths (edits, engine phase over many
