@@ -42,6 +42,18 @@ void check_on_device(const void* data, int device, const char* what) {
                        " (the device current when it was made)");
 }
 
+void check_stream_on_device(void* stream, int device) {
+  int stream_device = device;
+  if (cudaStreamGetDevice(static_cast<cudaStream_t>(stream), &stream_device) != cudaSuccess) {
+    cudaGetLastError();  // an invalid handle is the launches' to report
+    return;
+  }
+  if (stream_device != device)
+    throw InvalidInput("the CUDA stream belongs to device " + std::to_string(stream_device) +
+                       ", the frame runs on device " + std::to_string(device) +
+                       " (the device current when it was made)");
+}
+
 bool device_available() {
   int count = 0;
   const bool ok = cudaGetDeviceCount(&count) == cudaSuccess && count > 0;
@@ -139,6 +151,7 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
   DevicePairs run_device(const DeviceRows& rows, void* stream) override {
     const DeviceScope scope(device_);
     if (rows.n) check_on_device(rows.data, device_, "boxes");
+    check_stream_on_device(stream, device_);
     begin_device(stream);
     const std::uint32_t n = rows.n;
     size_uploads(n);
@@ -160,6 +173,7 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
         check_on_device(in.lo[l], device_, "boxes");
         check_on_device(in.hi[l], device_, "boxes");
       }
+    check_stream_on_device(stream, device_);
     begin_device(stream);
     return finish_device(in, false);
   }

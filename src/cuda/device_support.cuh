@@ -53,6 +53,10 @@ class DeviceScope {
 // `device`: a kernel there would fault and end the context. Managed, host
 // and unknown memory are left to the driver.
 void check_on_device(const void* data, int device, const char* what);
+// InvalidInput when `stream` (a cudaStream_t; null and the special handles
+// are the current device's) belongs to another device than `device`: this
+// device's kernels cannot be queued on it, and the frame would fail midway.
+void check_stream_on_device(void* stream, int device);
 
 class DeviceBuffer {
  public:

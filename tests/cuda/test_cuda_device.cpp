@@ -211,29 +211,86 @@ TEST(CudaDevice, HundredMillionPairsOnOnePoint) {
     }
 }
 
+// The boxes as six lanes in one allocation `d` on the current device.
+cuda::Lanes upload_lanes(const BoxArray& boxes, float*& d) {
+  const std::size_t n = boxes.size();
+  cuda::Lanes lanes;
+  lanes.n = static_cast<std::uint32_t>(n);
+  EXPECT_EQ(cudaMalloc(&d, 6 * n * sizeof(float)), cudaSuccess);
+  for (int l = 0; l < 6; ++l) {
+    const float* src = l < 3 ? boxes.min(l) : boxes.max(l - 3);
+    EXPECT_EQ(cudaMemcpy(d + l * n, src, n * sizeof(float), cudaMemcpyHostToDevice), cudaSuccess);
+    (l < 3 ? lanes.lo[l] : lanes.hi[l - 3]) = d + l * n;
+  }
+  return lanes;
+}
+
+// The pairs a device entry left in device memory, copied to the host.
+std::vector<Pair> pairs_of(const cuda::DevicePairs& got) {
+  std::vector<Pair> pairs(got.count);
+  EXPECT_EQ(cudaMemcpy(pairs.data(), got.data, got.count * sizeof(Pair), cudaMemcpyDeviceToHost), cudaSuccess);
+  return pairs;
+}
+
 TEST(CudaDevice, DeviceEntryLeavesPairsOnTheDevice) {
   REQUIRE_DEVICE();
   const auto frames = cuda_test::scenario_frames(ScenarioKind::Paper, 20'000, 1);
   const BoxArray& boxes = frames[0];
-  const std::size_t n = boxes.size();
   float* d = nullptr;
-  ASSERT_EQ(cudaMalloc(&d, 6 * n * sizeof(float)), cudaSuccess);
-  cuda::Lanes lanes;
-  lanes.n = static_cast<std::uint32_t>(n);
-  for (int l = 0; l < 6; ++l) {
-    const float* src = l < 3 ? boxes.min(l) : boxes.max(l - 3);
-    ASSERT_EQ(cudaMemcpy(d + l * n, src, n * sizeof(float), cudaMemcpyHostToDevice), cudaSuccess);
-    (l < 3 ? lanes.lo[l] : lanes.hi[l - 3]) = d + l * n;
-  }
+  const cuda::Lanes lanes = upload_lanes(boxes, d);
   cudaStream_t stream;
   ASSERT_EQ(cudaStreamCreate(&stream), cudaSuccess);
   auto device = frame(cuda::Launcher::Device);
-  const cuda::DevicePairs got = device.update_device(lanes, stream);
-  std::vector<Pair> pairs(got.count);
-  ASSERT_EQ(cudaMemcpy(pairs.data(), got.data, got.count * sizeof(Pair), cudaMemcpyDeviceToHost), cudaSuccess);
-  EXPECT_EQ(pairs, cuda_test::all_pairs(boxes));
+  EXPECT_EQ(pairs_of(device.update_device(lanes, stream)), cuda_test::all_pairs(boxes));
   cudaStreamDestroy(stream);
   cudaFree(d);
+}
+
+// A frame keeps the device it was made on: boxes in another device's memory
+// and a stream of another device are refused with both devices named, the
+// caller's current device is given back, and the frame runs on its own
+// device after, whichever device is current. Needs two devices.
+TEST(CudaDevice, InputAndStreamOfAnotherDeviceAreRefused) {
+  REQUIRE_DEVICE();
+  int count = 0;
+  ASSERT_EQ(cudaGetDeviceCount(&count), cudaSuccess);
+  if (count < 2) GTEST_SKIP() << "needs two CUDA devices, " << count << " present";
+  const auto frames = cuda_test::scenario_frames(ScenarioKind::Paper, 5'000, 1);
+  const BoxArray& boxes = frames[0];
+  const std::vector<Pair> expected = cuda_test::all_pairs(boxes);
+  ASSERT_EQ(cudaSetDevice(1), cudaSuccess);
+  float* on_1 = nullptr;
+  const cuda::Lanes lanes_1 = upload_lanes(boxes, on_1);
+  cudaStream_t stream_1;
+  ASSERT_EQ(cudaStreamCreate(&stream_1), cudaSuccess);
+  ASSERT_EQ(cudaSetDevice(0), cudaSuccess);
+  float* on_0 = nullptr;
+  const cuda::Lanes lanes_0 = upload_lanes(boxes, on_0);
+  auto device = frame(cuda::Launcher::Device);
+  const auto refusal = [&](const cuda::Lanes& lanes, void* stream) -> std::string {
+    try {
+      device.update_device(lanes, stream);
+    } catch (const InvalidInput& e) {
+      return e.what();
+    }
+    return "no InvalidInput";
+  };
+  for (const std::string& message : {refusal(lanes_1, nullptr), refusal(lanes_0, stream_1)}) {
+    EXPECT_NE(message.find("device 1"), std::string::npos) << message;
+    EXPECT_NE(message.find("device 0"), std::string::npos) << message;
+  }
+  int current = -1;
+  ASSERT_EQ(cudaGetDevice(&current), cudaSuccess);
+  EXPECT_EQ(current, 0);
+  EXPECT_EQ(pairs_of(device.update_device(lanes_0)), expected);
+  ASSERT_EQ(cudaSetDevice(1), cudaSuccess);
+  EXPECT_EQ(pairs_of(device.update_device(lanes_0)), expected);
+  ASSERT_EQ(cudaGetDevice(&current), cudaSuccess);
+  EXPECT_EQ(current, 1);
+  cudaStreamDestroy(stream_1);
+  cudaFree(on_1);
+  ASSERT_EQ(cudaSetDevice(0), cudaSuccess);
+  cudaFree(on_0);
 }
 
 // Rows of an (n, 6) device array, C order and Fortran order (as CuPy and
@@ -260,10 +317,7 @@ TEST(CudaDevice, DeviceRowsInEitherOrderGiveTheOraclesPairs) {
     rows.row_stride = c_order ? 6 : 1;
     rows.column_stride = c_order ? 1 : static_cast<std::int64_t>(n);
     auto device = frame(cuda::Launcher::Device);
-    const cuda::DevicePairs got = device.update_device(rows);
-    std::vector<Pair> pairs(got.count);
-    ASSERT_EQ(cudaMemcpy(pairs.data(), got.data, got.count * sizeof(Pair), cudaMemcpyDeviceToHost), cudaSuccess);
-    EXPECT_EQ(pairs, expected) << (c_order ? "C order" : "Fortran order");
+    EXPECT_EQ(pairs_of(device.update_device(rows)), expected) << (c_order ? "C order" : "Fortran order");
     EXPECT_GT(device.info().times.upload_ms, 0.0);
     cudaFree(d);
   }

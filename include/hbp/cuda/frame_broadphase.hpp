@@ -190,8 +190,9 @@ class FrameBroadPhase {
   void reserve(std::uint32_t objects);
   // Device entry (Launcher::Device only): lanes in device memory of the
   // frame's device (InvalidInput naming both devices otherwise), pairs left
-  // in device memory; the work is queued on `stream` (a cudaStream_t, null:
-  // the default stream) and finished when this returns.
+  // in device memory; the work is queued on `stream` (a cudaStream_t of the
+  // frame's device, InvalidInput otherwise; null: the default stream) and
+  // finished when this returns.
   DevicePairs update_device(const Lanes& device_boxes, void* stream = nullptr);
   // The same for rows in device memory: transposed into the frame's own
   // lanes by a kernel on `stream` first (no host round trip).
