@@ -66,6 +66,7 @@ test-sanitize: deps
 # (ctest), which TSan handles several times faster than one long process.
 # Left out: three single-threaded memory measurements of test_limits whose
 # 10^7-pair frames cost a minute of CPU each under TSan and add no threads.
+# Two long runs take fewer steps under TSan (tests/sanitizers.hpp).
 TSAN_TESTS = test_hybrid_broadphase test_adversarial test_bullet_broadphase test_raytrace_traversal \
   test_two_level_hierarchy test_scenario test_software_engine test_limits test_raytrace_colliding_objects \
   test_broad_phase test_pair_events test_parallel_pair_sort test_task_system \
