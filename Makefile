@@ -34,9 +34,10 @@ clean:
 	rm -rf $(BUILD)
 
 # ---- Hardening ----------------------------------------------------------------
-# Separate build directories; RTL, benchmarks and the CUDA room are left out
-# (not what the sanitizers are for; the Verilated model dominates build time;
-# nvcc's objects are not instrumented).
+# Separate build directories; RTL and benchmarks are left out (not what the
+# sanitizers are for; the Verilated model dominates build time). The CUDA
+# room is built for ASan only: its CPU launcher runs the kernels' bodies as
+# plain C++, instrumented (nvcc's objects are not).
 ASAN_BUILD ?= build-asan
 TSAN_BUILD ?= build-tsan
 FUZZ_BUILD ?= build-fuzz
@@ -45,11 +46,12 @@ FUZZ_TARGETS = scene_native scene_broadmark cli broadphase
 HARDEN_FLAGS = -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1" \
   -DHBP_WERROR=OFF -DHBP_BUILD_RTL=OFF -DHBP_BUILD_BENCH=OFF -DHBP_CUDA=OFF
 # The installed-package consumer tests build uninstrumented projects
-# against the instrumented library: not meaningful here.
-SANITIZE_EXCLUDE = ^(bullet_consumer_package|core_only_package)$$
+# against the instrumented library, and gpu_check_dry_run builds its own:
+# not meaningful here.
+SANITIZE_EXCLUDE = ^(bullet_consumer_package|core_only_package|gpu_check_dry_run)$$
 
 test-sanitize: deps
-	cmake -S . -B $(ASAN_BUILD) -G Ninja $(HARDEN_FLAGS) -DHBP_SANITIZE=ON
+	cmake -S . -B $(ASAN_BUILD) -G Ninja $(HARDEN_FLAGS) -DHBP_CUDA=AUTO -DHBP_SANITIZE=ON
 	cmake --build $(ASAN_BUILD) -j $(JOBS)
 	cd $(ASAN_BUILD) && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:strict_string_checks=1 \
 	  UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \

@@ -1,9 +1,9 @@
-# HBP_CUDA = AUTO|ON|OFF: enables CUDA when a compiler is found (AUTO; not
-# under the sanitizers) or required (ON), for sm_90 (H100/H200) plus its PTX.
+# HBP_CUDA = AUTO|ON|OFF: enables CUDA when a compiler is found (AUTO) or
+# required (ON), for sm_90 (H100/H200) plus its PTX.
 # CMake 3.25 does not know nvcc 13's C++20 flag: it is set here.
 # Sets HBP_HAVE_CUDA.
 set(HBP_HAVE_CUDA OFF)
-if(NOT HBP_CUDA STREQUAL "OFF" AND NOT (HBP_CUDA STREQUAL "AUTO" AND HBP_SANITIZE))
+if(NOT HBP_CUDA STREQUAL "OFF")
   include(CheckLanguage)
   check_language(CUDA)
   if(CMAKE_CUDA_COMPILER)
