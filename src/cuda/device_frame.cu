@@ -151,7 +151,6 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
   DevicePairs run_device(const DeviceRows& rows, void* stream) override {
     const DeviceScope scope(device_);
     if (rows.n) check_on_device(rows.data, device_, "boxes");
-    check_stream_on_device(stream, device_);
     begin_device(stream);
     const std::uint32_t n = rows.n;
     size_uploads(n);
@@ -173,7 +172,6 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
         check_on_device(in.lo[l], device_, "boxes");
         check_on_device(in.hi[l], device_, "boxes");
       }
-    check_stream_on_device(stream, device_);
     begin_device(stream);
     return finish_device(in, false);
   }
@@ -181,10 +179,12 @@ class DeviceFrame final : public FrameBroadPhase::Impl {
  private:
   const std::uint32_t* pair_buffer() const { return pair_out_.as<std::uint32_t>(); }
 
-  // The device entries: the caller's stream, the frame over device lanes,
-  // pairs left in pair_out_. `transposed`: the lanes were made from rows on
-  // the device since begin_device (timed as the upload).
+  // The device entries: the caller's stream (checked before any state
+  // changes), the frame over device lanes, pairs left in pair_out_.
+  // `transposed`: the lanes were made from rows on the device since
+  // begin_device (timed as the upload).
   void begin_device(void* stream) {
+    check_stream_on_device(stream, device_);
     info = {};
     stream_ = static_cast<cudaStream_t>(stream);
     record(kStart);
